@@ -1,0 +1,564 @@
+/*
+ * trace_core.h — the ray pass, written once for C11 and OpenCL C 1.2.
+ *
+ * The CPU backend includes this file; the OpenCL backend embeds it (cmake/embed_kernels.cmake)
+ * ahead of the kernels. Both therefore execute the same operations in the same order, and
+ * with FP contraction off on both sides (-ffp-contract=off / FP_CONTRACT OFF) and correctly
+ * rounded division and square root, their ID and depth buffers are bit-identical.
+ *
+ * Sources:
+ *  - kd-tree stack traversal with 8-byte entries (node, t_max): Chang & Ihm 2010
+ *    (seeds/000), after Havran's TA_B; front to back, stop once the next node starts
+ *    beyond the best hit.
+ *  - Inside a leaf, quads are bucketed by (axis, integer plane) and visited in the order the
+ *    ray crosses those planes, a 3D-DDA over planes (Amanatides & Woo 1987; Lee & Han 2005,
+ *    seeds/001, for front-to-back order in uniform sub-volumes). The hit distance of a quad
+ *    is computed by the very expression that orders the planes, so stopping at the first
+ *    plane beyond the best hit is exact.
+ *  - Watertight ray/triangle test: Woop, Benthin, Wald, JCGT 2013.
+ *
+ * Numerics: every distance is t = (plane - o[a]) * inv_d[a] with inv_d = 1/d correctly
+ * rounded; directions with a +0 or -0 component never divide (parallel planes are skipped
+ * explicitly), so no NaN arises. Ties in t go to the lowest object ID.
+ */
+#ifndef VIS_TRACE_CORE_H
+#define VIS_TRACE_CORE_H
+
+#ifdef __OPENCL_VERSION__
+#  pragma OPENCL FP_CONTRACT OFF
+typedef uint uint32_t;
+typedef int int32_t;
+#  define VIS_GLOBAL __global
+#  define VIS_INLINE inline
+#  define VIS_INF INFINITY
+#  define VIS_FLOORF floor
+#  define VIS_CEILF ceil
+#  define VIS_SQRTF sqrt
+#  define VIS_FABSF fabs
+#else
+#  include <math.h>
+#  include <stdint.h>
+#  define VIS_GLOBAL
+#  define VIS_INLINE static inline
+#  define VIS_INF INFINITY
+#  define VIS_FLOORF floorf
+#  define VIS_CEILF ceilf
+#  define VIS_SQRTF sqrtf
+#  define VIS_FABSF fabsf
+#endif
+
+/* ---- flat scene layout (shared with the host, copied to devices as is) --------------- */
+
+/* Inner node: info = axis (0..2) | first_child << 2; children are first_child, first_child+1.
+ * Leaf: info = 3 | leaf_index << 2. */
+typedef struct vis_kd_node {
+    float split;
+    uint32_t info;
+} vis_kd_node;
+
+#define VIS_NODE_LEAF 3u
+
+/* A leaf (64 bytes). Quads whose plane lies on an integer offset k in [0, E[a]] from lo[a]
+ * are "bucketed": sorted by axis then k, bucket (a, k) spans
+ * [buckets[bucket_offset + base(a) + k], ... + 1) relative to quad_offset, where base(0) = 0,
+ * base(1) = E0 + 1, base(2) = E0 + E1 + 2. Other quads are "loose" and always tested. */
+typedef struct vis_flat_leaf {
+    float lo[3];
+    float hi[3];
+    uint32_t quad_offset;   /* first bucketed quad in the quad pool                        */
+    uint32_t quad_count;    /* bucketed quads                                              */
+    uint32_t bucket_offset; /* first entry of this leaf's bucket table                     */
+    uint32_t dims_xy;       /* E0 | E1 << 16                                               */
+    uint32_t dims_z;        /* E2                                                          */
+    uint32_t loose_offset;  /* loose quads in the quad pool                                */
+    uint32_t loose_count;
+    uint32_t tri_offset;    /* triangles in the triangle pool                              */
+    uint32_t tri_count;
+    uint32_t pad;
+} vis_flat_leaf;
+
+/* A quad as traced (24 bytes): meta = object_index << 8 | flags << 2 | axis. */
+typedef struct vis_flat_quad {
+    float plane, u0, v0, u1, v1;
+    uint32_t meta;
+} vis_flat_quad;
+
+/* A triangle as traced (40 bytes), meta as for quads (axis bits unused). */
+typedef struct vis_flat_tri {
+    float v0[3], v1[3], v2[3];
+    uint32_t meta;
+} vis_flat_tri;
+
+/* An object slot: its ID (0 = free slot) and the leaves that reference it. */
+typedef struct vis_flat_object {
+    uint32_t id;
+    uint32_t leaf_offset; /* into object_leaves                                           */
+    uint32_t leaf_count;
+    uint32_t pad;
+} vis_flat_object;
+
+#define VIS_META_AXIS(m) ((m) & 3u)
+#define VIS_META_FLAGS(m) (((m) >> 2) & 63u)
+#define VIS_META_OBJECT(m) ((m) >> 8)
+#define VIS_NO_OBJECT 0xFFFFFFFFu
+
+/* The per-pass parameters, filled by the host (camera basis in float, from double). */
+typedef struct vis_ray_setup {
+    float origin[3];     /* eye, scene-local                                               */
+    float forward[3];    /* f                                                              */
+    float right[3];      /* r * tan(fovy/2) * aspect                                       */
+    float up[3];         /* u * tan(fovy/2)                                                */
+    float t_near, t_far; /* t_far may be +inf                                              */
+    float size[3];       /* scene bounds [0, size]                                         */
+    uint32_t width, height;
+    uint32_t id_mode;    /* 0 object IDs, 1 leaf IDs                                       */
+    uint32_t traversal;  /* vis_traversal                                                  */
+    uint32_t root;       /* root node index (0)                                            */
+    uint32_t leaf_count;
+} vis_ray_setup;
+
+/* The scene arrays, as separate parameters because OpenCL 1.2 kernels cannot take structs
+ * of pointers. */
+#define VIS_SCENE_PARAMS                                                                     \
+    const VIS_GLOBAL vis_kd_node *nodes, const VIS_GLOBAL vis_flat_leaf *leaves,              \
+        const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL vis_flat_quad *quads,            \
+        const VIS_GLOBAL vis_flat_tri *tris, const VIS_GLOBAL vis_flat_object *objects,       \
+        const VIS_GLOBAL uint32_t *object_leaves
+#define VIS_SCENE_ARGS nodes, leaves, buckets, quads, tris, objects, object_leaves
+
+/* Hit state of one ray. */
+typedef struct vis_hit {
+    float t;          /* best distance so far (+inf: none)                                  */
+    uint32_t object;  /* object slot index of the best hit, VIS_NO_OBJECT if none           */
+    uint32_t id;      /* its ID (for the tie rule), 0 if none                               */
+} vis_hit;
+
+typedef struct vis_ray {
+    float o[3], d[3], inv[3];
+    float t_near, t_far;
+} vis_ray;
+
+/* ---- ray generation ----------------------------------------------------------------- */
+
+VIS_INLINE void vis_ray_for_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, vis_ray *r)
+{
+    /* Pixel centre in NDC: (2x+1)/W - 1 and 1 - (2y+1)/H, exact integers then one rounding. */
+    float nx = (float)(2u * x + 1u) / (float)s->width - 1.0f;
+    float ny = 1.0f - (float)(2u * y + 1u) / (float)s->height;
+    float d[3];
+    for (int a = 0; a < 3; ++a) {
+        float w = s->forward[a] + nx * s->right[a];
+        d[a] = w + ny * s->up[a];
+    }
+    float len = VIS_SQRTF(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int a = 0; a < 3; ++a) {
+        r->o[a] = s->origin[a];
+        r->d[a] = d[a] / len;
+        /* 1/(+-0) = +-inf is never used: every user checks d[a] == 0 first. */
+        r->inv[a] = 1.0f / r->d[a];
+    }
+    r->t_near = s->t_near;
+    r->t_far = s->t_far;
+}
+
+/* ---- primitives --------------------------------------------------------------------- */
+
+VIS_INLINE int vis_hit_better(float t, uint32_t id, const vis_hit *h)
+{
+    return t < h->t || (t == h->t && id < h->id);
+}
+
+/* Exact closed-interval test of an axis-aligned quad. Returns the distance through *t_out.
+ * The same expression is used for every quad on a plane, so two quads sharing an edge or a
+ * T-junction see the same crossing point and no ray slips between them. */
+VIS_INLINE int vis_quad_intersect(const vis_ray *r, uint32_t axis, float plane, float u0, float v0,
+                                  float u1, float v1, float *t_out)
+{
+    if (r->d[axis] == 0.0f)
+        return 0; /* parallel to the plane, including rays lying in it */
+    uint32_t u = axis == 2u ? 0u : axis + 1u;
+    uint32_t v = axis == 0u ? 2u : axis - 1u;
+    float t = (plane - r->o[axis]) * r->inv[axis];
+    float pu = r->o[u] + t * r->d[u];
+    float pv = r->o[v] + t * r->d[v];
+    *t_out = t;
+    return pu >= u0 && pu <= u1 && pv >= v0 && pv <= v1;
+}
+
+VIS_INLINE void vis_test_quad(const vis_ray *r, const VIS_GLOBAL vis_flat_quad *q,
+                              const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
+{
+    float t;
+    uint32_t meta = q->meta;
+    if (!vis_quad_intersect(r, VIS_META_AXIS(meta), q->plane, q->u0, q->v0, q->u1, q->v1, &t))
+        return;
+    if (t < r->t_near || t > r->t_far || t > h->t)
+        return;
+    uint32_t obj = VIS_META_OBJECT(meta);
+    uint32_t id = objects[obj].id;
+    if (vis_hit_better(t, id, h)) {
+        h->t = t;
+        h->object = obj;
+        h->id = id;
+    }
+}
+
+/* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013), two-sided. Returns the
+ * distance through *t_out. The double-precision fallback for zero edge functions is the
+ * paper's; it runs where the device has fp64 (all CPUs; OpenCL with cl_khr_fp64). */
+VIS_INLINE int vis_triangle_intersect(const vis_ray *r, const float *v0, const float *v1,
+                                      const float *v2, float *t_out)
+{
+    int kz = 0;
+    float ax = VIS_FABSF(r->d[0]), ay = VIS_FABSF(r->d[1]), az = VIS_FABSF(r->d[2]);
+    if (ay > ax && ay >= az)
+        kz = 1;
+    else if (az > ax && az > ay)
+        kz = 2;
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    if (r->d[kz] < 0.0f) {
+        int tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    float sx = r->d[kx] / r->d[kz];
+    float sy = r->d[ky] / r->d[kz];
+    float sz = 1.0f / r->d[kz];
+    float A[3], B[3], C[3];
+    for (int i = 0; i < 3; ++i) {
+        A[i] = v0[i] - r->o[i];
+        B[i] = v1[i] - r->o[i];
+        C[i] = v2[i] - r->o[i];
+    }
+    float Ax = A[kx] - sx * A[kz], Ay = A[ky] - sy * A[kz];
+    float Bx = B[kx] - sx * B[kz], By = B[ky] - sy * B[kz];
+    float Cx = C[kx] - sx * C[kz], Cy = C[ky] - sy * C[kz];
+    float U = Cx * By - Cy * Bx;
+    float V = Ax * Cy - Ay * Cx;
+    float W = Bx * Ay - By * Ax;
+#if !defined(__OPENCL_VERSION__) || defined(cl_khr_fp64)
+    if (U == 0.0f || V == 0.0f || W == 0.0f) {
+        double CxBy = (double)Cx * (double)By, CyBx = (double)Cy * (double)Bx;
+        U = (float)(CxBy - CyBx);
+        double AxCy = (double)Ax * (double)Cy, AyCx = (double)Ay * (double)Cx;
+        V = (float)(AxCy - AyCx);
+        double BxAy = (double)Bx * (double)Ay, ByAx = (double)By * (double)Ax;
+        W = (float)(BxAy - ByAx);
+    }
+#endif
+    if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f))
+        return 0;
+    float det = U + V + W;
+    if (det == 0.0f)
+        return 0;
+    float Az = sz * A[kz], Bz = sz * B[kz], Cz = sz * C[kz];
+    float T = U * Az + V * Bz + W * Cz;
+    *t_out = T / det;
+    return 1;
+}
+
+VIS_INLINE void vis_test_tri(const vis_ray *r, const VIS_GLOBAL vis_flat_tri *tri,
+                             const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
+{
+    float v0[3], v1[3], v2[3], t;
+    for (int i = 0; i < 3; ++i) {
+        v0[i] = tri->v0[i];
+        v1[i] = tri->v1[i];
+        v2[i] = tri->v2[i];
+    }
+    if (!vis_triangle_intersect(r, v0, v1, v2, &t))
+        return;
+    if (!(t >= r->t_near) || t > r->t_far || t > h->t)
+        return;
+    uint32_t obj = VIS_META_OBJECT(tri->meta);
+    uint32_t id = objects[obj].id;
+    if (vis_hit_better(t, id, h)) {
+        h->t = t;
+        h->object = obj;
+        h->id = id;
+    }
+}
+
+/* ---- one leaf ----------------------------------------------------------------------- */
+
+/* Distance to plane lo + k of axis a: the same expression as vis_quad_intersect. */
+VIS_INLINE float vis_plane_t(const vis_ray *r, int a, float lo, int k)
+{
+    return ((lo + (float)k) - r->o[a]) * r->inv[a];
+}
+
+/* Clamps a float plane coordinate to [lo, hi] before the int conversion (no UB on inf). */
+VIS_INLINE int vis_clamp_plane(float x, int lo, int hi)
+{
+    if (!(x > (float)lo))
+        return lo;
+    if (x > (float)hi)
+        return hi;
+    return (int)x;
+}
+
+/* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
+ * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
+ * is the minimum over all primitives tested, whatever order they come in. */
+VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                   const VIS_GLOBAL uint32_t *buckets,
+                                   const VIS_GLOBAL vis_flat_quad *quads,
+                                   const VIS_GLOBAL vis_flat_tri *tris,
+                                   const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
+                                   vis_hit *h)
+{
+    uint32_t n = leaf->loose_count;
+    for (uint32_t i = 0; i < n; ++i)
+        vis_test_quad(r, &quads[leaf->loose_offset + i], objects, h);
+    n = leaf->tri_count;
+    for (uint32_t i = 0; i < n; ++i)
+        vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
+    if (leaf->quad_count == 0u)
+        return;
+
+    int E[3];
+    E[0] = (int)(leaf->dims_xy & 0xFFFFu);
+    E[1] = (int)(leaf->dims_xy >> 16);
+    E[2] = (int)leaf->dims_z;
+    int base[3];
+    base[0] = 0;
+    base[1] = E[0] + 1;
+    base[2] = E[0] + E[1] + 2;
+    int k[3], kend[3], step[3];
+    float tk[3];
+    float lo[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = leaf->lo[a];
+        tk[a] = VIS_INF;
+        k[a] = 0;
+        kend[a] = 0;
+        step[a] = 0;
+        if (r->d[a] == 0.0f)
+            continue; /* never crosses planes of this axis */
+        /* Planes crossed between ta and tb, widened by one plane on each side against
+         * rounding in the entry/exit positions (an extra plane costs one bucket lookup).
+         * The range is ordered by value, so the walk ends even if ta > tb by rounding. */
+        float xa = (r->o[a] + ta * r->d[a]) - lo[a];
+        float xb = (r->o[a] + tb * r->d[a]) - lo[a];
+        float x0 = xa < xb ? xa : xb, x1 = xa < xb ? xb : xa;
+        int klo = vis_clamp_plane(VIS_FLOORF(x0) - 1.0f, 0, E[a]);
+        int khi = vis_clamp_plane(VIS_CEILF(x1) + 1.0f, 0, E[a]);
+        if (r->d[a] > 0.0f) {
+            k[a] = klo;
+            kend[a] = khi;
+            step[a] = 1;
+        } else {
+            k[a] = khi;
+            kend[a] = klo;
+            step[a] = -1;
+        }
+        tk[a] = vis_plane_t(r, a, lo[a], k[a]);
+    }
+    uint32_t qbase = leaf->quad_offset;
+    const VIS_GLOBAL uint32_t *bk = buckets + leaf->bucket_offset;
+    for (;;) {
+        int a = 0;
+        if (tk[1] < tk[a])
+            a = 1;
+        if (tk[2] < tk[a])
+            a = 2;
+        float t = tk[a];
+        /* Planes come in non-decreasing t per axis (rounding is monotone), so nothing after a
+         * plane beyond the best hit can beat it; equal t is still visited for the tie rule. */
+        if (t == VIS_INF || !(t <= h->t) || t > r->t_far)
+            break; /* every axis walked, or past the best hit / far plane */
+        if (t >= r->t_near) {
+            uint32_t b = (uint32_t)(base[a] + k[a]);
+            uint32_t end = bk[b + 1u];
+            for (uint32_t i = bk[b]; i < end; ++i)
+                vis_test_quad(r, &quads[qbase + i], objects, h);
+        }
+        if (k[a] == kend[a]) {
+            tk[a] = VIS_INF;
+        } else {
+            k[a] += step[a];
+            tk[a] = vis_plane_t(r, a, lo[a], k[a]);
+        }
+    }
+}
+
+/* ---- traversal ---------------------------------------------------------------------- */
+
+/* Termination slack: a node is skipped only when it starts beyond the best hit by more than
+ * the rounding of two independently computed distances (a few ulps, relative). */
+VIS_INLINE float vis_t_limit(float t)
+{
+    return t + t * 9.5367431640625e-07f; /* 2^-20 */
+}
+
+/* Clips the ray to the scene box [0, size] (closed, with the same slack). */
+VIS_INLINE int vis_clip_scene(const vis_ray *r, const float *size, float *t0, float *t1)
+{
+    float a = r->t_near, b = r->t_far;
+    for (int i = 0; i < 3; ++i) {
+        if (r->d[i] == 0.0f) {
+            if (r->o[i] < 0.0f || r->o[i] > size[i])
+                return 0;
+            continue;
+        }
+        float ta = (0.0f - r->o[i]) * r->inv[i];
+        float tb = (size[i] - r->o[i]) * r->inv[i];
+        if (ta > tb) {
+            float tmp = ta;
+            ta = tb;
+            tb = tmp;
+        }
+        if (ta > a)
+            a = ta;
+        if (tb < b)
+            b = tb;
+    }
+    if (a > vis_t_limit(b))
+        return 0;
+    *t0 = a;
+    *t1 = b;
+    return 1;
+}
+
+#define VIS_STACK_SIZE 64
+#define VIS_STACK_SAME_INTERVAL 0x80000000u
+
+typedef struct vis_stack_entry {
+    uint32_t node;
+    float t_max;
+} vis_stack_entry;
+
+/* Front-to-back traversal with a full stack of 8-byte entries (Chang & Ihm 2010, "stack").
+ * A ray lying exactly in a split plane visits both children. */
+VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    float t_min, t_max;
+    if (!vis_clip_scene(r, s->size, &t_min, &t_max))
+        return;
+    vis_stack_entry stack[VIS_STACK_SIZE];
+    int sp = 0;
+    uint32_t node = s->root;
+    for (;;) {
+        uint32_t info = nodes[node].info;
+        while ((info & 3u) != VIS_NODE_LEAF) {
+            uint32_t a = info & 3u;
+            uint32_t first = info >> 2;
+            float split = nodes[node].split;
+            float o = r->o[a], d = r->d[a];
+            uint32_t near_child, far_child;
+            if (o < split || (o == split && d < 0.0f)) {
+                near_child = first;
+                far_child = first + 1u;
+            } else {
+                near_child = first + 1u;
+                far_child = first;
+            }
+            if (d == 0.0f) {
+                if (o == split && sp < VIS_STACK_SIZE) {
+                    /* Lying in the split plane: both children span the same interval. The
+                     * far one is pushed with its t_min (flagged); its t_max is where the
+                     * near subtree ends, which is the current t_max when it is popped. */
+                    stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
+                    stack[sp].t_max = t_min;
+                    ++sp;
+                }
+                node = near_child;
+            } else {
+                float t_split = (split - o) * r->inv[a];
+                /* t_split <= 0: the ray starts on or past the plane and moves into near_child. */
+                if (t_split > t_max || t_split <= 0.0f) {
+                    node = near_child;
+                } else if (t_split < t_min) {
+                    node = far_child;
+                } else {
+                    stack[sp].node = far_child;
+                    stack[sp].t_max = t_max;
+                    ++sp;
+                    node = near_child;
+                    t_max = t_split;
+                }
+            }
+            info = nodes[node].info;
+        }
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        if (sp == 0)
+            return;
+        --sp;
+        node = stack[sp].node;
+        if (node & VIS_STACK_SAME_INTERVAL) {
+            node &= ~VIS_STACK_SAME_INTERVAL;
+            t_min = stack[sp].t_max; /* saved t_min; t_max stays */
+        } else {
+            t_min = t_max;
+            t_max = stack[sp].t_max;
+        }
+        if (t_min > vis_t_limit(h->t))
+            return;
+    }
+}
+
+/* The reference: every primitive of every leaf, no tree, no ordering. */
+VIS_INLINE void vis_traverse_bruteforce(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS,
+                                        vis_hit *h)
+{
+    for (uint32_t l = 0; l < s->leaf_count; ++l) {
+        const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[l];
+        for (uint32_t i = 0; i < leaf->quad_count; ++i)
+            vis_test_quad(r, &quads[leaf->quad_offset + i], objects, h);
+        for (uint32_t i = 0; i < leaf->loose_count; ++i)
+            vis_test_quad(r, &quads[leaf->loose_offset + i], objects, h);
+        for (uint32_t i = 0; i < leaf->tri_count; ++i)
+            vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
+    }
+}
+
+/* Leaf-ID mode: the leaf, among those holding the hit object, whose box contains the hit
+ * point (the lowest such leaf; the object's first leaf if rounding puts the point in none).
+ * A chunk object lies in exactly one leaf, so for chunks this is simply its leaf. */
+VIS_INLINE uint32_t vis_hit_leaf_id(const vis_ray *r, const vis_hit *h, VIS_SCENE_PARAMS)
+{
+    const VIS_GLOBAL vis_flat_object *ob = &objects[h->object];
+    uint32_t first = object_leaves[ob->leaf_offset];
+    if (ob->leaf_count == 1u)
+        return first + 1u;
+    float p[3];
+    for (int a = 0; a < 3; ++a)
+        p[a] = r->o[a] + h->t * r->d[a];
+    for (uint32_t i = 0; i < ob->leaf_count; ++i) {
+        uint32_t l = object_leaves[ob->leaf_offset + i];
+        const VIS_GLOBAL vis_flat_leaf *lf = &leaves[l];
+        if (p[0] >= lf->lo[0] && p[0] <= lf->hi[0] && p[1] >= lf->lo[1] && p[1] <= lf->hi[1] &&
+            p[2] >= lf->lo[2] && p[2] <= lf->hi[2])
+            return l + 1u;
+    }
+    return first + 1u;
+}
+
+#define VIS_TRAVERSAL_ID_STACK 0u
+#define VIS_TRAVERSAL_ID_BRUTEFORCE 1u
+
+/* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write. */
+VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, VIS_SCENE_PARAMS,
+                                uint32_t *out_id, float *out_depth)
+{
+    vis_ray r;
+    vis_ray_for_pixel(s, x, y, &r);
+    vis_hit h;
+    h.t = VIS_INF;
+    h.object = VIS_NO_OBJECT;
+    h.id = 0u;
+    if (s->traversal == VIS_TRAVERSAL_ID_BRUTEFORCE)
+        vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);
+    else
+        vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
+    if (h.object == VIS_NO_OBJECT) {
+        *out_id = 0u;
+        *out_depth = VIS_INF;
+        return;
+    }
+    *out_id = s->id_mode == 1u ? vis_hit_leaf_id(&r, &h, VIS_SCENE_ARGS) : h.id;
+    *out_depth = h.t;
+}
+
+#endif /* VIS_TRACE_CORE_H */

@@ -1,0 +1,114 @@
+/* cpu_backend.c — the ray pass on CPU threads. Rays go in square 8x8 tiles (Chang & Ihm
+ * 2010 use square thread tiles for coherence: neighbouring rays touch the same nodes and
+ * leaves), handed out dynamically by the pool. The scene arrays are the host's own, so a
+ * sync is free. Each pixel runs trace_core.h, the same code the OpenCL kernel runs. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "backend.h"
+#include "cpu/threadpool.h"
+
+#define TILE 8u
+
+typedef struct cpu_backend {
+    vis_pool *pool;
+} cpu_backend;
+
+typedef struct cpu_job {
+    const vis_scene_view *view;
+    const vis_ray_setup *setup;
+    uint32_t *ids;
+    float *depth;
+    uint32_t tiles_x;
+} cpu_job;
+
+static void trace_tile(void *user, uint32_t tile)
+{
+    const cpu_job *job = user;
+    const vis_scene_view *v = job->view;
+    const vis_ray_setup *s = job->setup;
+    const vis_kd_node *nodes = v->nodes;
+    const vis_flat_leaf *leaves = v->leaves;
+    const uint32_t *buckets = v->buckets;
+    const vis_flat_quad *quads = v->quads;
+    const vis_flat_tri *tris = v->tris;
+    const vis_flat_object *objects = v->objects;
+    const uint32_t *object_leaves = v->object_leaves;
+    uint32_t x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
+    uint32_t x1 = x0 + TILE < s->width ? x0 + TILE : s->width;
+    uint32_t y1 = y0 + TILE < s->height ? y0 + TILE : s->height;
+    for (uint32_t y = y0; y < y1; ++y)
+        for (uint32_t x = x0; x < x1; ++x) {
+            uint32_t id;
+            float t;
+            vis_trace_pixel(s, x, y, VIS_SCENE_ARGS, &id, &t);
+            size_t i = (size_t)y * s->width + x;
+            job->ids[i] = id;
+            if (job->depth)
+                job->depth[i] = t;
+        }
+}
+
+static void cpu_destroy(void *impl)
+{
+    cpu_backend *b = impl;
+    if (!b)
+        return;
+    vis_pool_destroy(b->pool);
+    free(b);
+}
+
+static int cpu_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
+                          char *err, size_t err_size)
+{
+    (void)impl, (void)view, (void)changes, (void)err, (void)err_size;
+    *scene_data = (void *)1; /* the host arrays are the scene: nothing to copy */
+    return 0;
+}
+
+static void cpu_scene_release(void *impl, void *scene_data) { (void)impl, (void)scene_data; }
+
+static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+                     uint32_t *ids, float *depth, char *err, size_t err_size)
+{
+    (void)scene_data, (void)err, (void)err_size;
+    cpu_backend *b = impl;
+    cpu_job job = {view, setup, ids, depth, (setup->width + TILE - 1) / TILE};
+    uint32_t tiles = job.tiles_x * ((setup->height + TILE - 1) / TILE);
+    vis_pool_run(b->pool, tiles, trace_tile, &job);
+    return 0;
+}
+
+static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
+{
+    (void)impl, (void)scene_data;
+    return 0;
+}
+
+static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_scene_release, cpu_trace,
+                                        cpu_last_upload_bytes};
+
+int vis_cpu_backend_create(uint32_t threads, vis_backend *out, uint32_t *out_threads, char *err, size_t err_size)
+{
+    if (threads == 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = n > 0 ? (uint32_t)n : 1u;
+    }
+    cpu_backend *b = calloc(1, sizeof *b);
+    if (!b) {
+        snprintf(err, err_size, "out of memory");
+        return 2; /* VIS_ERROR_OUT_OF_MEMORY */
+    }
+    b->pool = vis_pool_create(threads);
+    if (!b->pool) {
+        free(b);
+        snprintf(err, err_size, "could not start %u threads", threads);
+        return 4; /* VIS_ERROR_BACKEND */
+    }
+    out->ops = &cpu_ops;
+    out->impl = b;
+    *out_threads = threads;
+    return 0;
+}

@@ -1,0 +1,380 @@
+/*
+ * libvis — which parts of a voxel world can this camera see?
+ *
+ * One ray per pixel of a small buffer (512x512 by default) is traced through a prebuilt,
+ * fixed-depth kd-tree of objects; the nearest object ID (or kd-leaf ID) per pixel is written
+ * to an ID buffer, and the unique IDs of that buffer are the draw list.
+ *
+ * Conventions, for every function below:
+ *  - Every call that can fail returns vis_status. On failure, output buffers are left
+ *    untouched and vis_context_last_error() says what went wrong.
+ *  - Desc structs are zero-initialised by the caller; a zero field means the documented
+ *    default (vis_*_desc_defaults() shows the values filled in).
+ *  - Pointers are non-NULL unless the parameter says "may be NULL".
+ *  - Units: world units are voxels. Angles are degrees. Times are milliseconds.
+ *  - The library never prints, never exits and never aborts on bad input.
+ *
+ * Thread safety: contexts are independent of each other and may be used from different
+ * threads at the same time. Calls on one context, and on the scenes created from it, must
+ * be serialised by the caller (one thread at a time). The CPU backend runs its own worker
+ * threads inside vis_trace(); they never outlive the call.
+ *
+ * What "visible" promises: an object is in the draw list of a ray pass when at least one
+ * pixel-centre ray of the buffer hits it before anything else (ties in distance go to the
+ * lowest ID). Objects seen only between pixel centres can be missed; leaf-ID mode trades
+ * overdraw for fewer such misses. The z-buffer culler is conservative at its own resolution.
+ */
+#ifndef VIS_VIS_H
+#define VIS_VIS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vis/vis_config.h"
+
+#if defined(_WIN32) && defined(VIS_SHARED)
+#  define VIS_API __declspec(dllexport)
+#elif defined(__GNUC__)
+#  define VIS_API __attribute__((visibility("default")))
+#else
+#  define VIS_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------------------------------ */
+/* Status                                                                               */
+/* ------------------------------------------------------------------------------------ */
+
+typedef enum vis_status {
+    VIS_OK = 0,
+    VIS_ERROR_INVALID_ARGUMENT, /* a parameter is out of range; the message names it     */
+    VIS_ERROR_OUT_OF_MEMORY,    /* host or device allocation failed                      */
+    VIS_ERROR_UNSUPPORTED,      /* the backend or build lacks the feature                */
+    VIS_ERROR_BACKEND,          /* the backend failed (OpenCL error, kernel build, ...)  */
+    VIS_ERROR_NOT_FOUND,        /* no such object, device or platform                    */
+    VIS_ERROR_CAPACITY          /* a caller-owned output is too small                    */
+} vis_status;
+
+/* A static English string for a status ("ok", "invalid argument", ...). Never NULL. */
+VIS_API const char *vis_status_string(vis_status status);
+
+/* The library version, "MAJOR.MINOR.PATCH". */
+VIS_API const char *vis_version(void);
+
+/* ------------------------------------------------------------------------------------ */
+/* Context                                                                              */
+/* ------------------------------------------------------------------------------------ */
+
+typedef struct vis_context vis_context;
+typedef struct vis_scene vis_scene;
+
+typedef enum vis_backend_kind {
+    VIS_BACKEND_AUTO = 0, /* a GPU through OpenCL if present, else PoCL, else the CPU     */
+    VIS_BACKEND_CPU,      /* threads on this machine                                     */
+    VIS_BACKEND_OPENCL    /* OpenCL; fails if no usable device                            */
+} vis_backend_kind;
+
+typedef enum vis_log_level { VIS_LOG_DEBUG = 0, VIS_LOG_INFO, VIS_LOG_WARNING, VIS_LOG_ERROR } vis_log_level;
+
+/* Optional allocator for all host memory the library takes. Both functions or neither.
+ * alloc returns memory aligned to at least `align` (a power of two, <= 64), or NULL. */
+typedef struct vis_allocator {
+    void *(*alloc)(size_t size, size_t align, void *user);
+    void (*free)(void *ptr, void *user);
+    void *user;
+} vis_allocator;
+
+/* Optional log callback: called from the thread that made the library call. */
+typedef void (*vis_log_fn)(vis_log_level level, const char *message, void *user);
+
+typedef struct vis_context_desc {
+    vis_backend_kind backend;    /* default VIS_BACKEND_AUTO                                  */
+    uint32_t threads;            /* CPU backend worker threads; 0 = number of cores, 1 = serial */
+    const char *opencl_device;   /* may be NULL: device selector, an index ("1") or a name
+                                    substring ("NVIDIA"); NULL reads $VIS_OPENCL_DEVICE, and if
+                                    that is unset takes the first GPU, else the first device */
+    vis_allocator allocator;     /* zero = malloc/free                                        */
+    vis_log_fn log;              /* may be NULL                                               */
+    void *log_user;
+} vis_context_desc;
+
+VIS_API void vis_context_desc_defaults(vis_context_desc *desc);
+
+/* Creates a context. With VIS_BACKEND_AUTO it never fails for lack of OpenCL: it falls
+ * back to the CPU and says why in vis_context_backend(). */
+VIS_API vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_context);
+
+/* May be NULL. Scenes created from the context must be destroyed first. */
+VIS_API void vis_context_destroy(vis_context *context);
+
+/* The message of the last failed call on this context ("" if none). Valid until the next
+ * call on the context. */
+VIS_API const char *vis_context_last_error(const vis_context *context);
+
+typedef struct vis_backend_info {
+    vis_backend_kind kind;   /* the backend actually used: CPU or OPENCL                     */
+    uint32_t threads;        /* CPU worker threads (CPU backend)                              */
+    char name[64];           /* "cpu" or "opencl"                                             */
+    char device[128];        /* "4 threads" / the OpenCL device name                          */
+    char reason[256];        /* why AUTO picked it, or "" when chosen explicitly              */
+} vis_backend_info;
+
+VIS_API vis_status vis_context_backend(const vis_context *context, vis_backend_info *out_info);
+
+/* ------------------------------------------------------------------------------------ */
+/* Scene: objects in a fixed-depth kd-tree                                             */
+/* ------------------------------------------------------------------------------------ */
+
+/* Object IDs: 1..VIS_MAX_OBJECT_ID (0 means "nothing"). Keep them dense: the draw list
+ * needs scratch proportional to the largest ID. At most VIS_MAX_OBJECTS objects. */
+#define VIS_MAX_OBJECT_ID 0x0FFFFFFFu
+#define VIS_MAX_OBJECTS   0x00FFFFFFu
+
+/* Primitive flags (materials). Reserved for the effects; 0 = opaque. */
+#define VIS_PRIM_SEE_THROUGH 0x1u
+#define VIS_PRIM_REFLECTIVE  0x2u
+
+/* An axis-aligned rectangle in the plane x[axis] = plane, covering
+ * [u0,u1] x [v0,v1] in the two other axes, u = (axis+1)%3 and v = (axis+2)%3.
+ * Intersected exactly, closed on all edges, from both sides. Coordinates are scene-local
+ * (relative to vis_scene_desc.origin). Requires u0 <= u1 and v0 <= v1. */
+typedef struct vis_quad {
+    uint32_t axis;   /* 0 = x, 1 = y, 2 = z */
+    uint32_t flags;  /* VIS_PRIM_*          */
+    float plane;
+    float u0, v0, u1, v1;
+} vis_quad;
+
+/* A triangle, scene-local, intersected with the watertight test of Woop et al. 2013,
+ * from both sides. */
+typedef struct vis_triangle {
+    float v[3][3];
+    uint32_t flags;
+} vis_triangle;
+
+/* The geometry of one object. Arrays may be NULL when their count is 0. Copied by the
+ * library; the caller's arrays are not kept. */
+typedef struct vis_mesh {
+    const vis_quad *quads;
+    uint32_t quad_count;
+    const vis_triangle *triangles;
+    uint32_t triangle_count;
+} vis_mesh;
+
+typedef struct vis_scene_desc {
+    double origin[3];     /* world position of scene-local (0,0,0); keep it near the geometry
+                             so that float coordinates stay exact far from the world origin */
+    float size[3];        /* scene-local bounds are [0,size]; every object must lie inside   */
+    float cell_size;      /* split planes lie on multiples of this (the chunk edge); default 16 */
+    uint32_t kd_depth;    /* fixed depth of the tree; 0 = deep enough that a leaf is one cell  */
+    float leaf_slack;     /* spare capacity of each leaf's primitive slot, as a fraction of its
+                             size when filled; default 0.25                                   */
+} vis_scene_desc;
+
+VIS_API void vis_scene_desc_defaults(vis_scene_desc *desc);
+
+/* Builds the empty tree over the bounds; it is never rebuilt afterwards. */
+VIS_API vis_status vis_scene_create(vis_context *context, const vis_scene_desc *desc, vis_scene **out_scene);
+
+/* May be NULL. */
+VIS_API void vis_scene_destroy(vis_scene *scene);
+
+/* Adds the object, or replaces its mesh if the ID exists: the leaves it lies in are updated
+ * in place (nothing is rebuilt). An empty mesh removes the object. An object must lie
+ * inside the scene bounds; one that crosses split planes is referenced from every leaf it
+ * overlaps. */
+VIS_API vis_status vis_scene_set_object(vis_scene *scene, uint32_t id, const vis_mesh *mesh);
+
+/* VIS_ERROR_NOT_FOUND if there is no such object. */
+VIS_API vis_status vis_scene_remove_object(vis_scene *scene, uint32_t id);
+
+typedef struct vis_scene_info {
+    double origin[3];
+    float size[3];
+    float cell_size;
+    uint32_t kd_depth;      /* the tree's fixed depth                                       */
+    uint32_t nodes;         /* inner nodes + leaves                                         */
+    uint32_t leaves;
+    uint32_t objects;
+    uint32_t max_id;        /* largest object ID present (0 if none)                        */
+    uint64_t quads;
+    uint64_t triangles;
+    uint64_t bytes;         /* host memory held by the scene                                */
+    uint64_t edits;         /* set/remove calls so far                                      */
+    uint64_t relocations;   /* leaf updates that outgrew their slot and moved (no rebuild)  */
+} vis_scene_info;
+
+VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
+
+/* Writes the IDs of the objects referenced by leaf `leaf_id` (1..leaves), sorted.
+ * Pass out_ids = NULL to learn the count. VIS_ERROR_CAPACITY if capacity is too small. */
+VIS_API vis_status vis_scene_leaf_objects(const vis_scene *scene, uint32_t leaf_id, uint32_t *out_ids,
+                                          uint32_t capacity, uint32_t *out_count);
+
+/* ------------------------------------------------------------------------------------ */
+/* Camera and the ray pass                                                              */
+/* ------------------------------------------------------------------------------------ */
+
+/* Eye E looks at target T, up +Y. Pixel (x, y) of a W x H buffer shoots one ray through its
+ * centre: ndc = ((x+0.5)/W*2-1, 1-(y+0.5)/H*2), direction = normalize(f + ndc.x*tan(fovy/2)*
+ * (W/H)*r + ndc.y*tan(fovy/2)*u), with f = normalize(T-E), r = normalize(f x (0,1,0)),
+ * u = r x f computed in double ((0,0,-1) stands in for (0,1,0) when f is parallel to Y).
+ * Hits count between near and far (distances along the normalised ray). */
+typedef struct vis_camera {
+    double eye[3];
+    double target[3];
+    double fovy_deg;   /* vertical field of view, (0, 180); default 60                    */
+    double near_dist;  /* > 0; default 0.05                                                */
+    double far_dist;   /* > near; default +infinity (0 means default)                      */
+} vis_camera;
+
+typedef enum vis_id_mode {
+    VIS_IDS_OBJECT = 0, /* the nearest object's ID per pixel                                */
+    VIS_IDS_LEAF        /* the ID (1..leaves) of the kd-leaf holding the nearest hit: draw
+                           every object of that leaf (conservative: fewer misses, more overdraw) */
+} vis_id_mode;
+
+/* kd-tree traversal methods (Chang & Ihm 2010). All give identical buffers. */
+typedef enum vis_traversal {
+    VIS_TRAVERSAL_STACK = 0,  /* full stack, 8-byte entries (default)                        */
+    VIS_TRAVERSAL_BRUTEFORCE  /* no tree: every primitive of every object (the reference)    */
+} vis_traversal;
+
+typedef struct vis_trace_desc {
+    uint32_t width, height;    /* default 512 x 512; each at most VIS_MAX_RESOLUTION           */
+    vis_id_mode ids;           /* default VIS_IDS_OBJECT                                      */
+    vis_traversal traversal;   /* default VIS_TRAVERSAL_STACK                                 */
+} vis_trace_desc;
+
+#define VIS_MAX_RESOLUTION 16384u
+
+VIS_API void vis_trace_desc_defaults(vis_trace_desc *desc);
+
+/* Checks a camera for a W x H pass: finite eye/target, eye != target, 0 < fovy < 180,
+ * 0 < near < far. Returns VIS_ERROR_INVALID_ARGUMENT with a message naming the problem. */
+VIS_API vis_status vis_camera_validate(vis_context *context, const vis_camera *camera);
+
+/* The ray pass. out_ids receives width*height IDs (row-major, top row first, 0 = nothing
+ * hit); out_depth (may be NULL) the distance along the normalised ray, +inf where nothing
+ * was hit. Allocates nothing once the scene's backend copy is up to date. */
+VIS_API vis_status vis_trace(vis_context *context, vis_scene *scene, const vis_camera *camera,
+                             const vis_trace_desc *desc, uint32_t *out_ids, float *out_depth);
+
+/* ------------------------------------------------------------------------------------ */
+/* Draw list                                                                            */
+/* ------------------------------------------------------------------------------------ */
+
+typedef struct vis_draw_entry {
+    uint32_t id;      /* object ID                                                         */
+    uint32_t pixels;  /* pixels of the ID buffer that show it (for leaf IDs: pixels of the
+                         leaves holding it); 0 where the method has none                   */
+} vis_draw_entry;
+
+/* An upper bound on the entries of any draw list of the scene (its object count). */
+VIS_API size_t vis_drawlist_bound(const vis_scene *scene);
+
+/* Turns an ID buffer into the draw list: unique object IDs, sorted ascending, leaf IDs
+ * expanded to the objects of the leaf, each with its pixel count. Scratch comes from the
+ * context (grown only when the scene's largest ID grows). VIS_ERROR_CAPACITY if capacity
+ * is below the entry count (nothing is written then). */
+VIS_API vis_status vis_drawlist_build(vis_context *context, const vis_scene *scene, const uint32_t *ids,
+                                      uint32_t width, uint32_t height, vis_id_mode mode,
+                                      vis_draw_entry *out_entries, size_t capacity, size_t *out_count);
+
+/* ------------------------------------------------------------------------------------ */
+/* Software z-buffer occlusion culler (the comparison to the ray pass)                 */
+/* ------------------------------------------------------------------------------------ */
+
+/* Rasterises occluders (the objects' own meshes, nearest objects first) into a small depth
+ * buffer with the ray pass's camera and pixel centres, then tests every object's box
+ * against it. Conservative at its own resolution: an object is left out only when no pixel
+ * centre of the buffer sees a point of its box at least as near as the occluders there;
+ * boxes that reach in front of the near plane, or hold the eye, are always kept; boxes
+ * beyond far_dist, behind the eye or between the pixel centres are left out. It makes no ID
+ * buffer: its draw list entries have pixels = 0. Runs serially on the calling thread.
+ * docs/zcull.md has the method and its limits.
+ *
+ * Thread safety: a vis_zcull belongs to the context it was created from; its calls count as
+ * calls on that context (serialise them with the context's other calls). Several handles
+ * may exist; each keeps its own buffers. */
+typedef struct vis_zcull vis_zcull;
+
+/* The inner loop's instruction set. Every choice gives bit-identical results. */
+typedef enum vis_zcull_simd {
+    VIS_ZCULL_SIMD_AUTO = 0, /* the widest this CPU runs: AVX2, else SSE2 (x86-64), else scalar */
+    VIS_ZCULL_SIMD_SCALAR,   /* plain C: the reference                                        */
+    VIS_ZCULL_SIMD_SSE2,     /* where the CPU lacks the one asked for, AUTO's choice is used   */
+    VIS_ZCULL_SIMD_AVX2
+} vis_zcull_simd;
+
+#define VIS_ZCULL_DEFAULT_OCCLUDER_TRIANGLES 32768u
+#define VIS_ZCULL_ALL_OCCLUDERS 0xFFFFFFFFu
+
+typedef struct vis_zcull_desc {
+    uint32_t width, height;       /* depth buffer; default 512 x 512; each at most
+                                     VIS_MAX_RESOLUTION                                     */
+    uint32_t occluder_triangles;  /* occluder budget: objects are drawn nearest first (by the
+                                     distance from the eye to their box) while their
+                                     triangles fit (a quad counts as 2); an object that does
+                                     not fit is skipped and later, smaller ones may still be
+                                     drawn. Objects already hidden when their turn comes are
+                                     not drawn and cost nothing. Default
+                                     VIS_ZCULL_DEFAULT_OCCLUDER_TRIANGLES;
+                                     VIS_ZCULL_ALL_OCCLUDERS draws every object              */
+    uint32_t occluder_min_pixels; /* objects whose box spans fewer pixels (its screen
+                                     rectangle) are never drawn as occluders; default 0: no
+                                     minimum                                                */
+    vis_zcull_simd simd;          /* default VIS_ZCULL_SIMD_AUTO                             */
+} vis_zcull_desc;
+
+VIS_API void vis_zcull_desc_defaults(vis_zcull_desc *desc);
+
+/* What one run did and how long each part took (milliseconds, wall clock). */
+typedef struct vis_zcull_stats {
+    uint32_t width, height;
+    uint32_t objects;             /* live objects in the scene                               */
+    uint32_t in_view;             /* objects not culled by the frustum, far or pixel centres */
+    uint32_t occluder_objects;    /* objects whose meshes were rasterised                    */
+    uint32_t occluders_hidden;    /* occluder candidates already hidden at their turn        */
+    uint32_t visible;             /* entries in the draw list                                */
+    uint64_t triangles;           /* occluder triangles rasterised (a quad counts as 2)      */
+    uint64_t polygons;            /* polygons that reached tile traversal after clipping and
+                                     culling (a quad is one polygon)                         */
+    uint64_t tiles;               /* 8x8 tiles written                                       */
+    double ms_setup;              /* boxes against the frustum, sort by distance             */
+    double ms_raster;             /* occluders (including the hidden-occluder tests)         */
+    double ms_test;               /* box tests and the draw list                             */
+    double ms_total;
+    char simd[8];                 /* the path used: "scalar", "sse2" or "avx2"               */
+} vis_zcull_stats;
+
+/* Creates a culler on the context. Its buffers are allocated by the first run and grown
+ * only when the resolution or the scene grows: runs at a fixed size allocate nothing. */
+VIS_API vis_status vis_zcull_create(vis_context *context, vis_zcull **out_zcull);
+
+/* May be NULL. Must come before the context's destruction. */
+VIS_API void vis_zcull_destroy(vis_zcull *zcull);
+
+/* One culling pass. desc may be NULL (defaults). The scene must come from the culler's
+ * context. out_entries receives the draw list, sorted by ID, pixels = 0;
+ * vis_drawlist_bound(scene) entries always suffice; VIS_ERROR_CAPACITY if capacity is below
+ * the entry count (nothing is written then). out_entries may be NULL when capacity is 0.
+ * out_stats may be NULL. */
+VIS_API vis_status vis_zcull_run(vis_zcull *zcull, const vis_scene *scene, const vis_camera *camera,
+                                 const vis_zcull_desc *desc, vis_draw_entry *out_entries, size_t capacity,
+                                 size_t *out_count, vis_zcull_stats *out_stats);
+
+/* The depth buffer of the last successful run: width*height floats, row-major, top row
+ * first, the distance along the normalised pixel-centre ray to the occluders as rasterised
+ * (never nearer than the true surface), +inf where no occluder covers the pixel centre.
+ * VIS_ERROR_NOT_FOUND before the first run. */
+VIS_API vis_status vis_zcull_depth(vis_zcull *zcull, float *out_depth);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VIS_VIS_H */

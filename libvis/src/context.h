@@ -1,0 +1,43 @@
+/* context.h — internal: the context (allocator, logger, last error, backend, scratch). */
+#ifndef VIS_CONTEXT_H
+#define VIS_CONTEXT_H
+
+#include <stdarg.h>
+
+#include "backend.h"
+#include "vis/vis.h"
+
+struct vis_context {
+    vis_context_desc desc;
+    vis_allocator alloc;
+    vis_backend backend;
+    vis_backend_info info;
+    char last_error[2048];
+    void *scratch;        /* per-call scratch (draw list counts, ...), grown only when needed */
+    size_t scratch_size;
+};
+
+/* Records the message as the context's last error, logs it, and returns `status`. */
+vis_status vis_fail(vis_context *ctx, vis_status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+void vis_log(vis_context *ctx, vis_log_level level, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+void vis_clear_error(vis_context *ctx);
+
+/* Host memory through the context's allocator; 64-byte aligned. vis_realloc keeps the
+ * first min(old_size, new_size) bytes. All return NULL on failure (no message). */
+void *vis_alloc(vis_context *ctx, size_t size);
+void *vis_calloc(vis_context *ctx, size_t count, size_t size);
+void *vis_realloc(vis_context *ctx, void *ptr, size_t old_size, size_t new_size);
+void vis_free(vis_context *ctx, void *ptr);
+
+/* Scratch of at least `size` bytes, valid until the next call that takes scratch. */
+void *vis_scratch(vis_context *ctx, size_t size);
+
+#endif

@@ -1,0 +1,105 @@
+/* drawlist.c — from an ID buffer to the draw list: unique object IDs, sorted, with pixel
+ * counts; leaf IDs expand to every object of the leaf (the talk's conservative mode). */
+#include <string.h>
+
+#include "scene.h"
+
+static void sift_down(vis_draw_entry *e, size_t root, size_t n)
+{
+    for (;;) {
+        size_t c = 2 * root + 1;
+        if (c >= n)
+            return;
+        if (c + 1 < n && e[c + 1].id > e[c].id)
+            ++c;
+        if (e[root].id >= e[c].id)
+            return;
+        vis_draw_entry t = e[root];
+        e[root] = e[c];
+        e[c] = t;
+        root = c;
+    }
+}
+
+static void sort_entries(vis_draw_entry *e, size_t n)
+{
+    for (size_t i = n / 2; i-- > 0;)
+        sift_down(e, i, n);
+    for (size_t end = n; end-- > 1;) {
+        vis_draw_entry t = e[0];
+        e[0] = e[end];
+        e[end] = t;
+        sift_down(e, 0, end);
+    }
+}
+
+size_t vis_drawlist_bound(const vis_scene *scene) { return scene ? scene->object_live : 0; }
+
+vis_status vis_drawlist_build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width,
+                              uint32_t height, vis_id_mode mode, vis_draw_entry *out, size_t capacity,
+                              size_t *out_count)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    vis_clear_error(ctx);
+    if (!s || !ids || !out_count || (capacity && !out))
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_drawlist_build: NULL argument");
+    if (mode != VIS_IDS_OBJECT && mode != VIS_IDS_LEAF)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown ID mode %d", (int)mode);
+    uint64_t n = (uint64_t)width * height;
+    /* Pixel counts indexed by object slot (dense, bounded by the scene), so the scratch does
+     * not depend on how large the caller's IDs are. */
+    uint32_t slots = s->object_slots;
+    uint32_t leaves = s->leaf_count;
+    size_t need = ((size_t)slots + (mode == VIS_IDS_LEAF ? (size_t)leaves + 1 : 0)) * sizeof(uint32_t);
+    uint32_t *count = vis_scratch(ctx, need ? need : sizeof(uint32_t));
+    if (!count)
+        return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for draw-list scratch");
+    memset(count, 0, need);
+    if (mode == VIS_IDS_OBJECT) {
+        uint32_t last_id = 0, last_slot = VIS_NO_OBJECT;
+        for (uint64_t i = 0; i < n; ++i) {
+            uint32_t id = ids[i];
+            if (id == 0)
+                continue;
+            if (id != last_id) { /* runs of one ID are the common case */
+                last_id = id;
+                last_slot = vis_scene_find(s, id);
+                if (last_slot == VIS_NO_OBJECT)
+                    return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "ID buffer holds %u, which is no object of the scene", id);
+            }
+            ++count[last_slot];
+        }
+    } else {
+        uint32_t *leaf_px = count + slots;
+        for (uint64_t i = 0; i < n; ++i) {
+            uint32_t l = ids[i];
+            if (l > leaves)
+                return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "ID buffer holds leaf %u; the scene has %u leaves", l, leaves);
+            ++leaf_px[l];
+        }
+        for (uint32_t l = 1; l <= leaves; ++l) {
+            if (!leaf_px[l])
+                continue;
+            const vis_leaf_host *lh = &s->leaf_host[l - 1];
+            for (uint32_t k = 0; k < lh->object_count; ++k)
+                count[lh->objects[k]] += leaf_px[l];
+        }
+    }
+    size_t m = 0;
+    for (uint32_t i = 0; i < slots; ++i)
+        m += count[i] != 0;
+    if (m > capacity)
+        return vis_fail(ctx, VIS_ERROR_CAPACITY, "draw list has %zu entries, capacity is %zu", m, capacity);
+    size_t k = 0;
+    for (uint32_t i = 0; i < slots; ++i)
+        if (count[i]) {
+            out[k].id = s->objects[i].id;
+            out[k].pixels = count[i];
+            ++k;
+        }
+    /* Slots are not in ID order: sort by ID in place (heap sort: no allocation, n log n). */
+    sort_entries(out, k);
+    *out_count = k;
+    return VIS_OK;
+}

@@ -1,0 +1,167 @@
+/* kdtree.c — the fixed-depth kd-tree, built once over the scene bounds.
+ *
+ * The voxel-object visibility talk (seeds/002) prebuilds the tree to its maximum depth and
+ * afterwards only updates leaf contents: the split planes never depend on the geometry, so
+ * no edit can ever require a rebuild. Splits halve the axis with the most cells, always on a
+ * cell (chunk) boundary, so that a chunk lies in exactly one leaf. Nodes are flat arrays with
+ * index links and both children adjacent (copyable to a device in one transfer).
+ */
+#include "kdtree.h"
+
+#include <math.h>
+#include <string.h>
+
+static uint32_t ceil_log2(uint32_t n)
+{
+    uint32_t d = 0;
+    while ((1u << d) < n)
+        ++d;
+    return d;
+}
+
+uint32_t vis_kdtree_full_depth(const uint32_t cells[3])
+{
+    return ceil_log2(cells[0]) + ceil_log2(cells[1]) + ceil_log2(cells[2]);
+}
+
+typedef struct build_state {
+    vis_scene *s;
+    uint32_t next_node;
+    uint32_t next_leaf;
+    uint32_t cells[3];
+} build_state;
+
+static void build_node(build_state *b, uint32_t node, const uint32_t c0[3], const uint32_t c1[3], uint32_t depth)
+{
+    vis_scene *s = b->s;
+    uint32_t ext[3] = {c1[0] - c0[0], c1[1] - c0[1], c1[2] - c0[2]};
+    uint32_t axis = 0;
+    if (ext[1] > ext[axis])
+        axis = 1;
+    if (ext[2] > ext[axis])
+        axis = 2;
+    if (depth >= s->kd_depth || ext[axis] <= 1) {
+        uint32_t li = b->next_leaf++;
+        s->nodes[node].split = 0.0f;
+        s->nodes[node].info = VIS_NODE_LEAF | (li << 2);
+        vis_flat_leaf *lf = &s->leaves[li];
+        memset(lf, 0, sizeof *lf);
+        uint32_t E[3];
+        for (int a = 0; a < 3; ++a) {
+            lf->lo[a] = (float)c0[a] * s->desc.cell_size;
+            float hi = (float)c1[a] * s->desc.cell_size;
+            lf->hi[a] = hi < s->desc.size[a] ? hi : s->desc.size[a];
+            float e = floorf(lf->hi[a] - lf->lo[a]);
+            E[a] = e > 0.0f ? (uint32_t)e : 0u;
+        }
+        /* Bucketing needs integer plane offsets that fit the packed dims; leaves larger than
+         * that keep every quad "loose" (correct, only slower). */
+        if (E[0] <= VIS_KD_MAX_BUCKET_EXTENT && E[1] <= VIS_KD_MAX_BUCKET_EXTENT && E[2] <= VIS_KD_MAX_BUCKET_EXTENT) {
+            lf->dims_xy = E[0] | (E[1] << 16);
+            lf->dims_z = E[2];
+        } else {
+            lf->dims_xy = 0xFFFFFFFFu; /* marks "no buckets" */
+            lf->dims_z = 0xFFFFFFFFu;
+        }
+        lf->bucket_offset = VIS_KD_NO_BUCKETS;
+        return;
+    }
+    uint32_t mid = c0[axis] + ext[axis] / 2;
+    uint32_t first = b->next_node;
+    b->next_node += 2;
+    s->nodes[node].split = (float)mid * s->desc.cell_size;
+    s->nodes[node].info = axis | (first << 2);
+    uint32_t lc1[3] = {c1[0], c1[1], c1[2]};
+    uint32_t rc0[3] = {c0[0], c0[1], c0[2]};
+    lc1[axis] = mid;
+    rc0[axis] = mid;
+    build_node(b, first, c0, lc1, depth + 1);
+    build_node(b, first + 1, rc0, c1, depth + 1);
+}
+
+/* Counts nodes and leaves of the tree the build would make. */
+static void count_nodes(const vis_scene *s, const uint32_t c0[3], const uint32_t c1[3], uint32_t depth,
+                        uint64_t *nodes, uint64_t *leaves)
+{
+    uint32_t ext[3] = {c1[0] - c0[0], c1[1] - c0[1], c1[2] - c0[2]};
+    uint32_t axis = 0;
+    if (ext[1] > ext[axis])
+        axis = 1;
+    if (ext[2] > ext[axis])
+        axis = 2;
+    ++*nodes;
+    if (depth >= s->kd_depth || ext[axis] <= 1) {
+        ++*leaves;
+        return;
+    }
+    uint32_t mid = c0[axis] + ext[axis] / 2;
+    uint32_t lc1[3] = {c1[0], c1[1], c1[2]}, rc0[3] = {c0[0], c0[1], c0[2]};
+    lc1[axis] = mid;
+    rc0[axis] = mid;
+    count_nodes(s, c0, lc1, depth + 1, nodes, leaves);
+    count_nodes(s, rc0, c1, depth + 1, nodes, leaves);
+}
+
+vis_status vis_kdtree_build(vis_scene *s)
+{
+    uint32_t cells[3];
+    for (int a = 0; a < 3; ++a) {
+        double n = ceil((double)s->desc.size[a] / (double)s->desc.cell_size);
+        cells[a] = n < 1.0 ? 1u : (uint32_t)n;
+    }
+    uint32_t full = vis_kdtree_full_depth(cells);
+    s->kd_depth = s->desc.kd_depth == 0 || s->desc.kd_depth > full ? full : s->desc.kd_depth;
+    uint32_t zero[3] = {0, 0, 0};
+    uint64_t nodes = 0, leaves = 0;
+    count_nodes(s, zero, cells, 0, &nodes, &leaves);
+    if (nodes > (1u << 26))
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT,
+                        "kd-tree would need %llu nodes (%ux%ux%u cells); use a larger cell_size or kd_depth",
+                        (unsigned long long)nodes, cells[0], cells[1], cells[2]);
+    s->nodes = vis_calloc(s->ctx, (size_t)nodes, sizeof *s->nodes);
+    s->leaves = vis_calloc(s->ctx, (size_t)leaves, sizeof *s->leaves);
+    s->leaf_host = vis_calloc(s->ctx, (size_t)leaves, sizeof *s->leaf_host);
+    if (!s->nodes || !s->leaves || !s->leaf_host)
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for a kd-tree of %llu nodes",
+                        (unsigned long long)nodes);
+    build_state b = {s, 1, 0, {cells[0], cells[1], cells[2]}};
+    build_node(&b, 0, zero, cells, 0);
+    s->node_count = b.next_node;
+    s->leaf_count = b.next_leaf;
+    return VIS_OK;
+}
+
+/* Leaves whose closed box overlaps the object's box. A box touching a split plane only from
+ * one side goes to that side alone, so a chunk's box (whose faces lie on chunk boundaries)
+ * lands in exactly one leaf; a box that is flat on a split plane goes to the upper side. */
+static void collect(const vis_scene *s, uint32_t node, const float lo[3], const float hi[3], uint32_t *out,
+                    uint32_t *count, uint32_t cap)
+{
+    for (;;) {
+        uint32_t info = s->nodes[node].info;
+        if ((info & 3u) == VIS_NODE_LEAF) {
+            if (*count < cap)
+                out[*count] = info >> 2;
+            ++*count;
+            return;
+        }
+        uint32_t a = info & 3u, first = info >> 2;
+        float split = s->nodes[node].split;
+        int left = lo[a] < split;
+        int right = hi[a] > split || (lo[a] == split && hi[a] == split);
+        if (left && right) {
+            collect(s, first, lo, hi, out, count, cap);
+            node = first + 1;
+        } else {
+            node = left ? first : first + 1;
+        }
+    }
+}
+
+uint32_t vis_kdtree_leaves_of_box(const vis_scene *s, const float lo[3], const float hi[3], uint32_t *out,
+                                  uint32_t cap)
+{
+    uint32_t count = 0;
+    collect(s, 0, lo, hi, out, &count, cap);
+    return count;
+}

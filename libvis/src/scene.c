@@ -1,0 +1,789 @@
+/* scene.c — objects and in-place leaf updates.
+ *
+ * The tree never changes after vis_scene_create (kdtree.c). An edit replaces one object's
+ * primitives and rewrites only the leaves that reference it: each leaf owns a slot in the
+ * primitive pools with spare capacity (desc.leaf_slack); a leaf that outgrows its slot moves
+ * to a new slot at the end of the pool (counted in `relocations`) — the tree is untouched.
+ * Within a slot, quads on integer planes are sorted into (axis, plane) buckets so the
+ * traversal can visit planes in ray order (trace_core.h).
+ */
+#include "scene.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "kdtree.h"
+
+/* ---- small dynamic arrays ----------------------------------------------------------- */
+
+static int grow(vis_context *ctx, void **ptr, uint32_t *cap, uint32_t need, size_t elem)
+{
+    if (need <= *cap)
+        return 1;
+    uint64_t n = *cap ? *cap : 16;
+    while (n < need)
+        n = n * 3 / 2 + 16;
+    if (n > 0xFFFFFFF0u)
+        n = 0xFFFFFFF0u;
+    if (n < need)
+        return 0;
+    void *p = vis_realloc(ctx, *ptr, (size_t)*cap * elem, (size_t)n * elem);
+    if (!p)
+        return 0;
+    *ptr = p;
+    *cap = (uint32_t)n;
+    return 1;
+}
+
+/* ---- ID map: open addressing, ID -> slot + 1 ------------------------------------------ */
+
+static uint32_t hash_id(uint32_t id)
+{
+    id ^= id >> 16;
+    id *= 0x7feb352du;
+    id ^= id >> 15;
+    id *= 0x846ca68bu;
+    id ^= id >> 16;
+    return id;
+}
+
+uint32_t vis_scene_find(const vis_scene *s, uint32_t id)
+{
+    if (!s->id_map_cap || id == 0)
+        return VIS_NO_OBJECT;
+    uint32_t mask = s->id_map_cap - 1;
+    for (uint32_t i = hash_id(id) & mask;; i = (i + 1) & mask) {
+        uint32_t v = s->id_map[i];
+        if (v == 0)
+            return VIS_NO_OBJECT;
+        if (s->objects[v - 1].id == id)
+            return v - 1;
+    }
+}
+
+static int map_insert_raw(uint32_t *map, uint32_t cap, const vis_flat_object *objects, uint32_t slot)
+{
+    uint32_t mask = cap - 1;
+    for (uint32_t i = hash_id(objects[slot].id) & mask;; i = (i + 1) & mask) {
+        if (map[i] == 0) {
+            map[i] = slot + 1;
+            return 1;
+        }
+    }
+}
+
+static int map_insert(vis_scene *s, uint32_t slot)
+{
+    if ((uint64_t)(s->object_live + 1) * 2 > s->id_map_cap) {
+        uint32_t cap = s->id_map_cap ? s->id_map_cap * 2 : 1024;
+        uint32_t *m = vis_calloc(s->ctx, cap, sizeof *m);
+        if (!m)
+            return 0;
+        for (uint32_t i = 0; i < s->id_map_cap; ++i)
+            if (s->id_map[i])
+                map_insert_raw(m, cap, s->objects, s->id_map[i] - 1);
+        vis_free(s->ctx, s->id_map);
+        s->id_map = m;
+        s->id_map_cap = cap;
+    }
+    return map_insert_raw(s->id_map, s->id_map_cap, s->objects, slot);
+}
+
+/* Backward-shift deletion keeps probe chains intact without tombstones. */
+static void map_remove(vis_scene *s, uint32_t id)
+{
+    uint32_t mask = s->id_map_cap - 1;
+    uint32_t i = hash_id(id) & mask;
+    while (s->id_map[i] && s->objects[s->id_map[i] - 1].id != id)
+        i = (i + 1) & mask;
+    if (!s->id_map[i])
+        return;
+    s->id_map[i] = 0;
+    for (uint32_t j = (i + 1) & mask; s->id_map[j]; j = (j + 1) & mask) {
+        uint32_t home = hash_id(s->objects[s->id_map[j] - 1].id) & mask;
+        /* Move j back to i if its home is not cyclically within (i, j]. */
+        int in_range = i <= j ? (home > i && home <= j) : (home > i || home <= j);
+        if (!in_range) {
+            s->id_map[i] = s->id_map[j];
+            s->id_map[j] = 0;
+            i = j;
+        }
+    }
+}
+
+/* ---- dirty tracking ------------------------------------------------------------------ */
+
+static void mark_leaf(vis_scene *s, uint32_t leaf)
+{
+    if (s->leaf_host[leaf].dirty)
+        return;
+    s->leaf_host[leaf].dirty = 1;
+    s->dirty_leaves[s->dirty_leaf_count++] = leaf; /* sized leaf_count at creation */
+}
+
+static int mark_object(vis_scene *s, uint32_t slot)
+{
+    if (s->object_dirty_flag[slot])
+        return 1;
+    if (!grow(s->ctx, (void **)&s->dirty_objects, &s->dirty_object_cap, s->dirty_object_count + 1, sizeof(uint32_t)))
+        return 0;
+    s->object_dirty_flag[slot] = 1;
+    s->dirty_objects[s->dirty_object_count++] = slot;
+    return 1;
+}
+
+static void mark_object_leaves(vis_scene *s, uint32_t lo, uint32_t hi)
+{
+    if (lo >= hi)
+        return;
+    if (s->dirty_ol_lo >= s->dirty_ol_hi) {
+        s->dirty_ol_lo = lo;
+        s->dirty_ol_hi = hi;
+    } else {
+        if (lo < s->dirty_ol_lo)
+            s->dirty_ol_lo = lo;
+        if (hi > s->dirty_ol_hi)
+            s->dirty_ol_hi = hi;
+    }
+}
+
+/* ---- create / destroy ---------------------------------------------------------------- */
+
+void vis_scene_desc_defaults(vis_scene_desc *desc)
+{
+    memset(desc, 0, sizeof *desc);
+    desc->cell_size = 16.0f;
+    desc->leaf_slack = 0.25f;
+}
+
+vis_status vis_scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_scene **out_scene)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    vis_clear_error(ctx);
+    if (!desc || !out_scene)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_scene_create: desc and out_scene must not be NULL");
+    vis_scene_desc d = *desc;
+    if (d.cell_size == 0.0f)
+        d.cell_size = 16.0f;
+    if (d.leaf_slack == 0.0f)
+        d.leaf_slack = 0.25f;
+    for (int a = 0; a < 3; ++a) {
+        if (!isfinite(d.origin[a]))
+            return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene origin[%d] is not finite", a);
+        if (!(d.size[a] > 0.0f) || !(d.size[a] <= 16777216.0f))
+            return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene size[%d] = %g must be in (0, 2^24]", a, (double)d.size[a]);
+    }
+    if (!(d.cell_size > 0.0f) || !isfinite(d.cell_size))
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene cell_size %g must be > 0", (double)d.cell_size);
+    if (!(d.leaf_slack >= 0.0f && d.leaf_slack <= 16.0f))
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene leaf_slack %g must be in [0, 16]", (double)d.leaf_slack);
+    if (d.kd_depth > 48)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "kd_depth %u exceeds 48", d.kd_depth);
+
+    vis_scene *s = vis_calloc(ctx, 1, sizeof *s);
+    if (!s)
+        return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for a scene");
+    s->ctx = ctx;
+    s->desc = d;
+    vis_status st = vis_kdtree_build(s);
+    if (st == VIS_OK) {
+        s->dirty_leaves = vis_calloc(ctx, s->leaf_count, sizeof *s->dirty_leaves);
+        if (!s->dirty_leaves)
+            st = vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for a scene");
+    }
+    if (st != VIS_OK) {
+        vis_scene_destroy(s);
+        return st;
+    }
+    s->dirty_full = 1;
+    s->generation = 1;
+    *out_scene = s;
+    return VIS_OK;
+}
+
+void vis_scene_destroy(vis_scene *s)
+{
+    if (!s)
+        return;
+    vis_context *ctx = s->ctx;
+    if (s->backend_data && ctx->backend.ops && ctx->backend.ops->scene_release)
+        ctx->backend.ops->scene_release(ctx->backend.impl, s->backend_data);
+    if (s->leaf_host)
+        for (uint32_t i = 0; i < s->leaf_count; ++i)
+            vis_free(ctx, s->leaf_host[i].objects);
+    if (s->object_host)
+        for (uint32_t i = 0; i < s->object_slots; ++i) {
+            vis_free(ctx, s->object_host[i].quads);
+            vis_free(ctx, s->object_host[i].tris);
+        }
+    void *arrays[] = {s->nodes,        s->leaves,      s->leaf_host,    s->buckets,      s->quads,
+                      s->tris,         s->objects,     s->object_host,  s->free_slots,   s->object_leaves,
+                      s->id_map,       s->dirty_leaves, s->dirty_objects, s->object_dirty_flag};
+    for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
+        vis_free(ctx, arrays[i]);
+    vis_free(ctx, s);
+}
+
+/* ---- leaf rebuild -------------------------------------------------------------------- */
+
+static int leaf_has_buckets(const vis_flat_leaf *lf) { return lf->dims_z != 0xFFFFFFFFu; }
+
+static void leaf_dims(const vis_flat_leaf *lf, uint32_t E[3])
+{
+    E[0] = lf->dims_xy & 0xFFFFu;
+    E[1] = lf->dims_xy >> 16;
+    E[2] = lf->dims_z;
+}
+
+static uint32_t bucket_table_size(const vis_flat_leaf *lf)
+{
+    uint32_t E[3];
+    leaf_dims(lf, E);
+    return E[0] + E[1] + E[2] + 4u;
+}
+
+/* Bucket index of a quad in the leaf, or UINT32_MAX if it is "loose" (its plane is not an
+ * integer offset from the leaf's lower corner). */
+static uint32_t quad_bucket(const vis_flat_leaf *lf, const vis_flat_quad *q)
+{
+    if (!leaf_has_buckets(lf))
+        return UINT32_MAX;
+    uint32_t a = VIS_META_AXIS(q->meta);
+    uint32_t E[3];
+    leaf_dims(lf, E);
+    float k = q->plane - lf->lo[a];
+    if (!(k >= 0.0f) || k > (float)E[a] || k != floorf(k) || lf->lo[a] + k != q->plane)
+        return UINT32_MAX;
+    uint32_t base = a == 0 ? 0u : a == 1 ? E[0] + 1u : E[0] + E[1] + 2u;
+    return base + (uint32_t)k;
+}
+
+static int quad_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_quad *q)
+{
+    uint32_t a = VIS_META_AXIS(q->meta);
+    uint32_t u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+    return q->plane >= lf->lo[a] && q->plane <= lf->hi[a] && q->u1 >= lf->lo[u] && q->u0 <= lf->hi[u] &&
+           q->v1 >= lf->lo[v] && q->v0 <= lf->hi[v];
+}
+
+static int tri_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_tri *t)
+{
+    for (int a = 0; a < 3; ++a) {
+        float lo = fminf(t->v0[a], fminf(t->v1[a], t->v2[a]));
+        float hi = fmaxf(t->v0[a], fmaxf(t->v1[a], t->v2[a]));
+        if (hi < lf->lo[a] || lo > lf->hi[a])
+            return 0;
+    }
+    return 1;
+}
+
+/* Reserves `need` entries for a leaf slot in a pool, moving the slot to the end when it is
+ * too small. Returns 0 on allocation failure. */
+static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap, size_t elem, uint32_t *slot_offset,
+                        uint32_t *slot_cap, uint32_t need, int *moved)
+{
+    *moved = 0;
+    if (need <= *slot_cap)
+        return 1;
+    uint64_t want = (uint64_t)need + (uint64_t)((double)need * s->desc.leaf_slack) + 4u;
+    if (*used + want > 0xFFFFFF00u)
+        return 0;
+    if (!grow(s->ctx, pool, cap, (uint32_t)(*used + want), elem))
+        return 0;
+    *moved = *slot_cap != 0;
+    *slot_offset = *used;
+    *slot_cap = (uint32_t)want;
+    *used += (uint32_t)want;
+    return 1;
+}
+
+static vis_status rebuild_leaf(vis_scene *s, uint32_t li)
+{
+    vis_flat_leaf *lf = &s->leaves[li];
+    vis_leaf_host *lh = &s->leaf_host[li];
+    /* Count what the leaf will hold. */
+    uint32_t nq = 0, nt = 0;
+    for (uint32_t i = 0; i < lh->object_count; ++i) {
+        const vis_object_host *oh = &s->object_host[lh->objects[i]];
+        int single = s->objects[lh->objects[i]].leaf_count == 1;
+        for (uint32_t q = 0; q < oh->quad_count; ++q)
+            nq += single || quad_overlaps_leaf(lf, &oh->quads[q]);
+        for (uint32_t t = 0; t < oh->tri_count; ++t)
+            nt += single || tri_overlaps_leaf(lf, &oh->tris[t]);
+    }
+    uint32_t qoff = lh->quad_slot;
+    int moved_q = 0, moved_t = 0;
+    if (!reserve_slot(s, (void **)&s->quads, &s->quad_used, &s->quad_cap, sizeof *s->quads, &qoff, &lh->quad_cap, nq,
+                      &moved_q) ||
+        !reserve_slot(s, (void **)&s->tris, &s->tri_used, &s->tri_cap, sizeof *s->tris, &lf->tri_offset, &lh->tri_cap,
+                      nt, &moved_t))
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory growing the primitive pools");
+    lh->quad_slot = qoff;
+    s->relocations += (uint64_t)moved_q + (uint64_t)moved_t;
+
+    /* Bucket table: allocated the first time the leaf holds bucketed quads; its size is fixed
+     * by the leaf's extent, so it never moves afterwards. */
+    uint32_t nb = leaf_has_buckets(lf) ? bucket_table_size(lf) : 0;
+    if (nb && lf->bucket_offset == VIS_KD_NO_BUCKETS && nq) {
+        if (!grow(s->ctx, (void **)&s->buckets, &s->bucket_cap, s->bucket_count + nb, sizeof *s->buckets))
+            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for bucket tables");
+        lf->bucket_offset = s->bucket_count;
+        memset(&s->buckets[lf->bucket_offset], 0, nb * sizeof *s->buckets);
+        s->bucket_count += nb;
+    }
+    int use_buckets = nb && lf->bucket_offset != VIS_KD_NO_BUCKETS;
+
+    /* Counting sort by bucket: counts into the table, then prefix offsets. */
+    uint32_t *bk = use_buckets ? &s->buckets[lf->bucket_offset] : NULL;
+    if (bk)
+        memset(bk, 0, nb * sizeof *bk);
+    uint32_t bucketed = 0;
+    for (uint32_t i = 0; i < lh->object_count; ++i) {
+        const vis_object_host *oh = &s->object_host[lh->objects[i]];
+        int single = s->objects[lh->objects[i]].leaf_count == 1;
+        for (uint32_t q = 0; q < oh->quad_count; ++q) {
+            if (!single && !quad_overlaps_leaf(lf, &oh->quads[q]))
+                continue;
+            uint32_t b = use_buckets ? quad_bucket(lf, &oh->quads[q]) : UINT32_MAX;
+            if (b != UINT32_MAX) {
+                ++bk[b + 1];
+                ++bucketed;
+            }
+        }
+    }
+    if (bk)
+        for (uint32_t b = 1; b < nb; ++b)
+            bk[b] += bk[b - 1];
+    /* Scatter: bucketed quads at [qoff, qoff + bucketed), loose ones after them. The table's
+     * entries are advanced while scattering and shifted back afterwards. */
+    vis_flat_quad *dst = &s->quads[qoff];
+    uint32_t loose = 0;
+    for (uint32_t i = 0; i < lh->object_count; ++i) {
+        const vis_object_host *oh = &s->object_host[lh->objects[i]];
+        int single = s->objects[lh->objects[i]].leaf_count == 1;
+        for (uint32_t q = 0; q < oh->quad_count; ++q) {
+            if (!single && !quad_overlaps_leaf(lf, &oh->quads[q]))
+                continue;
+            uint32_t b = use_buckets ? quad_bucket(lf, &oh->quads[q]) : UINT32_MAX;
+            if (b != UINT32_MAX)
+                dst[bk[b]++] = oh->quads[q];
+            else
+                dst[bucketed + loose++] = oh->quads[q];
+        }
+    }
+    if (bk) {
+        for (uint32_t b = nb - 1; b > 0; --b)
+            bk[b] = bk[b - 1];
+        bk[0] = 0;
+    }
+    lf->quad_offset = qoff;
+    lf->quad_count = bucketed;
+    lf->loose_offset = qoff + bucketed;
+    lf->loose_count = loose;
+
+    uint32_t t_out = 0;
+    for (uint32_t i = 0; i < lh->object_count; ++i) {
+        const vis_object_host *oh = &s->object_host[lh->objects[i]];
+        int single = s->objects[lh->objects[i]].leaf_count == 1;
+        for (uint32_t t = 0; t < oh->tri_count; ++t)
+            if (single || tri_overlaps_leaf(lf, &oh->tris[t]))
+                s->tris[lf->tri_offset + t_out++] = oh->tris[t];
+    }
+    lf->tri_count = t_out;
+    mark_leaf(s, li);
+    return VIS_OK;
+}
+
+/* ---- leaf object lists --------------------------------------------------------------- */
+
+static int leaf_add_object(vis_scene *s, uint32_t li, uint32_t slot)
+{
+    vis_leaf_host *lh = &s->leaf_host[li];
+    if (!grow(s->ctx, (void **)&lh->objects, &lh->object_cap, lh->object_count + 1, sizeof(uint32_t)))
+        return 0;
+    uint32_t i = lh->object_count;
+    while (i > 0 && lh->objects[i - 1] > slot) {
+        lh->objects[i] = lh->objects[i - 1];
+        --i;
+    }
+    lh->objects[i] = slot;
+    ++lh->object_count;
+    return 1;
+}
+
+static void leaf_remove_object(vis_scene *s, uint32_t li, uint32_t slot)
+{
+    vis_leaf_host *lh = &s->leaf_host[li];
+    for (uint32_t i = 0; i < lh->object_count; ++i)
+        if (lh->objects[i] == slot) {
+            memmove(&lh->objects[i], &lh->objects[i + 1], (lh->object_count - i - 1) * sizeof(uint32_t));
+            --lh->object_count;
+            return;
+        }
+}
+
+static int contains(const uint32_t *a, uint32_t n, uint32_t x)
+{
+    for (uint32_t i = 0; i < n; ++i)
+        if (a[i] == x)
+            return 1;
+    return 0;
+}
+
+/* ---- objects ------------------------------------------------------------------------- */
+
+static vis_status validate_mesh(vis_scene *s, const vis_mesh *m)
+{
+    if (m->quad_count && !m->quads)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "mesh has %u quads but quads is NULL", m->quad_count);
+    if (m->triangle_count && !m->triangles)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "mesh has %u triangles but triangles is NULL",
+                        m->triangle_count);
+    const float *size = s->desc.size;
+    for (uint32_t i = 0; i < m->quad_count; ++i) {
+        const vis_quad *q = &m->quads[i];
+        if (q->axis > 2 || q->flags > 63)
+            return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "quad %u: axis %u or flags %u out of range", i, q->axis,
+                            q->flags);
+        uint32_t u = (q->axis + 1) % 3, v = (q->axis + 2) % 3;
+        if (!(q->plane >= 0.0f && q->plane <= size[q->axis]) || !(q->u0 >= 0.0f && q->u0 <= q->u1 && q->u1 <= size[u]) ||
+            !(q->v0 >= 0.0f && q->v0 <= q->v1 && q->v1 <= size[v]))
+            return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT,
+                            "quad %u (axis %u, plane %g, [%g,%g]x[%g,%g]) is empty, not finite or outside the scene", i,
+                            q->axis, (double)q->plane, (double)q->u0, (double)q->u1, (double)q->v0, (double)q->v1);
+    }
+    for (uint32_t i = 0; i < m->triangle_count; ++i) {
+        const vis_triangle *t = &m->triangles[i];
+        if (t->flags > 63)
+            return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "triangle %u: flags %u out of range", i, t->flags);
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a)
+                if (!(t->v[k][a] >= 0.0f && t->v[k][a] <= size[a]))
+                    return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT,
+                                    "triangle %u vertex %d is not finite or outside the scene", i, k);
+    }
+    return VIS_OK;
+}
+
+static vis_status alloc_slot(vis_scene *s, uint32_t *out)
+{
+    if (s->free_count) {
+        *out = s->free_slots[--s->free_count];
+        return VIS_OK;
+    }
+    if (s->object_slots >= VIS_MAX_OBJECTS)
+        return vis_fail(s->ctx, VIS_ERROR_CAPACITY, "scene holds the maximum of %u objects", VIS_MAX_OBJECTS);
+    uint32_t cap = s->object_cap;
+    if (s->object_slots + 1 > cap) {
+        uint32_t c1 = cap, c2 = cap, c3 = cap;
+        if (!grow(s->ctx, (void **)&s->objects, &c1, s->object_slots + 1, sizeof *s->objects) ||
+            !grow(s->ctx, (void **)&s->object_host, &c2, c1, sizeof *s->object_host) ||
+            !grow(s->ctx, (void **)&s->object_dirty_flag, &c3, c1, 1))
+            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for objects");
+        s->object_cap = c1 < c2 ? (c1 < c3 ? c1 : c3) : (c2 < c3 ? c2 : c3);
+    }
+    uint32_t slot = s->object_slots++;
+    memset(&s->objects[slot], 0, sizeof s->objects[slot]);
+    memset(&s->object_host[slot], 0, sizeof s->object_host[slot]);
+    s->object_dirty_flag[slot] = 0;
+    *out = slot;
+    return VIS_OK;
+}
+
+/* Moves an object to a new leaf set: the leaves it leaves and the leaves it joins (and, when
+ * its primitives changed, the leaves it stays in) are rebuilt. */
+static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves, uint32_t new_count, int content_changed)
+{
+    vis_flat_object *ob = &s->objects[slot];
+    uint32_t old_count = ob->leaf_count;
+    uint32_t old_buf[64];
+    uint32_t *old = old_buf;
+    if (old_count > 64 && !(old = vis_alloc(s->ctx, old_count * sizeof *old)))
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory relinking an object");
+    if (old_count)
+        memcpy(old, &s->object_leaves[ob->leaf_offset], old_count * sizeof *old);
+    vis_status st = VIS_OK;
+    for (uint32_t i = 0; i < old_count; ++i)
+        if (!contains(new_leaves, new_count, old[i]))
+            leaf_remove_object(s, old[i], slot);
+    for (uint32_t i = 0; i < new_count && st == VIS_OK; ++i)
+        if (!contains(old, old_count, new_leaves[i]) && !leaf_add_object(s, new_leaves[i], slot))
+            st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for leaf object lists");
+    /* The object's own leaf list: rewritten in place when it fits, else appended. */
+    if (st == VIS_OK && (new_count > old_count || old_count == 0) && new_count) {
+        if (!grow(s->ctx, (void **)&s->object_leaves, &s->object_leaf_cap, s->object_leaf_used + new_count,
+                  sizeof(uint32_t)))
+            st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for object leaf lists");
+        else {
+            ob->leaf_offset = s->object_leaf_used;
+            s->object_leaf_used += new_count;
+        }
+    }
+    if (st == VIS_OK) {
+        if (new_count)
+            memcpy(&s->object_leaves[ob->leaf_offset], new_leaves, new_count * sizeof(uint32_t));
+        ob->leaf_count = new_count;
+        mark_object_leaves(s, ob->leaf_offset, ob->leaf_offset + new_count);
+        for (uint32_t i = 0; i < old_count && st == VIS_OK; ++i)
+            if (!contains(new_leaves, new_count, old[i]))
+                st = rebuild_leaf(s, old[i]);
+        for (uint32_t i = 0; i < new_count && st == VIS_OK; ++i)
+            if (content_changed || !contains(old, old_count, new_leaves[i]))
+                st = rebuild_leaf(s, new_leaves[i]);
+    }
+    if (old != old_buf)
+        vis_free(s->ctx, old);
+    return st;
+}
+
+vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
+{
+    if (!s)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    vis_clear_error(s->ctx);
+    if (id == 0 || id > VIS_MAX_OBJECT_ID)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "object ID %u is outside 1..%u", id, VIS_MAX_OBJECT_ID);
+    if (!mesh)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "mesh is NULL (pass an empty mesh to remove)");
+    vis_status st = validate_mesh(s, mesh);
+    if (st != VIS_OK)
+        return st;
+    uint32_t slot = vis_scene_find(s, id);
+    if (mesh->quad_count == 0 && mesh->triangle_count == 0)
+        return slot == VIS_NO_OBJECT ? VIS_OK : vis_scene_remove_object(s, id);
+
+    if (slot == VIS_NO_OBJECT) {
+        if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)))
+            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for objects");
+        if ((st = alloc_slot(s, &slot)) != VIS_OK)
+            return st;
+        s->objects[slot].id = id;
+        if (!map_insert(s, slot)) {
+            s->objects[slot].id = 0;
+            s->free_slots[s->free_count++] = slot; /* capacity reserved above */
+            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the ID map");
+        }
+        ++s->object_live;
+        if (id > s->max_id)
+            s->max_id = id;
+    }
+    vis_object_host *oh = &s->object_host[slot];
+    if (!grow(s->ctx, (void **)&oh->quads, &oh->quad_cap, mesh->quad_count, sizeof *oh->quads) ||
+        !grow(s->ctx, (void **)&oh->tris, &oh->tri_cap, mesh->triangle_count, sizeof *oh->tris))
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory copying a mesh");
+    s->quad_total -= oh->quad_count;
+    s->tri_total -= oh->tri_count;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t i = 0; i < mesh->quad_count; ++i) {
+        const vis_quad *q = &mesh->quads[i];
+        vis_flat_quad *fq = &oh->quads[i];
+        fq->plane = q->plane;
+        fq->u0 = q->u0;
+        fq->v0 = q->v0;
+        fq->u1 = q->u1;
+        fq->v1 = q->v1;
+        fq->meta = (slot << 8) | (q->flags << 2) | q->axis;
+        uint32_t a = q->axis, u = (a + 1) % 3, v = (a + 2) % 3;
+        lo[a] = fminf(lo[a], q->plane);
+        hi[a] = fmaxf(hi[a], q->plane);
+        lo[u] = fminf(lo[u], q->u0);
+        hi[u] = fmaxf(hi[u], q->u1);
+        lo[v] = fminf(lo[v], q->v0);
+        hi[v] = fmaxf(hi[v], q->v1);
+    }
+    for (uint32_t i = 0; i < mesh->triangle_count; ++i) {
+        const vis_triangle *t = &mesh->triangles[i];
+        vis_flat_tri *ft = &oh->tris[i];
+        for (int a = 0; a < 3; ++a) {
+            ft->v0[a] = t->v[0][a];
+            ft->v1[a] = t->v[1][a];
+            ft->v2[a] = t->v[2][a];
+            for (int k = 0; k < 3; ++k) {
+                lo[a] = fminf(lo[a], t->v[k][a]);
+                hi[a] = fmaxf(hi[a], t->v[k][a]);
+            }
+        }
+        ft->meta = (slot << 8) | (t->flags << 2);
+    }
+    oh->quad_count = mesh->quad_count;
+    oh->tri_count = mesh->triangle_count;
+    oh->id = id;
+    memcpy(oh->box_lo, lo, sizeof lo);
+    memcpy(oh->box_hi, hi, sizeof hi);
+    s->quad_total += oh->quad_count;
+    s->tri_total += oh->tri_count;
+
+    uint32_t leaves_buf[64];
+    uint32_t n = vis_kdtree_leaves_of_box(s, lo, hi, leaves_buf, 64);
+    uint32_t *leaves = leaves_buf;
+    if (n > 64) {
+        leaves = vis_alloc(s->ctx, (size_t)n * sizeof *leaves);
+        if (!leaves)
+            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory locating an object");
+        vis_kdtree_leaves_of_box(s, lo, hi, leaves, n);
+    }
+    st = relink(s, slot, leaves, n, 1);
+    if (leaves != leaves_buf)
+        vis_free(s->ctx, leaves);
+    if (st != VIS_OK)
+        return st;
+    if (!mark_object(s, slot))
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory tracking changes");
+    ++s->edits;
+    ++s->generation;
+    return VIS_OK;
+}
+
+vis_status vis_scene_remove_object(vis_scene *s, uint32_t id)
+{
+    if (!s)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    vis_clear_error(s->ctx);
+    uint32_t slot = vis_scene_find(s, id);
+    if (slot == VIS_NO_OBJECT)
+        return vis_fail(s->ctx, VIS_ERROR_NOT_FOUND, "no object with ID %u", id);
+    if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)) ||
+        !mark_object(s, slot))
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory removing an object");
+    vis_object_host *oh = &s->object_host[slot];
+    s->quad_total -= oh->quad_count;
+    s->tri_total -= oh->tri_count;
+    oh->quad_count = 0;
+    oh->tri_count = 0;
+    vis_status st = relink(s, slot, NULL, 0, 1);
+    if (st != VIS_OK)
+        return st;
+    map_remove(s, id);
+    s->objects[slot].id = 0;
+    oh->id = 0;
+    s->free_slots[s->free_count++] = slot;
+    --s->object_live;
+    if (id == s->max_id) {
+        s->max_id = 0;
+        for (uint32_t i = 0; i < s->object_slots; ++i)
+            if (s->objects[i].id > s->max_id)
+                s->max_id = s->objects[i].id;
+    }
+    ++s->edits;
+    ++s->generation;
+    return VIS_OK;
+}
+
+/* ---- queries ------------------------------------------------------------------------- */
+
+vis_status vis_scene_get_info(const vis_scene *s, vis_scene_info *out)
+{
+    if (!s || !out)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    memset(out, 0, sizeof *out);
+    memcpy(out->origin, s->desc.origin, sizeof out->origin);
+    memcpy(out->size, s->desc.size, sizeof out->size);
+    out->cell_size = s->desc.cell_size;
+    out->kd_depth = s->kd_depth;
+    out->nodes = s->node_count;
+    out->leaves = s->leaf_count;
+    out->objects = s->object_live;
+    out->max_id = s->max_id;
+    out->quads = s->quad_total;
+    out->triangles = s->tri_total;
+    out->edits = s->edits;
+    out->relocations = s->relocations;
+    uint64_t b = sizeof *s + (uint64_t)s->node_count * sizeof *s->nodes +
+                 (uint64_t)s->leaf_count * (sizeof *s->leaves + sizeof *s->leaf_host + sizeof(uint32_t)) +
+                 (uint64_t)s->bucket_cap * sizeof(uint32_t) + (uint64_t)s->quad_cap * sizeof *s->quads +
+                 (uint64_t)s->tri_cap * sizeof *s->tris +
+                 (uint64_t)s->object_cap * (sizeof *s->objects + sizeof *s->object_host + 1) +
+                 (uint64_t)s->object_leaf_cap * sizeof(uint32_t) + (uint64_t)s->id_map_cap * sizeof(uint32_t) +
+                 (uint64_t)s->free_cap * sizeof(uint32_t) + (uint64_t)s->dirty_object_cap * sizeof(uint32_t);
+    for (uint32_t i = 0; i < s->leaf_count; ++i)
+        b += (uint64_t)s->leaf_host[i].object_cap * sizeof(uint32_t);
+    for (uint32_t i = 0; i < s->object_slots; ++i)
+        b += (uint64_t)s->object_host[i].quad_cap * sizeof(vis_flat_quad) +
+             (uint64_t)s->object_host[i].tri_cap * sizeof(vis_flat_tri);
+    out->bytes = b;
+    return VIS_OK;
+}
+
+vis_status vis_scene_leaf_objects(const vis_scene *s, uint32_t leaf_id, uint32_t *out_ids, uint32_t capacity,
+                                  uint32_t *out_count)
+{
+    if (!s || !out_count)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (leaf_id == 0 || leaf_id > s->leaf_count)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "leaf ID %u is outside 1..%u", leaf_id, s->leaf_count);
+    const vis_leaf_host *lh = &s->leaf_host[leaf_id - 1];
+    *out_count = lh->object_count;
+    if (!out_ids)
+        return VIS_OK;
+    if (capacity < lh->object_count)
+        return vis_fail(s->ctx, VIS_ERROR_CAPACITY, "leaf %u holds %u objects, capacity is %u", leaf_id,
+                        lh->object_count, capacity);
+    for (uint32_t i = 0; i < lh->object_count; ++i)
+        out_ids[i] = s->objects[lh->objects[i]].id;
+    /* Slots ascend, IDs need not: sort (leaves hold few objects). */
+    for (uint32_t i = 1; i < lh->object_count; ++i) {
+        uint32_t x = out_ids[i], j = i;
+        while (j > 0 && out_ids[j - 1] > x) {
+            out_ids[j] = out_ids[j - 1];
+            --j;
+        }
+        out_ids[j] = x;
+    }
+    return VIS_OK;
+}
+
+vis_scene_view vis_scene_get_view(const vis_scene *s)
+{
+    vis_scene_view v;
+    memset(&v, 0, sizeof v);
+    v.nodes = s->nodes;
+    v.node_count = s->node_count;
+    v.leaves = s->leaves;
+    v.leaf_count = s->leaf_count;
+    v.buckets = s->buckets;
+    v.bucket_count = s->bucket_count;
+    v.quads = s->quads;
+    v.quad_count = s->quad_used;
+    v.tris = s->tris;
+    v.tri_count = s->tri_used;
+    v.objects = s->objects;
+    v.object_count = s->object_slots;
+    v.object_leaves = s->object_leaves;
+    v.object_leaf_count = s->object_leaf_used;
+    memcpy(v.size, s->desc.size, sizeof v.size);
+    v.kd_depth = s->kd_depth;
+    return v;
+}
+
+vis_status vis_scene_sync_backend(vis_scene *s)
+{
+    vis_context *ctx = s->ctx;
+    if (s->synced_generation == s->generation && s->backend_data)
+        return VIS_OK;
+    vis_scene_view view = vis_scene_get_view(s);
+    vis_scene_changes ch;
+    memset(&ch, 0, sizeof ch);
+    ch.generation = s->generation;
+    ch.full = s->dirty_full || !s->backend_data;
+    ch.leaves = s->dirty_leaves;
+    ch.leaf_count = s->dirty_leaf_count;
+    ch.objects = s->dirty_objects;
+    ch.object_count = s->dirty_object_count;
+    ch.object_leaf_lo = s->dirty_ol_lo;
+    ch.object_leaf_hi = s->dirty_ol_hi;
+    char err[1024] = "";
+    int st = ctx->backend.ops->scene_sync(ctx->backend.impl, &s->backend_data, &view, &ch, err, sizeof err);
+    if (st != VIS_OK)
+        return vis_fail(ctx, (vis_status)st, "%s backend: scene upload failed: %s", ctx->backend.ops->name, err);
+    for (uint32_t i = 0; i < s->dirty_leaf_count; ++i)
+        s->leaf_host[s->dirty_leaves[i]].dirty = 0;
+    for (uint32_t i = 0; i < s->dirty_object_count; ++i)
+        s->object_dirty_flag[s->dirty_objects[i]] = 0;
+    s->dirty_leaf_count = 0;
+    s->dirty_object_count = 0;
+    s->dirty_ol_lo = s->dirty_ol_hi = 0;
+    s->dirty_full = 0;
+    s->synced_generation = s->generation;
+    return VIS_OK;
+}

@@ -1,0 +1,26 @@
+/* test_support.h — small helpers shared by the cmocka tests. */
+#ifndef VIS_TEST_SUPPORT_H
+#define VIS_TEST_SUPPORT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* ../shared/data beside the checkout (or $VIS_SHARED_DATA), or NULL when absent. */
+const char *vt_shared_data_dir(void);
+
+/* Path of a file under the shared data dir ("vox/x.vox"), or NULL (and a printed
+ * "SKIP: ..." line saying why) when the data is absent. Returns a static buffer. */
+const char *vt_shared_file(const char *relative);
+
+/* 1 when tests should run a reduced number of iterations ($VIS_TEST_SCALE=small, as the
+ * sanitizer build sets). Every test still runs every case, only fewer random repetitions. */
+int vt_small(void);
+
+/* Reads a whole file; caller frees. NULL on failure. */
+void *vt_read_file(const char *path, size_t *out_size);
+
+/* A deterministic 64-bit generator (splitmix64) for random tests. */
+uint64_t vt_rand(uint64_t *state);
+double vt_rand_unit(uint64_t *state); /* [0, 1) */
+
+#endif
