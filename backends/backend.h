@@ -30,6 +30,9 @@ typedef struct vis_scene_view {
     uint32_t object_count;
     const uint32_t *object_leaves;
     uint32_t object_leaf_count;
+    const vis_rope_node *ropes;   /* built once with the tree; never change afterwards       */
+    uint32_t rope_count;
+    const uint32_t *rope_index;   /* node_count entries                                      */
     float size[3];
     uint32_t kd_depth;
 } vis_scene_view;
@@ -62,6 +65,13 @@ typedef struct vis_backend_ops {
                  uint32_t *ids, float *depth, char *err, size_t err_size);
     /* Bytes sent to the device by the last scene_sync (0 for host backends). */
     uint64_t (*last_upload_bytes)(void *impl, void *scene_data);
+    /* Optional (NULL: libvis calls trace once per view). `count` views of one size, view i
+     * with setups[i], its IDs at ids + i*width*height (depths likewise; depth may be NULL). */
+    int (*trace_batch)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
+                       uint32_t count, uint32_t *ids, float *depth, char *err, size_t err_size);
+    /* Optional (NULL: libvis times the trace call itself): device time of the ray pass(es)
+     * of the last trace or trace_batch, in milliseconds. */
+    double (*last_kernel_ms)(void *impl);
 } vis_backend_ops;
 
 typedef struct vis_backend {

@@ -97,6 +97,18 @@ typedef struct vis_flat_object {
     uint32_t pad;
 } vis_flat_object;
 
+/* Ropes (Popov et al. 2007; Chang & Ihm 2010): for a node that has them, its box and the
+ * node on the other side of each of its six faces (-x,+x,-y,+y,-z,+z; VIS_NO_ROPE = the
+ * outside). rope_index[node] gives the node's entry in `ropes`, or VIS_NO_ROPE. */
+typedef struct vis_rope_node {
+    float lo[3], hi[3];
+    uint32_t link[6];
+    uint32_t node;
+    uint32_t pad;
+} vis_rope_node;
+
+#define VIS_NO_ROPE 0xFFFFFFFFu
+
 #define VIS_META_AXIS(m) ((m) & 3u)
 #define VIS_META_FLAGS(m) (((m) >> 2) & 63u)
 #define VIS_META_OBJECT(m) ((m) >> 8)
@@ -123,8 +135,9 @@ typedef struct vis_ray_setup {
     const VIS_GLOBAL vis_kd_node *nodes, const VIS_GLOBAL vis_flat_leaf *leaves,              \
         const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL vis_flat_quad *quads,            \
         const VIS_GLOBAL vis_flat_tri *tris, const VIS_GLOBAL vis_flat_object *objects,       \
-        const VIS_GLOBAL uint32_t *object_leaves
-#define VIS_SCENE_ARGS nodes, leaves, buckets, quads, tris, objects, object_leaves
+        const VIS_GLOBAL uint32_t *object_leaves, const VIS_GLOBAL vis_rope_node *ropes,       \
+        const VIS_GLOBAL uint32_t *rope_index
+#define VIS_SCENE_ARGS nodes, leaves, buckets, quads, tris, objects, object_leaves, ropes, rope_index
 
 /* Hit state of one ray. */
 typedef struct vis_hit {

@@ -36,6 +36,8 @@ static void trace_tile(void *user, uint32_t tile)
     const vis_flat_tri *tris = v->tris;
     const vis_flat_object *objects = v->objects;
     const uint32_t *object_leaves = v->object_leaves;
+    const vis_rope_node *ropes = v->ropes;
+    const uint32_t *rope_index = v->rope_index;
     uint32_t x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
     uint32_t x1 = x0 + TILE < s->width ? x0 + TILE : s->width;
     uint32_t y1 = y0 + TILE < s->height ? y0 + TILE : s->height;
@@ -88,7 +90,8 @@ static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
 }
 
 static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_scene_release, cpu_trace,
-                                        cpu_last_upload_bytes};
+                                        cpu_last_upload_bytes, NULL /* trace_batch: libvis loops */,
+                                        NULL /* last_kernel_ms: libvis times the pass */};
 
 int vis_cpu_backend_create(uint32_t threads, vis_backend *out, uint32_t *out_threads, char *err, size_t err_size)
 {

@@ -151,6 +151,7 @@ static vis_status create_opencl(vis_context *ctx, char *why, size_t why_size, in
         return (vis_status)st;
     }
     ctx->info.kind = VIS_BACKEND_OPENCL;
+    ctx->info.is_gpu = *is_gpu;
     snprintf(ctx->info.name, sizeof ctx->info.name, "opencl");
     return VIS_OK;
 #else

@@ -15,6 +15,8 @@ struct vis_context {
     char last_error[2048];
     void *scratch;        /* per-call scratch (draw list counts, ...), grown only when needed */
     size_t scratch_size;
+    vis_timing timing;    /* of the last successful vis_trace / vis_trace_batch              */
+    int have_timing;
 };
 
 /* Records the message as the context's last error, logs it, and returns `status`. */

@@ -219,7 +219,7 @@ void vis_scene_destroy(vis_scene *s)
         }
     void *arrays[] = {s->nodes,        s->leaves,      s->leaf_host,    s->buckets,      s->quads,
                       s->tris,         s->objects,     s->object_host,  s->free_slots,   s->object_leaves,
-                      s->id_map,       s->dirty_leaves, s->dirty_objects, s->object_dirty_flag};
+                      s->id_map,       s->dirty_leaves, s->dirty_objects, s->object_dirty_flag, s->ropes, s->rope_index};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         vis_free(ctx, arrays[i]);
     vis_free(ctx, s);
@@ -751,6 +751,9 @@ vis_scene_view vis_scene_get_view(const vis_scene *s)
     v.object_count = s->object_slots;
     v.object_leaves = s->object_leaves;
     v.object_leaf_count = s->object_leaf_used;
+    v.ropes = s->ropes;
+    v.rope_count = s->rope_count;
+    v.rope_index = s->rope_index;
     memcpy(v.size, s->desc.size, sizeof v.size);
     v.kd_depth = s->kd_depth;
     return v;

@@ -35,6 +35,9 @@ struct vis_scene {
     vis_flat_leaf *leaves;
     vis_leaf_host *leaf_host;
     uint32_t leaf_count;
+    vis_rope_node *ropes;     /* rope nodes (built with the tree), see trace_core.h         */
+    uint32_t rope_count;
+    uint32_t *rope_index;     /* node -> rope entry or VIS_NO_ROPE                           */
     uint32_t *buckets;        /* per-leaf bucket tables, allocated on first use              */
     uint32_t bucket_count, bucket_cap;
 

@@ -120,6 +120,7 @@ typedef struct vis_backend_info {
     char name[64];           /* "cpu" or "opencl"                                             */
     char device[128];        /* "4 threads" / the OpenCL device name                          */
     char reason[256];        /* why AUTO picked it, or "" when chosen explicitly              */
+    int is_gpu;              /* OpenCL: 1 when the device is a GPU (CL_DEVICE_TYPE_GPU)      */
 } vis_backend_info;
 
 VIS_API vis_status vis_context_backend(const vis_context *context, vis_backend_info *out_info);
@@ -372,6 +373,46 @@ VIS_API vis_status vis_zcull_run(vis_zcull *zcull, const vis_scene *scene, const
  * (never nearer than the true surface), +inf where no occluder covers the pixel centre.
  * VIS_ERROR_NOT_FOUND before the first run. */
 VIS_API vis_status vis_zcull_depth(vis_zcull *zcull, float *out_depth);
+
+/* ------------------------------------------------------------------------------------ */
+/* Batches, timing, uploads                                                             */
+/* ------------------------------------------------------------------------------------ */
+
+/* Traces `count` views of one scene in one call (server-style batches). View i uses
+ * cameras[i] and the one desc (desc may be NULL: defaults); its W x H IDs go to
+ * out_ids + i*W*H and, when out_depth is not NULL, its depths to out_depth + i*W*H (so
+ * both hold count*W*H elements). Every camera is validated before any work; on failure the
+ * outputs are left untouched and the message names the camera. Each view's buffers equal
+ * what vis_trace() gives for that camera, bit for bit. The OpenCL backend runs the views in
+ * one kernel launch (a few for batches larger than its output buffers); the CPU backend
+ * traces them one after the other. count = 0 does nothing and returns VIS_OK. */
+VIS_API vis_status vis_trace_batch(vis_context *context, vis_scene *scene, const vis_camera *cameras,
+                                   uint32_t count, const vis_trace_desc *desc, uint32_t *out_ids,
+                                   float *out_depth);
+
+/* What the last successful vis_trace() or vis_trace_batch() on a context did and how long
+ * it took. */
+typedef struct vis_timing {
+    double total_ms;       /* the whole call, wall clock: validation, upload of scene changes,
+                              the ray pass and the readback of the buffers                   */
+    double kernel_ms;      /* the ray pass alone: OpenCL kernel time from event profiling
+                              (summed over a batch's launches); CPU backend: the pass's wall
+                              clock                                                          */
+    uint64_t upload_bytes; /* bytes sent to the device by this call's scene sync (0 when
+                              nothing changed, and always 0 on the CPU backend)              */
+    uint64_t rays;         /* rays traced: width * height * views                           */
+    uint32_t views;        /* 1 for vis_trace()                                              */
+} vis_timing;
+
+/* VIS_ERROR_NOT_FOUND before the first successful trace on the context. */
+VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timing *out_timing);
+
+/* Bytes the context's backend sent to its device in the last sync of this scene that had
+ * something to send: the whole scene on the first trace, afterwards only the leaves (headers,
+ * primitive slots, bucket tables) and objects changed by edits (docs/opencl.md). Scenes sync
+ * inside the next vis_trace() after edits. Always 0 on the CPU backend, which traces the
+ * host arrays directly. */
+VIS_API vis_status vis_scene_last_upload_bytes(const vis_scene *scene, uint64_t *out_bytes);
 
 #ifdef __cplusplus
 }

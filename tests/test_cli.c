@@ -1,0 +1,744 @@
+/*
+ * test_cli.c — the `vis` command line as scripts use it (DESIGN.md, "The vis command line"):
+ * the built binary is run on small generated worlds and its JSON keys, dump sizes and
+ * contents, draw lists and exit codes are checked; plus the world -> scene bridge
+ * (tools/common/world_scene.c) in process: edits applied in place must give the same ID
+ * buffer as a scene built from scratch.
+ */
+#define _POSIX_C_SOURCE 200809L
+
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "test_support.h"
+#include "vis/vis.h"
+#include "voxelworld/vw.h"
+#include "world_scene.h"
+
+#define VIS_EXE VIS_BINARY_DIR "/tools/vis"
+#define SMALL "gen:terrain:size=64x32x64:seed=1"
+#define CITY "gen:city:size=64x48x64:seed=2"
+
+static char tmp_dir[256];
+
+/* ---- running the binary ------------------------------------------------------------- */
+
+typedef struct run_result {
+    int code;       /* exit code, or -1 if it did not exit normally */
+    char *out;      /* stdout (NUL-terminated, malloc'ed)          */
+    char *err;      /* stderr                                      */
+    char args[2048]; /* for messages                               */
+} run_result;
+
+/* Checks the exit code, showing the command and its stderr when it is not the expected one. */
+#define assert_exit(r, expected)                                                                  \
+    do {                                                                                          \
+        if ((r).code != (expected))                                                               \
+            print_message("vis %s -> exit %d (expected %d)\n  stderr: %s\n", (r).args, (r).code,  \
+                          (expected), (r).err);                                                   \
+        assert_int_equal((r).code, (expected));                                                   \
+    } while (0)
+
+static char *slurp(const char *path)
+{
+    size_t n = 0;
+    char *data = vt_read_file(path, &n);
+    char *s = malloc(n + 1);
+    assert_non_null(s);
+    if (data)
+        memcpy(s, data, n);
+    s[n] = '\0';
+    free(data);
+    return s;
+}
+
+/* Runs `vis ARGS` (ARGS is shell text) with stdout and stderr captured to files. */
+static run_result run_vis(const char *fmt, ...)
+{
+    char args[2048], cmd[4096], out_path[512], err_path[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(args, sizeof args, fmt, ap);
+    va_end(ap);
+    snprintf(out_path, sizeof out_path, "%s/stdout.txt", tmp_dir);
+    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
+    snprintf(cmd, sizeof cmd, "'%s' %s >'%s' 2>'%s'", VIS_EXE, args, out_path, err_path);
+    int status = system(cmd);
+    run_result r;
+    r.code = status != -1 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out_path);
+    r.err = slurp(err_path);
+    snprintf(r.args, sizeof r.args, "%s", args);
+    return r;
+}
+
+static void run_free(run_result *r)
+{
+    free(r->out);
+    free(r->err);
+}
+
+static const char *tmp_path(const char *name)
+{
+    static char paths[8][512];
+    static int next;
+    char *p = paths[next++ % 8];
+    snprintf(p, 512, "%s/%s", tmp_dir, name);
+    return p;
+}
+
+/* ---- a minimal look into the JSON output -------------------------------------------- */
+
+/* The text right after "key": (NULL when the key is absent). */
+static const char *json_value(const char *json, const char *key)
+{
+    char pat[128];
+    snprintf(pat, sizeof pat, "\"%s\":", key);
+    const char *p = strstr(json, pat);
+    if (!p)
+        return NULL;
+    p += strlen(pat);
+    while (*p == ' ')
+        ++p;
+    return p;
+}
+
+static double json_num(const char *json, const char *key)
+{
+    const char *p = json_value(json, key);
+    if (!p) {
+        print_message("missing key \"%s\" in %s\n", key, json);
+        fail();
+    }
+    char *end;
+    double v = strtod(p, &end);
+    assert_true(end != p);
+    return v;
+}
+
+static void json_str(const char *json, const char *key, char *out, size_t size)
+{
+    const char *p = json_value(json, key);
+    assert_non_null(p);
+    assert_int_equal(*p, '"');
+    ++p;
+    size_t n = 0;
+    while (*p && *p != '"' && n + 1 < size)
+        out[n++] = *p++;
+    out[n] = '\0';
+}
+
+static void assert_keys(const char *json, const char *const *keys)
+{
+    for (const char *const *k = keys; *k; ++k) {
+        if (!json_value(json, *k)) {
+            print_message("missing key \"%s\" in %s\n", *k, json);
+            fail();
+        }
+    }
+}
+
+/* One JSON object on one line, braces balanced outside strings. */
+static void assert_one_object(const char *s)
+{
+    assert_int_equal(s[0], '{');
+    int depth = 0, in_string = 0, closed = 0;
+    for (const char *p = s; *p; ++p) {
+        if (in_string) {
+            if (*p == '\\')
+                ++p;
+            else if (*p == '"')
+                in_string = 0;
+            continue;
+        }
+        if (*p == '"')
+            in_string = 1;
+        else if (*p == '{' || *p == '[')
+            ++depth;
+        else if (*p == '}' || *p == ']') {
+            --depth;
+            if (depth == 0)
+                closed = (int)(p - s) + 1;
+        }
+        assert_true(depth >= 0);
+    }
+    assert_int_equal(depth, 0);
+    assert_string_equal(s + closed, "\n");
+}
+
+static void *read_exact(const char *path, size_t expect)
+{
+    size_t n = 0;
+    void *data = vt_read_file(path, &n);
+    assert_non_null(data);
+    assert_int_equal(n, expect);
+    return data;
+}
+
+static uint32_t le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* ---- vis cull ----------------------------------------------------------------------- */
+
+static void test_cull_json(void **state)
+{
+    (void)state;
+    run_result r = run_vis("cull --scene %s --res 96x64 --backend cpu --threads 2 --json", SMALL);
+    assert_exit(r, 0);
+    assert_one_object(r.out);
+    static const char *const keys[] = {"backend", "width", "height", "ids", "objects", "visible", "time_ms",
+                                       "mrays_per_s", "traversal", "threads", "scene", "camera", "device", NULL};
+    assert_keys(r.out, keys);
+    assert_int_equal((int)json_num(r.out, "width"), 96);
+    assert_int_equal((int)json_num(r.out, "height"), 64);
+    assert_int_equal((int)json_num(r.out, "threads"), 2);
+    char s[64];
+    json_str(r.out, "ids", s, sizeof s);
+    assert_string_equal(s, "object");
+    json_str(r.out, "backend", s, sizeof s);
+    assert_string_equal(s, "cpu");
+    json_str(r.out, "traversal", s, sizeof s);
+    assert_string_equal(s, "stack");
+    double objects = json_num(r.out, "objects"), visible = json_num(r.out, "visible");
+    assert_true(objects > 0);
+    assert_true(visible > 0 && visible <= objects); /* the default view looks at the world */
+    assert_true(json_num(r.out, "time_ms") > 0.0);
+    assert_true(json_num(r.out, "mrays_per_s") > 0.0);
+    run_free(&r);
+
+    /* --repeat N: the median of N passes. */
+    r = run_vis("cull --scene %s --res 32x32 --repeat 3 --json", SMALL);
+    assert_exit(r, 0);
+    assert_int_equal((int)json_num(r.out, "repeat"), 3);
+    run_free(&r);
+
+    /* Without --json: a human summary, not JSON. */
+    r = run_vis("cull --scene %s --res 32x32", SMALL);
+    assert_exit(r, 0);
+    assert_true(r.out[0] != '{');
+    assert_non_null(strstr(r.out, "visible"));
+    run_free(&r);
+}
+
+/* The dumps agree with each other and with the JSON: sizes, IDs vs depth, the draw list. */
+static void test_cull_dumps(void **state)
+{
+    (void)state;
+    const uint32_t w = 80, h = 60;
+    const char *ids_path = tmp_path("ids.bin"), *depth_path = tmp_path("depth.bin"), *list_path = tmp_path("list.txt");
+    run_result r = run_vis("cull --scene %s --res %ux%u --camera 32,40,-30,32,8,32,70 --dump-ids '%s' "
+                           "--dump-depth '%s' --dump-list '%s' --json",
+                           CITY, w, h, ids_path, depth_path, list_path);
+    assert_exit(r, 0);
+    unsigned char *ids = read_exact(ids_path, (size_t)w * h * 4);
+    unsigned char *depth = read_exact(depth_path, (size_t)w * h * 4);
+    uint32_t objects = (uint32_t)json_num(r.out, "objects");
+    size_t hit = 0;
+    uint32_t *count = calloc(objects * 64 + 1024, sizeof *count); /* IDs are chunk indices + 1 */
+    assert_non_null(count);
+    for (size_t i = 0; i < (size_t)w * h; ++i) {
+        uint32_t id = le32(ids + 4 * i);
+        uint32_t bits = le32(depth + 4 * i);
+        float d;
+        memcpy(&d, &bits, 4);
+        if (id == 0) {
+            assert_true(isinf(d) && d > 0);
+        } else {
+            assert_true(isfinite(d) && d > 0.0f);
+            assert_true(id < objects * 64 + 1024);
+            ++count[id];
+            ++hit;
+        }
+    }
+    assert_true(hit > 0);
+    assert_true(hit < (size_t)w * h); /* some sky in this view */
+
+    /* The draw list: ascending IDs, each with its pixel count in the ID buffer. */
+    char *list = slurp(list_path);
+    size_t lines = 0, listed_pixels = 0;
+    uint32_t prev = 0;
+    for (char *line = strtok(list, "\n"); line; line = strtok(NULL, "\n")) {
+        unsigned id, pixels;
+        assert_int_equal(sscanf(line, "%u %u", &id, &pixels), 2);
+        assert_true(id > prev);
+        prev = id;
+        assert_int_equal(pixels, count[id]);
+        listed_pixels += pixels;
+        ++lines;
+    }
+    assert_int_equal(lines, (size_t)json_num(r.out, "visible"));
+    assert_int_equal(listed_pixels, hit);
+    assert_int_equal((size_t)json_num(r.out, "hit_pixels"), hit);
+    free(list);
+    free(count);
+    free(ids);
+    free(depth);
+    run_free(&r);
+}
+
+/* Traversal methods and thread counts must give identical ID buffers (DESIGN.md). */
+static void test_cull_variants_agree(void **state)
+{
+    (void)state;
+    const char *cam = "--camera 5,30,70,40,5,10";
+    const char *variants[] = {"--traversal stack --threads 1", "--traversal bruteforce --threads 2",
+                              "--traversal stack --threads 2 --backend cpu"};
+    size_t n = 40 * 30 * 4;
+    void *ref = NULL;
+    for (size_t v = 0; v < sizeof variants / sizeof variants[0]; ++v) {
+        const char *path = tmp_path("variant.bin");
+        run_result r = run_vis("cull --scene %s --res 40x30 %s %s --dump-ids '%s'", SMALL, cam, variants[v], path);
+        assert_exit(r, 0);
+        void *ids = read_exact(path, n);
+        if (!ref)
+            ref = ids;
+        else {
+            assert_memory_equal(ref, ids, n);
+            free(ids);
+        }
+        run_free(&r);
+    }
+    free(ref);
+
+    /* Leaf IDs: every ID is a kd-leaf (1..leaves of `vis info`). */
+    run_result info = run_vis("info --scene %s --json", SMALL);
+    assert_exit(info, 0);
+    uint32_t leaves = (uint32_t)json_num(info.out, "leaves");
+    const char *path = tmp_path("leaf.bin");
+    run_result r = run_vis("cull --scene %s --res 40x30 %s --ids leaf --dump-ids '%s' --json", SMALL, cam, path);
+    assert_exit(r, 0);
+    char mode[16];
+    json_str(r.out, "ids", mode, sizeof mode);
+    assert_string_equal(mode, "leaf");
+    unsigned char *ids = read_exact(path, n);
+    for (size_t i = 0; i < n / 4; ++i)
+        assert_true(le32(ids + 4 * i) <= leaves);
+    free(ids);
+    run_free(&r);
+    run_free(&info);
+}
+
+static void test_cull_png(void **state)
+{
+    (void)state;
+    const char *path = tmp_path("ids.png");
+    run_result r = run_vis("cull --scene %s --res 48x32 --png '%s'", SMALL, path);
+#ifdef VIS_HAVE_PNG
+    assert_exit(r, 0);
+    size_t n = 0;
+    unsigned char *png = vt_read_file(path, &n);
+    assert_non_null(png);
+    assert_true(n > 8);
+    assert_memory_equal(png, "\x89PNG\r\n\x1a\n", 8);
+    free(png);
+#else
+    assert_exit(r, 2);
+    assert_non_null(strstr(r.err, "not available"));
+#endif
+    run_free(&r);
+}
+
+/* The z-buffer culler: a draw list with 0 pixels per entry; options that need an ID buffer
+ * are refused. */
+static void test_cull_zbuf(void **state)
+{
+    (void)state;
+    const char *list_path = tmp_path("zlist.txt"), *depth_path = tmp_path("zdepth.bin");
+    run_result r = run_vis("cull --scene %s --res 64x48 --method zbuf --dump-list '%s' --dump-depth '%s' --json",
+                           SMALL, list_path, depth_path);
+    assert_exit(r, 0);
+    static const char *const keys[] = {"backend", "width", "height", "objects", "visible", "time_ms", "mrays_per_s",
+                                       NULL};
+    assert_keys(r.out, keys);
+    char *list = slurp(list_path);
+    size_t lines = 0;
+    for (char *line = strtok(list, "\n"); line; line = strtok(NULL, "\n")) {
+        unsigned id, pixels;
+        assert_int_equal(sscanf(line, "%u %u", &id, &pixels), 2);
+        assert_int_equal(pixels, 0);
+        ++lines;
+    }
+    assert_int_equal(lines, (size_t)json_num(r.out, "visible"));
+    free(list);
+    free(read_exact(depth_path, 64 * 48 * 4));
+    run_free(&r);
+
+    r = run_vis("cull --scene %s --method zbuf --dump-ids '%s'", SMALL, tmp_path("x.bin"));
+    assert_exit(r, 2);
+    run_free(&r);
+}
+
+/* Bad arguments: exit code 2 and a message on stderr that names the problem. */
+static void test_bad_arguments(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *args;
+        const char *names; /* a word the message must contain */
+    } cases[] = {
+        {"", "usage"},
+        {"frobnicate", "frobnicate"},
+        {"cull --bogus", "--bogus"},
+        {"cull --res", "--res"},
+        {"cull --res 0x5", "--res"},
+        {"cull --res 640", "--res"},
+        {"cull --res 20000x20", "--res"},
+        {"cull --res axb", "--res"},
+        {"cull --camera 1,2,3", "--camera"},
+        {"cull --camera 1,2,3,4,5,x", "--camera"},
+        {"cull --camera 1,2,3,1,2,3", "--camera"},
+        {"cull --camera 0,0,0,1,1,1,0", "--camera"},
+        {"cull --camera 0,0,0,1,1,1,180", "--camera"},
+        {"cull --camera nan,0,0,1,1,1", "--camera"},
+        {"cull --camera 0,0,0,1,1,1,60,7", "--camera"},
+        {"cull --traversal sideways", "sideways"},
+        {"cull --ids pixel", "pixel"},
+        {"cull --backend gpu", "gpu"},
+        {"cull --method raster", "raster"},
+        {"cull --threads 0", "--threads"},
+        {"cull --threads 1,2", "--threads"},
+        {"cull --repeat 0", "--repeat"},
+        {"cull --repeat -3", "--repeat"},
+        {"cull --json=yes", "--json"},
+        {"cull --json --json", "twice"},
+        {"cull stray", "stray"},
+        {"cull --scene gen:nosuchgenerator", "nosuchgenerator"},
+        {"cull --scene ''", "--scene"},
+        {"export --scene " SMALL, "--out"},
+        {"export --scene " SMALL " --out world.txt", ".obj"},
+        {"info --res 4x4", "--res"},
+        {"bench --compare nothing", "embree"},
+        {"bench --frames 0", "--frames"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        run_result r = run_vis("%s", cases[i].args);
+        if (r.code != 2 || !strstr(r.err, cases[i].names))
+            print_message("case 'vis %s': exit %d, stderr '%s'\n", cases[i].args, r.code, r.err);
+        assert_exit(r, 2);
+        assert_non_null(strstr(r.err, cases[i].names));
+        assert_string_equal(r.out, ""); /* nothing on stdout for scripts to mistake */
+        run_free(&r);
+    }
+}
+
+/* Failures that are not the arguments' fault: exit code 1 with a message. */
+static void test_runtime_errors(void **state)
+{
+    (void)state;
+    run_result r = run_vis("cull --scene '%s/does-not-exist.vox'", tmp_dir);
+    assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "does-not-exist.vox"));
+    run_free(&r);
+    r = run_vis("cull --scene %s --res 8x8 --dump-ids '%s/no/such/dir/ids.bin'", SMALL, tmp_dir);
+    assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "ids.bin"));
+    run_free(&r);
+}
+
+static void test_help(void **state)
+{
+    (void)state;
+    run_result r = run_vis("--help");
+    assert_exit(r, 0);
+    static const char *const commands[] = {"cull", "run", "bench", "info", "export"};
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; ++i)
+        assert_non_null(strstr(r.out, commands[i]));
+    run_free(&r);
+    r = run_vis("cull --help");
+    assert_exit(r, 0);
+    static const char *const flags[] = {"--scene", "--camera", "--res", "--method", "--ids", "--traversal",
+                                        "--backend", "--threads", "--repeat", "--dump-ids", "--dump-depth",
+                                        "--dump-list", "--png", "--json"};
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; ++i)
+        assert_non_null(strstr(r.out, flags[i]));
+    run_free(&r);
+}
+
+/* ---- vis info / export ---------------------------------------------------------------- */
+
+static void test_info(void **state)
+{
+    (void)state;
+    run_result r = run_vis("info --scene %s --json", SMALL);
+    assert_exit(r, 0);
+    assert_one_object(r.out);
+    static const char *const keys[] = {"bounds", "min", "max", "chunk_size", "chunks", "objects", "voxels",
+                                       "quads", "triangles", "kd_depth", "leaves", "bytes", NULL};
+    assert_keys(r.out, keys);
+    assert_non_null(strstr(r.out, "\"bounds\": {\"min\": [0, 0, 0], \"max\": [64, 32, 64]}"));
+    assert_int_equal((int)json_num(r.out, "chunk_size"), 16);
+    assert_int_equal((int)json_num(r.out, "chunks"), 4 * 2 * 4);
+    double objects = json_num(r.out, "objects");
+    assert_true(objects > 0 && objects <= 32);
+    assert_true(json_num(r.out, "voxels") > 0);
+    assert_true(json_num(r.out, "quads") >= objects);
+    assert_true(json_num(r.out, "leaves") >= 1);
+    assert_true(json_num(r.out, "bytes") > 0);
+    run_free(&r);
+}
+
+static void test_export(void **state)
+{
+    (void)state;
+    run_result info = run_vis("info --scene %s --json", SMALL);
+    assert_exit(info, 0);
+
+    /* OBJ: one `o ID` group per object, exactly the objects libvis traces. */
+    const char *obj = tmp_path("world.obj");
+    run_result r = run_vis("export --scene %s --out '%s'", SMALL, obj);
+    assert_exit(r, 0);
+    char *text = slurp(obj);
+    size_t groups = 0, faces = 0;
+    for (char *line = strtok(text, "\n"); line; line = strtok(NULL, "\n")) {
+        groups += strncmp(line, "o ", 2) == 0;
+        faces += strncmp(line, "f ", 2) == 0;
+    }
+    assert_int_equal(groups, (size_t)json_num(info.out, "objects"));
+    assert_int_equal(faces, (size_t)json_num(info.out, "quads"));
+    free(text);
+    run_free(&r);
+
+    /* .vox: loading it back gives the same voxels. */
+    const char *vox = tmp_path("world.vox");
+    r = run_vis("export --scene %s --out '%s'", SMALL, vox);
+    assert_exit(r, 0);
+    run_free(&r);
+    r = run_vis("info --scene '%s' --json", vox);
+    assert_exit(r, 0);
+    assert_true(json_num(r.out, "voxels") == json_num(info.out, "voxels"));
+    run_free(&r);
+    run_free(&info);
+}
+
+/* Real files from the shared data: a MagicaVoxel scene is culled; a .vdb is described with
+ * its grids (builds with OpenVDB). */
+static void test_real_files(void **state)
+{
+    (void)state;
+    const char *vox = vt_shared_file("vox/mmmm_scene_church1.vox");
+    if (vox) {
+        run_result r = run_vis("cull --scene '%s' --res 64x64 --json", vox);
+        assert_exit(r, 0);
+        assert_true(json_num(r.out, "visible") > 0);
+        run_free(&r);
+    }
+    const char *vdb = vt_shared_file("vdb/gaffer_sphere.vdb");
+    if (!vdb)
+        return;
+    run_result r = run_vis("info --scene '%s' --json", vdb);
+#ifdef VW_WITH_OPENVDB
+    assert_exit(r, 0);
+    assert_non_null(json_value(r.out, "grids"));
+    assert_non_null(strstr(r.out, "ls_sphere"));
+    assert_true(json_num(r.out, "voxels") > 0);
+#else
+    assert_exit(r, 1); /* the build cannot read .vdb: a library error, with a message */
+    assert_true(r.err[0] != '\0');
+#endif
+    run_free(&r);
+}
+
+/* ---- vis bench / run ------------------------------------------------------------------ */
+
+static void test_bench_json(void **state)
+{
+    (void)state;
+    run_result r = run_vis("bench --scene %s --res 48x48 --frames 2 --edits 40 --threads 1,2 --json", SMALL);
+    assert_exit(r, 0);
+    assert_one_object(r.out);
+    static const char *const keys[] = {"views", "name", "time_ms", "mrays_per_s", "min_ms", "max_ms", "edit_ms",
+                                       "edits", "p99_ms", "per_s", NULL};
+    assert_keys(r.out, keys);
+    assert_non_null(strstr(r.out, "\"name\": \"overview\""));
+    assert_non_null(strstr(r.out, "\"name\": \"walk-0\""));
+    assert_true(json_num(r.out, "edit_ms") > 0.0);
+    run_free(&r);
+
+    /* The Embree comparison where the build has it; a clear refusal where it has not. */
+    r = run_vis("bench --scene %s --res 32x32 --frames 1 --edits 5 --threads 2 --compare embree --json", SMALL);
+    if (r.code == 0) {
+        static const char *const ekeys[] = {"embree", "single_ms", "stream_ms", "ratio", "recommit_ms",
+                                            "diff_pixels_single", NULL};
+        assert_keys(r.out, ekeys);
+    } else {
+        assert_exit(r, 2);
+        assert_non_null(strstr(r.err, "not available"));
+    }
+    run_free(&r);
+}
+
+static void test_run(void **state)
+{
+    (void)state;
+    run_result r = run_vis("run --scene %s --res 32x32 --repeat 1 --threads 2", CITY);
+    assert_exit(r, 0);
+    static const char *const views[] = {"ground", "overview", "topdown", "walk-0", "walk-5", "Mrays/s"};
+    for (size_t i = 0; i < sizeof views / sizeof views[0]; ++i)
+        assert_non_null(strstr(r.out, views[i]));
+    run_free(&r);
+}
+
+/* ---- the bridge, in process ----------------------------------------------------------- */
+
+static vis_context *cpu_context(void)
+{
+    vis_context_desc d;
+    memset(&d, 0, sizeof d);
+    d.backend = VIS_BACKEND_CPU;
+    d.threads = 1;
+    vis_context *ctx = NULL;
+    assert_int_equal(vis_context_create(&d, &ctx), VIS_OK);
+    return ctx;
+}
+
+static void trace(vis_context *ctx, world_scene *ws, const vis_camera *cam, uint32_t *ids)
+{
+    vis_trace_desc td;
+    memset(&td, 0, sizeof td);
+    td.width = 64;
+    td.height = 48;
+    assert_int_equal(vis_trace(ctx, world_scene_scene(ws), cam, &td, ids, NULL), VIS_OK);
+}
+
+/* Random edits applied through world_scene_update (remesh + in-place leaf update), a chunk
+ * emptied and refilled: the scene must trace exactly like one built from scratch, and hold
+ * exactly the non-empty chunks. */
+static void test_bridge_edits(void **state)
+{
+    (void)state;
+    vw_world *world = NULL;
+    vw_error err;
+    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, &world, &err), VW_OK);
+    vis_context *ctx = cpu_context();
+    world_scene *ws = NULL;
+    world_scene_stats st;
+    assert_int_equal(world_scene_create(ctx, world, NULL, &ws, &st, &err), 0);
+    vw_world_info wi;
+    vw_world_get_info(world, &wi);
+    assert_int_equal(world_scene_object_count(ws), st.objects_set);
+    assert_true(st.objects_set > 0 && st.objects_set <= wi.nonempty_chunks);
+
+    vis_camera cams[2] = {{{-10, 60, -10}, {32, 5, 32}, 70, 0, 0}, {{32, 8, 2}, {32, 8, 60}, 90, 0, 0}};
+    uint32_t *a = malloc(64 * 48 * 4), *b = malloc(64 * 48 * 4);
+    assert_non_null(a);
+    assert_non_null(b);
+    uint64_t rng = 7;
+    int rounds = vt_small() ? 3 : 8;
+    for (int round = 0; round < rounds; ++round) {
+        for (int k = 0; k < 30; ++k) {
+            int64_t x = (int64_t)(vt_rand(&rng) % 64), y = (int64_t)(vt_rand(&rng) % 48);
+            int64_t z = (int64_t)(vt_rand(&rng) % 64);
+            assert_int_equal(vw_world_set(world, x, y, z, vw_world_get(world, x, y, z) ? 0 : 3), VW_OK);
+        }
+        if (round == 1) { /* empty a whole chunk: its object must go */
+            int64_t lo[3] = {16, 0, 16}, hi[3] = {32, 16, 32};
+            assert_int_equal(vw_world_fill(world, lo, hi, 0), VW_OK);
+        }
+        if (round == 2) { /* and fill it solid again */
+            int64_t lo[3] = {16, 0, 16}, hi[3] = {32, 16, 32};
+            assert_int_equal(vw_world_fill(world, lo, hi, 5), VW_OK);
+        }
+        world_scene_stats us;
+        assert_int_equal(world_scene_update(ws, &us, &err), 0);
+        assert_true(us.chunks > 0);
+        assert_int_equal(vw_world_take_dirty(world, NULL, 0), 0);
+
+        /* A scene from scratch over the same world. */
+        vis_context *ctx2 = cpu_context();
+        world_scene *fresh = NULL;
+        assert_int_equal(world_scene_create(ctx2, world, NULL, &fresh, NULL, &err), 0);
+        vis_scene_info i1, i2;
+        assert_int_equal(vis_scene_get_info(world_scene_scene(ws), &i1), VIS_OK);
+        assert_int_equal(vis_scene_get_info(world_scene_scene(fresh), &i2), VIS_OK);
+        assert_int_equal(i1.objects, i2.objects);
+        assert_int_equal(i1.quads, i2.quads);
+        assert_int_equal(world_scene_object_count(ws), i1.objects);
+        for (int c = 0; c < 2; ++c) {
+            trace(ctx, ws, &cams[c], a);
+            trace(ctx2, fresh, &cams[c], b);
+            assert_memory_equal(a, b, 64 * 48 * 4);
+        }
+        world_scene_destroy(fresh);
+        vis_context_destroy(ctx2);
+    }
+    free(a);
+    free(b);
+    world_scene_destroy(ws);
+    vis_context_destroy(ctx);
+    vw_world_destroy(world);
+}
+
+static void test_bridge_quads(void **state)
+{
+    (void)state;
+    vw_quad in[2] = {{0, 1, 3, VW_MAT_OPAQUE, 5, 1, 2, 3, 4},
+                     {2, -1, 7, VW_MAT_SEE_THROUGH | VW_MAT_REFLECTIVE, -4, -8, 0, 16, 1}};
+    vis_quad out[2];
+    world_scene_convert_quads(in, 2, out);
+    assert_int_equal(out[0].axis, 0);
+    assert_int_equal(out[0].flags, 0);
+    assert_true(out[0].plane == 5.0f && out[0].u0 == 1.0f && out[0].v0 == 2.0f && out[0].u1 == 3.0f &&
+                out[0].v1 == 4.0f);
+    assert_int_equal(out[1].axis, 2);
+    assert_int_equal(out[1].flags, VIS_PRIM_SEE_THROUGH | VIS_PRIM_REFLECTIVE);
+    assert_true(out[1].plane == -4.0f && out[1].u0 == -8.0f && out[1].v1 == 1.0f);
+}
+
+/* ---- fixture -------------------------------------------------------------------------- */
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(tmp_dir, sizeof tmp_dir, "/tmp/vis_test_cli_XXXXXX");
+    if (!mkdtemp(tmp_dir))
+        return -1;
+    struct stat st;
+    if (stat(VIS_EXE, &st) != 0) {
+        printf("the vis binary is missing: %s\n", VIS_EXE);
+        return -1;
+    }
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmp_dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_help),
+        cmocka_unit_test(test_cull_json),
+        cmocka_unit_test(test_cull_dumps),
+        cmocka_unit_test(test_cull_variants_agree),
+        cmocka_unit_test(test_cull_png),
+        cmocka_unit_test(test_cull_zbuf),
+        cmocka_unit_test(test_bad_arguments),
+        cmocka_unit_test(test_runtime_errors),
+        cmocka_unit_test(test_info),
+        cmocka_unit_test(test_export),
+        cmocka_unit_test(test_real_files),
+        cmocka_unit_test(test_bench_json),
+        cmocka_unit_test(test_run),
+        cmocka_unit_test(test_bridge_quads),
+        cmocka_unit_test(test_bridge_edits),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

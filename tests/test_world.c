@@ -1,0 +1,406 @@
+/* test_world.c — chunked storage: create limits, get/set against a reference array (also at
+ * far negative origins), fill, uniform-chunk compaction, materials, dirty-chunk tracking. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "test_support.h"
+#include "voxelworld/vw.h"
+
+static vw_world *make_world(int32_t chunk, int64_t ox, int64_t oy, int64_t oz, int32_t sx, int32_t sy, int32_t sz)
+{
+    vw_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.chunk_size = chunk;
+    d.origin[0] = ox;
+    d.origin[1] = oy;
+    d.origin[2] = oz;
+    d.size[0] = sx;
+    d.size[1] = sy;
+    d.size[2] = sz;
+    vw_world *w = NULL;
+    vw_error err;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_OK);
+    assert_non_null(w);
+    return w;
+}
+
+static void test_create_limits(void **state)
+{
+    (void)state;
+    vw_world_desc d;
+    vw_world *w = (vw_world *)1;
+    vw_error err;
+    memset(&d, 0, sizeof d);
+    d.size[0] = d.size[1] = d.size[2] = 16;
+    d.chunk_size = 8;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_INVALID_ARGUMENT);
+    assert_null(w);
+    assert_true(strlen(err.message) > 0);
+    d.chunk_size = 0;
+    d.size[1] = 0;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_INVALID_ARGUMENT);
+    d.size[1] = (1 << 20) + 1;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_INVALID_ARGUMENT);
+    d.size[0] = d.size[1] = d.size[2] = 1 << 20; /* 2^48 chunks: IDs would not fit */
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_INVALID_ARGUMENT);
+    d.size[0] = d.size[1] = d.size[2] = 16;
+    d.origin[1] = 8; /* not a chunk multiple */
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_create(NULL, &w, &err), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_create(&d, NULL, NULL), VW_ERROR_INVALID_ARGUMENT);
+
+    /* Sizes round up to chunk multiples; defaults fill in. */
+    w = make_world(0, -32, 0, 64, 20, 1, 33);
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.chunk_size, 16);
+    assert_int_equal(info.size[0], 32);
+    assert_int_equal(info.size[1], 16);
+    assert_int_equal(info.size[2], 48);
+    assert_int_equal(info.chunks[0], 2);
+    assert_int_equal(info.chunks[2], 3);
+    assert_int_equal(info.chunk_count, 6);
+    assert_int_equal(info.nonempty_chunks, 0);
+    assert_int_equal(info.solid_voxels, 0);
+    assert_true(info.bytes > 0);
+    vw_world_destroy(w);
+    vw_world_destroy(NULL);
+
+    for (int s = VW_OK; s <= VW_ERROR_RANGE; s++)
+        assert_non_null(vw_status_string((vw_status)s));
+    assert_string_not_equal(vw_status_string(VW_OK), vw_status_string(VW_ERROR_RANGE));
+}
+
+/* A reference copy of a world as a flat array, compared voxel by voxel. */
+typedef struct ref {
+    int64_t o[3];
+    int32_t n[3];
+    uint8_t *v;
+} ref;
+
+static uint8_t *ref_at(ref *r, int64_t x, int64_t y, int64_t z)
+{
+    return &r->v[(x - r->o[0]) + r->n[0] * ((y - r->o[1]) + (int64_t)r->n[1] * (z - r->o[2]))];
+}
+
+static void check_against_ref(const vw_world *w, ref *r)
+{
+    uint64_t solid = 0;
+    for (int64_t z = r->o[2]; z < r->o[2] + r->n[2]; z++)
+        for (int64_t y = r->o[1]; y < r->o[1] + r->n[1]; y++)
+            for (int64_t x = r->o[0]; x < r->o[0] + r->n[0]; x++) {
+                uint8_t want = *ref_at(r, x, y, z);
+                if (vw_world_get(w, x, y, z) != want)
+                    fail_msg("voxel (%lld,%lld,%lld): got %d, want %d", (long long)x, (long long)y, (long long)z,
+                             vw_world_get(w, x, y, z), want);
+                solid += want != 0;
+            }
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.solid_voxels, solid);
+    /* Non-empty chunks agree with a recount. */
+    uint32_t nonempty = 0;
+    for (uint32_t i = 0; i < info.chunk_count; i++) {
+        int32_t c[3];
+        vw_world_chunk_coords(w, i, c);
+        int any = 0;
+        for (int z = 0; z < info.chunk_size && !any; z++)
+            for (int y = 0; y < info.chunk_size && !any; y++)
+                for (int x = 0; x < info.chunk_size && !any; x++)
+                    any = vw_world_get(w, info.origin[0] + c[0] * info.chunk_size + x, info.origin[1] + c[1] * info.chunk_size + y,
+                                       info.origin[2] + c[2] * info.chunk_size + z) != 0;
+        assert_int_equal(vw_world_chunk_empty(w, i), !any);
+        nonempty += (uint32_t)any;
+    }
+    assert_int_equal(info.nonempty_chunks, nonempty);
+}
+
+static void set_get_round_trip(int32_t chunk, int64_t ox, int64_t oy, int64_t oz, uint64_t seed)
+{
+    const int32_t n[3] = {2 * chunk + 5, chunk + 3, 3 * chunk - 1};
+    vw_world *w = make_world(chunk, ox, oy, oz, n[0], n[1], n[2]);
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    ref r = {{ox, oy, oz}, {info.size[0], info.size[1], info.size[2]}, NULL};
+    r.v = calloc((size_t)r.n[0] * r.n[1] * r.n[2], 1);
+    assert_non_null(r.v);
+    uint64_t s = seed;
+    const int edits = vt_small() ? 3000 : 30000;
+    for (int i = 0; i < edits; i++) {
+        int64_t x = ox + (int64_t)(vt_rand(&s) % (uint64_t)r.n[0]);
+        int64_t y = oy + (int64_t)(vt_rand(&s) % (uint64_t)r.n[1]);
+        int64_t z = oz + (int64_t)(vt_rand(&s) % (uint64_t)r.n[2]);
+        /* Mostly a few materials, often air, so chunks fill up and empty out again. */
+        uint8_t v = (uint8_t)(vt_rand(&s) % 4 == 0 ? 0 : 1 + vt_rand(&s) % 255);
+        assert_int_equal(vw_world_set(w, x, y, z, v), VW_OK);
+        *ref_at(&r, x, y, z) = v;
+    }
+    check_against_ref(w, &r);
+    /* Outside the world: get is 0, set is a range error, even next to the int64 limits. */
+    const int64_t outside[][3] = {{ox - 1, oy, oz}, {ox + r.n[0], oy, oz}, {ox, oy - 1, oz}, {ox, oy + r.n[1], oz},
+                                  {ox, oy, oz + r.n[2]}, {INT64_MIN, oy, oz}, {INT64_MAX, INT64_MAX, INT64_MIN}};
+    for (size_t i = 0; i < sizeof outside / sizeof outside[0]; i++) {
+        assert_int_equal(vw_world_get(w, outside[i][0], outside[i][1], outside[i][2]), 0);
+        assert_int_equal(vw_world_set(w, outside[i][0], outside[i][1], outside[i][2], 7), VW_ERROR_RANGE);
+    }
+    /* Clearing everything compacts every chunk back to nothing. */
+    for (int64_t z = oz; z < oz + r.n[2]; z++)
+        for (int64_t y = oy; y < oy + r.n[1]; y++)
+            for (int64_t x = ox; x < ox + r.n[0]; x++)
+                vw_world_set(w, x, y, z, 0);
+    vw_world_info after;
+    vw_world_get_info(w, &after);
+    assert_int_equal(after.solid_voxels, 0);
+    assert_int_equal(after.nonempty_chunks, 0);
+    vw_world *fresh = make_world(chunk, ox, oy, oz, n[0], n[1], n[2]);
+    vw_world_info fi;
+    vw_world_get_info(fresh, &fi);
+    assert_int_equal(after.bytes, fi.bytes);
+    vw_world_destroy(fresh);
+    free(r.v);
+    vw_world_destroy(w);
+}
+
+static void test_set_get(void **state)
+{
+    (void)state;
+    set_get_round_trip(16, 0, 0, 0, 1);
+    set_get_round_trip(16, -1048576, -64, -((int64_t)1 << 40), 2);
+    set_get_round_trip(32, (int64_t)1 << 50, -32, -1048576, 3);
+    set_get_round_trip(32, -((int64_t)1 << 59), 0, 1024, 4);
+}
+
+static void test_fill(void **state)
+{
+    (void)state;
+    const int64_t o[3] = {-1048576, -48, 1048576};
+    vw_world *w = make_world(16, o[0], o[1], o[2], 64, 48, 64);
+    ref r = {{o[0], o[1], o[2]}, {64, 48, 64}, calloc(64 * 48 * 64, 1)};
+    assert_non_null(r.v);
+    uint64_t s = 99;
+    const int boxes = vt_small() ? 60 : 300;
+    for (int i = 0; i < boxes; i++) {
+        int64_t mn[3], mx[3];
+        for (int a = 0; a < 3; a++) {
+            /* Boxes may stick out of the world on any side. */
+            int64_t lo = (int64_t)(vt_rand(&s) % (uint64_t)(r.n[a] + 20)) - 10;
+            int64_t len = (int64_t)(vt_rand(&s) % 40);
+            mn[a] = o[a] + lo;
+            mx[a] = o[a] + lo + len;
+        }
+        uint8_t v = (uint8_t)(vt_rand(&s) % 3 == 0 ? 0 : 1 + vt_rand(&s) % 3);
+        assert_int_equal(vw_world_fill(w, mn, mx, v), VW_OK);
+        for (int64_t z = mn[2] > o[2] ? mn[2] : o[2]; z < mx[2] && z < o[2] + 64; z++)
+            for (int64_t y = mn[1] > o[1] ? mn[1] : o[1]; y < mx[1] && y < o[1] + 48; y++)
+                for (int64_t x = mn[0] > o[0] ? mn[0] : o[0]; x < mx[0] && x < o[0] + 64; x++)
+                    *ref_at(&r, x, y, z) = v;
+    }
+    check_against_ref(w, &r);
+    /* A box wholly outside, an empty box and an inverted one change nothing. */
+    const int64_t far_min[3] = {0, 0, 0}, far_max[3] = {10, 10, 10};
+    assert_int_equal(vw_world_fill(w, far_min, far_max, 5), VW_OK);
+    const int64_t inv_min[3] = {o[0] + 10, o[1] + 10, o[2] + 10}, inv_max[3] = {o[0] + 5, o[1] + 20, o[2] + 20};
+    assert_int_equal(vw_world_fill(w, inv_min, inv_max, 5), VW_OK);
+    check_against_ref(w, &r);
+    assert_int_equal(vw_world_fill(w, NULL, far_max, 1), VW_ERROR_INVALID_ARGUMENT);
+    free(r.v);
+    vw_world_destroy(w);
+}
+
+static void test_uniform_compaction(void **state)
+{
+    (void)state;
+    vw_world *w = make_world(16, 160, -16, -4096, 48, 16, 16);
+    vw_world_info empty, full, edited, restored;
+    vw_world_get_info(w, &empty);
+    /* Fill the whole world: every chunk becomes uniform, costing no voxel memory. */
+    const int64_t mn[3] = {160, -16, -4096}, mx[3] = {160 + 48, 0, -4096 + 16};
+    assert_int_equal(vw_world_fill(w, mn, mx, 9), VW_OK);
+    vw_world_get_info(w, &full);
+    assert_int_equal(full.bytes, empty.bytes);
+    assert_int_equal(full.solid_voxels, 48 * 16 * 16);
+    assert_int_equal(full.nonempty_chunks, 3);
+    /* One edit makes that chunk dense (and only that one)... */
+    assert_int_equal(vw_world_set(w, 160 + 20, -10, -4090, 4), VW_OK);
+    vw_world_get_info(w, &edited);
+    assert_int_equal(edited.bytes, empty.bytes + 16 * 16 * 16);
+    assert_int_equal(vw_world_get(w, 160 + 20, -10, -4090), 4);
+    assert_int_equal(vw_world_get(w, 160 + 21, -10, -4090), 9);
+    assert_int_equal(vw_world_get(w, 160 + 19, -10, -4090), 9);
+    assert_int_equal(edited.solid_voxels, 48 * 16 * 16);
+    /* ...and undoing it compacts the chunk again. */
+    assert_int_equal(vw_world_set(w, 160 + 20, -10, -4090, 9), VW_OK);
+    vw_world_get_info(w, &restored);
+    assert_int_equal(restored.bytes, empty.bytes);
+    /* Digging a voxel out of a uniform chunk and putting back a different one. */
+    assert_int_equal(vw_world_set(w, 160, -16, -4096, 0), VW_OK);
+    vw_world_get_info(w, &edited);
+    assert_int_equal(edited.solid_voxels, 48 * 16 * 16 - 1);
+    assert_int_equal(vw_world_get(w, 160, -16, -4096), 0);
+    assert_int_equal(vw_world_get(w, 161, -16, -4096), 9);
+    /* A partial fill that completes a chunk with one value compacts it too. */
+    const int64_t one_min[3] = {160, -16, -4096}, one_max[3] = {161, -15, -4095};
+    assert_int_equal(vw_world_fill(w, one_min, one_max, 9), VW_OK);
+    vw_world_get_info(w, &restored);
+    assert_int_equal(restored.bytes, empty.bytes);
+    vw_world_destroy(w);
+}
+
+static void test_materials(void **state)
+{
+    (void)state;
+    vw_world *w = make_world(16, 0, 0, 0, 32, 16, 16);
+    for (uint32_t i = 1; i < 256; i++) {
+        const vw_material *m = vw_world_material(w, i);
+        assert_non_null(m);
+        assert_true(m->flags & VW_MAT_OPAQUE);
+        assert_false(m->flags & VW_MAT_SEE_THROUGH);
+        assert_true((m->rgba >> 24) == 0xFF);
+    }
+    assert_true(vw_world_material(w, 1)->rgba != vw_world_material(w, 2)->rgba);
+    assert_null(vw_world_material(w, 256));
+    vw_material glass = {0x80FFFFFFu, VW_MAT_SEE_THROUGH | VW_MAT_OPAQUE | VW_MAT_REFLECTIVE};
+    assert_int_equal(vw_world_set_material(w, 0, &glass), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_set_material(w, 256, &glass), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_set_material(w, 5, NULL), VW_ERROR_INVALID_ARGUMENT);
+    /* A voxel in chunk 1; a flags change makes its mesh stale. */
+    assert_int_equal(vw_world_set(w, 20, 3, 3, 5), VW_OK);
+    vw_world_clear_dirty(w);
+    assert_int_equal(vw_world_set_material(w, 5, &glass), VW_OK);
+    assert_int_equal(vw_world_material(w, 5)->flags, VW_MAT_SEE_THROUGH | VW_MAT_REFLECTIVE);
+    assert_int_equal(vw_world_material(w, 5)->rgba, 0x80FFFFFFu);
+    uint32_t dirty[4];
+    assert_int_equal(vw_world_take_dirty(w, dirty, 4), 1);
+    assert_int_equal(dirty[0], 1);
+    /* A colour change alone alters no mesh. */
+    glass.rgba = 0x80000000u;
+    assert_int_equal(vw_world_set_material(w, 5, &glass), VW_OK);
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+    vw_material plain = {0xFF00FF00u, 0};
+    assert_int_equal(vw_world_set_material(w, 6, &plain), VW_OK);
+    assert_int_equal(vw_world_material(w, 6)->flags, VW_MAT_OPAQUE);
+    vw_world_destroy(w);
+}
+
+static void test_chunk_index(void **state)
+{
+    (void)state;
+    vw_world *w = make_world(16, -16, 32, 48, 48, 32, 80);
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    for (int32_t cz = 0; cz < info.chunks[2]; cz++)
+        for (int32_t cy = 0; cy < info.chunks[1]; cy++)
+            for (int32_t cx = 0; cx < info.chunks[0]; cx++) {
+                uint32_t i = vw_world_chunk_index(w, cx, cy, cz);
+                assert_int_equal(i, (uint32_t)(cx + 3 * (cy + 2 * cz)));
+                assert_int_equal(vw_chunk_object_id(i), i + 1);
+                int32_t c[3];
+                vw_world_chunk_coords(w, i, c);
+                assert_int_equal(c[0], cx);
+                assert_int_equal(c[1], cy);
+                assert_int_equal(c[2], cz);
+            }
+    assert_int_equal(vw_world_chunk_index(w, 3, 0, 0), UINT32_MAX);
+    assert_int_equal(vw_world_chunk_index(w, 0, -1, 0), UINT32_MAX);
+    assert_true(vw_world_chunk_empty(w, info.chunk_count));
+    vw_world_destroy(w);
+}
+
+/* Takes every dirty chunk into a sorted list. */
+static size_t take_all(vw_world *w, uint32_t *out, size_t cap)
+{
+    size_t n = vw_world_take_dirty(w, out, cap);
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+    return n;
+}
+
+static void expect_dirty(vw_world *w, const uint32_t *want, size_t n_want)
+{
+    uint32_t got[64];
+    size_t n = take_all(w, got, 64);
+    if (n != n_want) {
+        char buf[512] = "";
+        for (size_t i = 0; i < n; i++)
+            snprintf(buf + strlen(buf), sizeof buf - strlen(buf), " %u", got[i]);
+        fail_msg("expected %zu dirty chunks, got %zu:%s", n_want, n, buf);
+    }
+    for (size_t i = 0; i < n; i++)
+        assert_int_equal(got[i], want[i]);
+}
+
+static void test_dirty(void **state)
+{
+    (void)state;
+    /* 3x3x3 chunks of 16 at a far negative origin. */
+    const int64_t o[3] = {-1048576, -4096, -16};
+    vw_world *w = make_world(16, o[0], o[1], o[2], 48, 48, 48);
+#define IDX(x, y, z) ((uint32_t)((x) + 3 * ((y) + 3 * (z))))
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+    /* Inside the middle chunk: only it. */
+    vw_world_set(w, o[0] + 20, o[1] + 20, o[2] + 20, 1);
+    expect_dirty(w, (uint32_t[]){IDX(1, 1, 1)}, 1);
+    /* At the middle chunk's minimum corner: it and its -x, -y, -z face neighbours, not the
+     * diagonal ones. Ascending order. */
+    vw_world_set(w, o[0] + 16, o[1] + 16, o[2] + 16, 2);
+    expect_dirty(w, (uint32_t[]){IDX(1, 1, 0), IDX(1, 0, 1), IDX(0, 1, 1), IDX(1, 1, 1)}, 4);
+    /* At its maximum corner: +x, +y, +z. */
+    vw_world_set(w, o[0] + 31, o[1] + 31, o[2] + 31, 2);
+    expect_dirty(w, (uint32_t[]){IDX(1, 1, 1), IDX(2, 1, 1), IDX(1, 2, 1), IDX(1, 1, 2)}, 4);
+    /* On an edge of the world: no neighbour outside. */
+    vw_world_set(w, o[0], o[1] + 5, o[2] + 47, 3);
+    expect_dirty(w, (uint32_t[]){IDX(0, 0, 2)}, 1);
+    /* Setting the same value again still marks (conservative). */
+    vw_world_set(w, o[0] + 20, o[1] + 20, o[2] + 20, 1);
+    expect_dirty(w, (uint32_t[]){IDX(1, 1, 1)}, 1);
+    /* A range error marks nothing. */
+    assert_int_equal(vw_world_set(w, o[0] - 1, o[1], o[2], 1), VW_ERROR_RANGE);
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+
+    /* Partial takes: capacity 2 of 4, ascending, then the rest. */
+    vw_world_set(w, o[0] + 16, o[1] + 16, o[2] + 16, 0);
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 4);
+    uint32_t part[2];
+    assert_int_equal(vw_world_take_dirty(w, part, 2), 2);
+    assert_int_equal(part[0], IDX(1, 1, 0));
+    assert_int_equal(part[1], IDX(1, 0, 1));
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 2);
+    assert_int_equal(vw_world_take_dirty(w, part, 2), 2);
+    assert_int_equal(part[0], IDX(0, 1, 1));
+    assert_int_equal(part[1], IDX(1, 1, 1));
+    assert_int_equal(vw_world_take_dirty(w, part, 2), 0);
+
+    /* clear_dirty forgets everything. */
+    vw_world_set(w, o[0] + 1, o[1] + 1, o[2] + 1, 1);
+    vw_world_clear_dirty(w);
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+
+    /* Fill: chunks the box touches, plus across each box face lying on a chunk border.
+     * Box x in [16, 40): its -x face is on a border (chunk 0 across it), its +x face is not;
+     * y in [5, 10): inside chunk row 0, no border; z in [20, 32): +z face on a border. */
+    const int64_t mn[3] = {o[0] + 16, o[1] + 5, o[2] + 20}, mx[3] = {o[0] + 40, o[1] + 10, o[2] + 32};
+    assert_int_equal(vw_world_fill(w, mn, mx, 4), VW_OK);
+    expect_dirty(w, (uint32_t[]){IDX(0, 0, 1), IDX(1, 0, 1), IDX(2, 0, 1), IDX(1, 0, 2), IDX(2, 0, 2)}, 5);
+#undef IDX
+    vw_world_destroy(w);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_create_limits),
+        cmocka_unit_test(test_set_get),
+        cmocka_unit_test(test_fill),
+        cmocka_unit_test(test_uniform_compaction),
+        cmocka_unit_test(test_materials),
+        cmocka_unit_test(test_chunk_index),
+        cmocka_unit_test(test_dirty),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

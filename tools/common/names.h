@@ -1,0 +1,35 @@
+/* names.h — the one table per enumeration that the tools accept on their command lines and
+ * print in their output (traversal methods, backends, ID modes). A new traversal method is
+ * one row in names.c. */
+#ifndef VIS_TOOLS_NAMES_H
+#define VIS_TOOLS_NAMES_H
+
+#include <stddef.h>
+
+#include "vis/vis.h"
+
+typedef struct vc_name {
+    const char *name;
+    int value;
+} vc_name;
+
+typedef struct vc_name_table {
+    const vc_name *entries;
+    size_t count;
+    const char *what; /* "traversal", ... for messages */
+} vc_name_table;
+
+extern const vc_name_table vc_traversals; /* vis_traversal    */
+extern const vc_name_table vc_backends;   /* vis_backend_kind */
+extern const vc_name_table vc_id_modes;   /* vis_id_mode      */
+
+/* 0 and *out = value when `name` is in the table (exact, case-sensitive), -1 otherwise. */
+int vc_name_lookup(const vc_name_table *table, const char *name, int *out);
+
+/* The name of a value, or "?" when it has none. */
+const char *vc_name_of(const vc_name_table *table, int value);
+
+/* Every name, joined by `sep` ("stack|bruteforce"), into buf (truncated, NUL-terminated). */
+void vc_name_list(const vc_name_table *table, const char *sep, char *buf, size_t capacity);
+
+#endif

@@ -1,0 +1,165 @@
+/* bench_edits.c — `vis bench` edits: random single-voxel toggles near the surface, each
+ * applied and timed as a game would (vw_world_set, then the remesh of the dirty chunks and
+ * the in-place leaf update of world_scene_update), next to Embree's dynamic-scene update. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench.h"
+#include "timer.h"
+
+typedef struct touched {
+    uint32_t *chunks;
+    uint32_t *ids;
+    size_t count, cap;
+} touched;
+
+static void note_chunk(uint32_t chunk, uint32_t id, const vw_mesh *mesh, void *user)
+{
+    (void)mesh;
+    touched *t = user;
+    if (t->count < t->cap) {
+        t->chunks[t->count] = chunk;
+        t->ids[t->count] = id;
+        ++t->count;
+    }
+}
+
+static uint64_t splitmix64(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* The Embree side of one edit: remesh the touched chunks (untimed, as for us the remesh is
+ * shared work), then replace their geometries and recommit (timed). */
+static double embree_edit(bench *b, const touched *t, vw_mesh *mesh, vis_quad **quads, size_t *cap)
+{
+    double ms = 0.0;
+    for (size_t i = 0; i < t->count; ++i) {
+        mesh->count = 0;
+        if (!vw_world_chunk_empty(b->world.world, t->chunks[i]) &&
+            vw_mesh_chunk(b->world.world, t->chunks[i], mesh) != VW_OK)
+            mesh->count = 0;
+        if (mesh->count > *cap) {
+            vis_quad *q = realloc(*quads, mesh->count * 2 * sizeof *q);
+            if (!q)
+                return ms;
+            *quads = q;
+            *cap = mesh->count * 2;
+        }
+        world_scene_convert_quads(mesh->quads, mesh->count, *quads);
+        ms += embree_compare_replace(b->ec, t->ids[i], *quads, mesh->count);
+    }
+    return ms + embree_compare_commit(b->ec);
+}
+
+int bench_run_edits(bench *b)
+{
+    const cli_args *a = b->a;
+    uint32_t k = a->edits;
+    edit_result *er = &b->edits;
+    memset(er, 0, sizeof *er);
+    er->count = k;
+    if (k == 0)
+        return CLI_EXIT_OK;
+    vw_world *w = b->world.world;
+    vw_world_info wi;
+    vw_world_get_info(w, &wi);
+    double *total = malloc(k * sizeof *total), *update = malloc(k * sizeof *update);
+    double *remesh = malloc(k * sizeof *remesh), *emb = malloc(k * sizeof *emb);
+    touched t = {0};
+    t.cap = 64;
+    t.chunks = malloc(t.cap * sizeof *t.chunks);
+    t.ids = malloc(t.cap * sizeof *t.ids);
+    vw_mesh mesh = {0};
+    vis_quad *quads = NULL;
+    size_t quad_cap = 0;
+    int rc = CLI_EXIT_OK;
+    if (!total || !update || !remesh || !emb || !t.chunks || !t.ids) {
+        rc = cli_fail(CMD, "out of memory");
+        goto done;
+    }
+    world_scene_set_chunk_hook(b->keep.ws, note_chunk, &t);
+    uint64_t rng = a->seed;
+    uint64_t chunks = 0;
+    double sum_ms = 0.0;
+    for (uint32_t i = 0; i < k; ++i) {
+        /* A voxel near the surface: remove the top voxel of a random column, or add one on it. */
+        int64_t x = wi.origin[0] + (int64_t)(splitmix64(&rng) % (uint64_t)wi.size[0]);
+        int64_t z = wi.origin[2] + (int64_t)(splitmix64(&rng) % (uint64_t)wi.size[2]);
+        int64_t top = vc_surface_height(w, x, z);
+        int64_t y;
+        vw_voxel value;
+        int remove = (splitmix64(&rng) & 1) && top > wi.origin[1];
+        if (top >= wi.origin[1] + wi.size[1])
+            remove = 1;
+        if (remove) {
+            y = top - 1;
+            value = 0;
+        } else {
+            y = top;
+            value = top > wi.origin[1] ? vw_world_get(w, x, top - 1, z) : 1;
+            if (!value)
+                value = 1;
+        }
+        t.count = 0;
+        world_scene_stats st;
+        vw_error err;
+        double t0 = vc_now_ms();
+        vw_status vs = vw_world_set(w, x, y, z, value);
+        if (vs != VW_OK) {
+            rc = cli_fail(CMD, "vw_world_set(%lld, %lld, %lld): %s", (long long)x, (long long)y, (long long)z,
+                          vw_status_string(vs));
+            goto done;
+        }
+        if (world_scene_update(b->keep.ws, &st, &err) != 0) {
+            rc = cli_fail(CMD, "edit %u: %s", i, err.message);
+            goto done;
+        }
+        total[i] = vc_now_ms() - t0;
+        update[i] = st.scene_ms;
+        remesh[i] = st.mesh_ms;
+        sum_ms += total[i];
+        chunks += st.chunks;
+        if (b->ec)
+            emb[i] = embree_edit(b, &t, &mesh, &quads, &quad_cap);
+    }
+    er->per_s = sum_ms > 0.0 ? (double)k / (sum_ms / 1e3) : 0.0;
+    er->chunks_per_edit = (double)chunks / (double)k;
+    er->max_ms = vc_max(total, k);
+    er->p99_ms = vc_percentile(total, k, 99.0);
+    er->median_ms = vc_median(total, k);
+    er->update_median_ms = vc_median(update, k);
+    er->remesh_median_ms = vc_median(remesh, k);
+    if (b->ec) {
+        er->embree = 1;
+        er->embree_p99_ms = vc_percentile(emb, k, 99.0);
+        er->embree_median_ms = vc_median(emb, k);
+    }
+    if (!a->json) {
+        printf("\nedits: %u random single-voxel edits near the surface (%.2f chunks remeshed per edit)\n", k,
+               er->chunks_per_edit);
+        printf("  ours      median %.4f ms, p99 %.4f ms, max %.4f ms, %.0f edits/s "
+               "(remesh median %.4f ms, leaf update median %.4f ms)\n",
+               er->median_ms, er->p99_ms, er->max_ms, er->per_s, er->remesh_median_ms, er->update_median_ms);
+        if (er->embree)
+            printf("  embree    dynamic scene, replace geometry + rtcCommitScene: median %.4f ms, p99 %.4f ms "
+                   "(remesh not included)\n",
+                   er->embree_median_ms, er->embree_p99_ms);
+    }
+done:
+    world_scene_set_chunk_hook(b->keep.ws, NULL, NULL);
+    free(total);
+    free(update);
+    free(remesh);
+    free(emb);
+    free(t.chunks);
+    free(t.ids);
+    free(quads);
+    vw_mesh_free(&mesh);
+    return rc;
+}
+

@@ -1,0 +1,34 @@
+/* pass.h — timed ray passes and draw lists, the same way for cull, run and bench: one
+ * untimed warm-up pass (it brings the backend's copy of the scene up to date), then N timed
+ * passes, of which the median is "the" time. */
+#ifndef VIS_CLI_PASS_H
+#define VIS_CLI_PASS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "args.h"
+#include "vis/vis.h"
+
+typedef struct cli_pass_times {
+    uint32_t passes;      /* timed passes                                                 */
+    double first_ms;      /* the warm-up pass (includes the scene upload)                  */
+    double median_ms, min_ms, max_ms;
+    double mrays_per_s;   /* W*H rays over the median                                      */
+} cli_pass_times;
+
+/* The trace desc the command line asks for: --res, --ids, --traversal. */
+vis_trace_desc cli_trace_desc(const cli_args *args);
+
+/* Traces `passes` (>= 1) timed passes after a warm-up. ids: W*H; depth may be NULL. Returns
+ * the first failing call's status (its message is on the context). */
+vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                        uint32_t passes, uint32_t *ids, float *depth, cli_pass_times *out);
+
+/* A draw list of the scene's capacity (entries freed by the caller), built from ids.
+ * *out_ms is the time of vis_drawlist_build alone. */
+vis_status cli_drawlist(vis_context *ctx, const vis_scene *scene, const uint32_t *ids, uint32_t width,
+                        uint32_t height, vis_id_mode mode, vis_draw_entry **out_entries, size_t *out_count,
+                        double *out_ms);
+
+#endif

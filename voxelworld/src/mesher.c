@@ -1,0 +1,433 @@
+/* mesher.c — greedy meshing of one chunk into axis-aligned quads.
+ *
+ * Greedy meshing after Mikola Lysenko, "Meshing in a Minecraft Game" (0fps.net, 2012): per
+ * (axis, side, material), sweep each slice and grow a rectangle first along its row as far
+ * as the face mask allows, then row by row while the whole run is still present, and clear
+ * what it covers. We run it on bit masks (one machine word per row, as in the "binary greedy
+ * mesher" variants of that idea), so growing a run and testing a whole row are a few
+ * instructions.
+ *
+ * Face rule: a solid voxel a gets a face towards its neighbour b unless b hides it, that is
+ * unless b is opaque or b == a (see-through next to the same see-through material). Air and
+ * anything outside the world hide nothing.
+ *
+ * Steps, all on the caller's stack (no allocation unless mesh needs to grow):
+ *   1. copy the chunk into a (C+2)^3 byte box with a one-voxel rim taken from the six face
+ *      neighbours (the edges and corners of the box are never needed: faces look along axes);
+ *   2. per row of C voxels along X and per direction, compare the row with its neighbour row
+ *      16 bytes at a time (SSE2, with a scalar fallback) into a face bit mask;
+ *   3. per material that has faces, and per direction, AND with the material's row mask and
+ *      greedy-merge slice by slice. X faces need their (y, z) slices, so those masks are
+ *      transposed first. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "vw_internal.h"
+
+#if defined(__SSE2__) && !defined(VW_MESHER_SCALAR)
+#include <emmintrin.h>
+#define VW_MESHER_SSE2 1
+#endif
+
+#define MAXC 32
+#define MAX_CLEAR 8        /* see-through materials compared directly in the row test         */
+
+/* Scratch, on the caller's stack: sized per chunk edge (see mesh_16 / mesh_32 below), so a
+ * 16-voxel chunk needs about 22 KiB of stack and a 32-voxel one about 120 KiB. */
+#define SCRATCH_BYTES(c) (2u * ((c) + 2) * ((c) + 2) * ((c) + 2) + 10u * (c) * (c) * sizeof(uint32_t))
+
+typedef struct mesher {
+    int32_t c, w;          /* chunk edge; padded edge C + 2                                  */
+    int32_t base[3];       /* chunk minimum, voxels relative to the origin                   */
+    uint8_t *mat;          /* (C+2)^3 materials, x fastest, with a one-voxel rim             */
+    uint8_t *opq;          /* (C+2)^3: 0xFF where the material is opaque                     */
+    uint32_t *face[6];     /* direction -> row (z*C + y) -> bit x: C*C words each            */
+    uint32_t *any;         /* union of the six                                               */
+    uint32_t *matmask;     /* rows of one material                                           */
+    uint32_t *sel;         /* one material's faces in one direction                          */
+    uint32_t *rows;        /* the slices being merged                                        */
+    uint8_t opaque[256];   /* 0xFF for materials that hide what is behind them               */
+    uint8_t clear[MAX_CLEAR]; /* the see-through materials, when there are few               */
+    int n_clear;           /* how many; MAX_CLEAR + 1 means "many: use the opq box"         */
+} mesher;
+
+static void mesher_init(mesher *m, int32_t c, void *scratch)
+{
+    const size_t box = (size_t)(c + 2) * (size_t)(c + 2) * (size_t)(c + 2), plane = (size_t)c * (size_t)c;
+    m->c = c;
+    m->w = c + 2;
+    /* The word arrays first, so they are aligned as the scratch is. */
+    uint32_t *words = scratch;
+    for (int d = 0; d < 6; d++)
+        m->face[d] = words + (size_t)d * plane;
+    m->any = words + 6 * plane;
+    m->matmask = words + 7 * plane;
+    m->sel = words + 8 * plane;
+    m->rows = words + 9 * plane;
+    m->mat = (uint8_t *)(words + 10 * plane);
+    m->opq = m->mat + box;
+}
+
+void vw_mesh_free(vw_mesh *mesh)
+{
+    if (!mesh)
+        return;
+    free(mesh->quads);
+    mesh->quads = NULL;
+    mesh->count = mesh->capacity = 0;
+}
+
+static int mesh_reserve_one(vw_mesh *mesh)
+{
+    if (mesh->count < mesh->capacity)
+        return 1;
+    size_t cap = mesh->capacity ? mesh->capacity * 2 : 256;
+    vw_quad *q = realloc(mesh->quads, cap * sizeof *q);
+    if (!q)
+        return 0;
+    mesh->quads = q;
+    mesh->capacity = cap;
+    return 1;
+}
+
+/* ---- step 1: the padded copy --------------------------------------------------------- */
+
+static const vwi_chunk *neighbour(const vw_world *w, const int32_t cc[3], int axis, int dir)
+{
+    int32_t n[3] = {cc[0], cc[1], cc[2]};
+    n[axis] += dir;
+    if (n[axis] < 0 || n[axis] >= w->chunks[axis])
+        return NULL;
+    return &w->chunk[vwi_index(w, n[0], n[1], n[2])];
+}
+
+/* Copies the neighbour's layer that touches our face (axis, dir) into the rim. Rows along X
+ * are contiguous in both boxes, so the Y and Z rims copy whole rows; the X rims gather. */
+static void copy_rim(mesher *m, const vwi_chunk *nb, int axis, int dir)
+{
+    const int32_t c = m->c, pw = m->w;
+    const int32_t rim = dir < 0 ? 0 : c + 1;  /* padded coordinate of the rim layer       */
+    const int32_t src = dir < 0 ? c - 1 : 0;  /* the neighbour's layer that touches us      */
+    const uint8_t *v = nb ? nb->voxels : NULL;
+    const uint8_t fill = nb ? nb->uniform : 0; /* outside the world: empty                 */
+    for (int32_t j = 0; j < c; j++) {
+        if (axis == 0) {
+            /* j = z; gather the column x = src of each row y */
+            uint8_t *dst = &m->mat[rim + pw * (1 + pw * (j + 1))];
+            for (int32_t i = 0; i < c; i++)
+                dst[pw * i] = v ? v[src + c * (i + c * j)] : fill;
+        } else {
+            /* axis Y: j = z, the row (y = src, z = j); axis Z: j = y, the row (y = j, z = src) */
+            const int32_t py = axis == 1 ? rim : j + 1, pz = axis == 1 ? j + 1 : rim;
+            const int32_t sy = axis == 1 ? src : j, sz = axis == 1 ? j : src;
+            uint8_t *dst = &m->mat[1 + pw * (py + pw * pz)];
+            if (v)
+                memcpy(dst, v + c * (sy + c * sz), (size_t)c);
+            else
+                memset(dst, fill, (size_t)c);
+        }
+    }
+}
+
+static void fill_padded(mesher *m, const vw_world *w, const vwi_chunk *ch, const int32_t cc[3])
+{
+    const int32_t c = m->c, pw = m->w;
+    /* What does not hide a face: air and the see-through materials. With a few see-through
+     * materials in the world (water, glass), the row test compares against each of them;
+     * with many, one table lookup per byte builds an "opaque" box instead. */
+    m->n_clear = 0;
+    for (int i = 1; i < 256; i++) {
+        const int see = (w->material[i].flags & VW_MAT_SEE_THROUGH) != 0;
+        m->opaque[i] = see ? 0 : 0xFF;
+        if (see && m->n_clear < MAX_CLEAR)
+            m->clear[m->n_clear] = (uint8_t)i;
+        if (see && m->n_clear <= MAX_CLEAR)
+            m->n_clear++;
+    }
+    m->opaque[0] = 0;
+    const int by_table = m->n_clear > MAX_CLEAR;
+    if (by_table) /* the box's edges and corners are never written below, but read here */
+        memset(m->mat, 0, (size_t)pw * (size_t)pw * (size_t)pw);
+
+    for (int32_t z = 0; z < c; z++)
+        for (int32_t y = 0; y < c; y++) {
+            uint8_t *dst = &m->mat[1 + pw * ((y + 1) + pw * (z + 1))];
+            if (ch->voxels)
+                memcpy(dst, ch->voxels + c * (y + c * z), (size_t)c);
+            else
+                memset(dst, ch->uniform, (size_t)c);
+        }
+    for (int axis = 0; axis < 3; axis++)
+        for (int dir = -1; dir <= 1; dir += 2)
+            copy_rim(m, neighbour(w, cc, axis, dir), axis, dir);
+
+    if (by_table) {
+        const int32_t n = pw * pw * pw;
+        for (int32_t i = 0; i < n; i++)
+            m->opq[i] = m->opaque[m->mat[i]];
+    }
+}
+
+/* ---- step 2: face masks -------------------------------------------------------------- */
+
+/* Direction order: -X, +X, -Y, +Y, -Z, +Z (direction d: axis d/2, side +1 when d is odd). */
+static void face_masks(mesher *m)
+{
+    const int32_t c = m->c, pw = m->w;
+    const int32_t off[6] = {-1, 1, -pw, pw, -pw * pw, pw * pw};
+#ifdef VW_MESHER_SSE2
+    const int by_table = m->n_clear > MAX_CLEAR;
+    __m128i clear_key[MAX_CLEAR];
+    for (int k = 0; k < m->n_clear && k < MAX_CLEAR; k++)
+        clear_key[k] = _mm_set1_epi8((char)m->clear[k]);
+#endif
+    for (int d = 0; d < 6; d++) {
+        const int32_t o = off[d];
+        uint32_t *out = m->face[d];
+        for (int32_t z = 0; z < c; z++)
+            for (int32_t y = 0; y < c; y++) {
+                const int32_t row = 1 + pw * ((y + 1) + pw * (z + 1));
+                uint32_t bits = 0;
+#ifdef VW_MESHER_SSE2
+                const __m128i zero = _mm_setzero_si128();
+                for (int32_t x = 0; x < c; x += 16) {
+                    const int32_t p = row + x;
+                    const __m128i a = _mm_loadu_si128((const __m128i *)&m->mat[p]);
+                    const __m128i b = _mm_loadu_si128((const __m128i *)&m->mat[p + o]);
+                    __m128i clear; /* 0xFF where b hides nothing: air or see-through */
+                    if (by_table) {
+                        clear = _mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)&m->opq[p + o]), zero);
+                    } else {
+                        clear = _mm_cmpeq_epi8(b, zero);
+                        for (int k = 0; k < m->n_clear; k++)
+                            clear = _mm_or_si128(clear, _mm_cmpeq_epi8(b, clear_key[k]));
+                    }
+                    /* a face where a is solid, b clear and b != a */
+                    const __m128i hidden = _mm_or_si128(_mm_cmpeq_epi8(a, b), _mm_cmpeq_epi8(a, zero));
+                    bits |= (uint32_t)_mm_movemask_epi8(_mm_andnot_si128(hidden, clear)) << x;
+                }
+#else
+                for (int32_t x = 0; x < c; x++) {
+                    const uint8_t a = m->mat[row + x], b = m->mat[row + x + o];
+                    if (a && !m->opaque[b] && b != a)
+                        bits |= 1u << x;
+                }
+#endif
+                out[z * c + y] = bits;
+            }
+    }
+}
+
+/* ---- step 3: greedy merge ------------------------------------------------------------ */
+
+/* Greedy-merges `n` slices of C rows (rows[slice*C + r], bit c of a row = column c) and
+ * emits one quad per rectangle. `map` says which quad fields the slice, row and column
+ * index; see emit below. */
+typedef struct slice_map {
+    int axis, side;
+    int row_is_u;        /* rows run along u (columns along v), or the other way round   */
+} slice_map;
+
+static int merge_slices(mesher *m, const vw_world *w, uint8_t material, const slice_map *map, uint32_t slices,
+                        vw_mesh *mesh)
+{
+    const int32_t c = m->c;
+    const int ua = (map->axis + 1) % 3, va = (map->axis + 2) % 3;
+    const uint8_t flags = (uint8_t)w->material[material].flags;
+    for (; slices; slices &= slices - 1) {
+        const int32_t s = vwi_ctz64(slices);
+        uint32_t *rows = &m->rows[s * c];
+        for (int32_t r = 0; r < c; r++) {
+            while (rows[r]) {
+                const uint32_t bits = rows[r];
+                const int c0 = vwi_ctz64(bits);
+                const int width = vwi_ctz64(~(uint64_t)(bits >> c0));
+                const uint32_t run = (uint32_t)(((1ull << width) - 1) << c0);
+                int32_t r1 = r + 1;
+                while (r1 < c && (rows[r1] & run) == run)
+                    rows[r1++] &= ~run;
+                rows[r] &= ~run;
+                if (!mesh_reserve_one(mesh))
+                    return 0;
+                vw_quad *q = &mesh->quads[mesh->count++];
+                q->axis = (uint8_t)map->axis;
+                q->side = (int8_t)map->side;
+                q->material = material;
+                q->flags = flags;
+                q->plane = m->base[map->axis] + s + (map->side > 0);
+                int32_t r0 = r, cb = c0, ce = c0 + width;
+                if (map->row_is_u) {
+                    q->u0 = m->base[ua] + r0;
+                    q->u1 = m->base[ua] + r1;
+                    q->v0 = m->base[va] + cb;
+                    q->v1 = m->base[va] + ce;
+                } else {
+                    q->u0 = m->base[ua] + cb;
+                    q->u1 = m->base[ua] + ce;
+                    q->v0 = m->base[va] + r0;
+                    q->v1 = m->base[va] + r1;
+                }
+            }
+        }
+    }
+    return 1;
+}
+
+/* Lays out one direction's selected masks (sel[z*C + y], bit x) as slices for merge_slices,
+ * and merges them. Returns 0 on out of memory. */
+static int merge_direction(mesher *m, const vw_world *w, uint8_t material, int d, vw_mesh *mesh)
+{
+    const int32_t c = m->c;
+    const int axis = d / 2;
+    slice_map map = {axis, (d & 1) ? 1 : -1, 0};
+    uint32_t slices = 0; /* bit s: slice s has faces */
+    if (axis == 0) {
+        /* Slice x: rows z, columns y (u = Y along columns, v = Z along rows). */
+        memset(m->rows, 0, sizeof(uint32_t) * (size_t)(c * c));
+        for (int32_t z = 0; z < c; z++)
+            for (int32_t y = 0; y < c; y++) {
+                const uint32_t sel = m->sel[z * c + y];
+                slices |= sel;
+                for (uint32_t b = sel; b; b &= b - 1)
+                    m->rows[vwi_ctz64(b) * c + z] |= 1u << y;
+            }
+        map.row_is_u = 0;
+    } else if (axis == 1) {
+        /* Slice y: rows z (u = Z), columns x (v = X). */
+        for (int32_t y = 0; y < c; y++) {
+            uint32_t any = 0;
+            for (int32_t z = 0; z < c; z++)
+                any |= m->rows[y * c + z] = m->sel[z * c + y];
+            slices |= (uint32_t)(any != 0) << y;
+        }
+        map.row_is_u = 1;
+    } else {
+        /* Slice z: rows y (v = Y), columns x (u = X): already in that order. */
+        for (int32_t z = 0; z < c; z++) {
+            uint32_t any = 0;
+            for (int32_t y = 0; y < c; y++)
+                any |= m->rows[z * c + y] = m->sel[z * c + y];
+            slices |= (uint32_t)(any != 0) << z;
+        }
+        map.row_is_u = 0;
+    }
+    return merge_slices(m, w, material, &map, slices, mesh);
+}
+
+/* 1 when a uniform solid chunk is hidden on all six sides (the bulk of rock and of deep
+ * water), so that meshing it costs nothing. */
+static int buried(const vw_world *w, const vwi_chunk *ch, const int32_t cc[3])
+{
+    const uint8_t a = ch->uniform;
+    for (int axis = 0; axis < 3; axis++)
+        for (int dir = -1; dir <= 1; dir += 2) {
+            const vwi_chunk *nb = neighbour(w, cc, axis, dir);
+            if (!nb || nb->voxels || !nb->uniform)
+                return 0;
+            if (nb->uniform != a && (w->material[nb->uniform].flags & VW_MAT_SEE_THROUGH))
+                return 0;
+        }
+    return 1;
+}
+
+/* Meshes a chunk that has solid voxels and may have faces, with scratch `m`. */
+static vw_status mesh_run(mesher *m, const vw_world *w, const vwi_chunk *ch, const int32_t cc[3], vw_mesh *mesh)
+{
+    const int32_t c = m->c;
+    for (int a = 0; a < 3; a++)
+        m->base[a] = cc[a] * c;
+    fill_padded(m, w, ch, cc);
+    face_masks(m);
+
+    /* The materials that have at least one face. */
+    uint32_t *any = m->any, *matmask = m->matmask;
+    uint64_t present[4] = {0, 0, 0, 0};
+    uint32_t dir_any[6] = {0, 0, 0, 0, 0, 0};
+    int kinds = 0;
+    for (int32_t i = 0; i < c * c; i++) {
+        uint32_t u = 0;
+        for (int d = 0; d < 6; d++) {
+            dir_any[d] |= m->face[d][i];
+            u |= m->face[d][i];
+        }
+        any[i] = u;
+        const uint8_t *row = &m->mat[1 + m->w * ((i % c + 1) + m->w * (i / c + 1))];
+        for (; u; u &= u - 1) {
+            uint8_t v = row[vwi_ctz64(u)];
+            if (!(present[v >> 6] & (1ull << (v & 63)))) {
+                present[v >> 6] |= 1ull << (v & 63);
+                kinds++;
+            }
+        }
+    }
+
+    for (int v = 1; v < 256 && kinds > 0; v++) {
+        if (!(present[v >> 6] & (1ull << (v & 63))))
+            continue;
+        /* Rows of voxels holding this material (all of them when it is the only one). */
+        for (int32_t i = 0; i < c * c; i++) {
+            if (kinds == 1 || !any[i]) {
+                matmask[i] = kinds == 1 ? ~0u : 0u;
+                continue;
+            }
+            const uint8_t *row = &m->mat[1 + m->w * ((i % c + 1) + m->w * (i / c + 1))];
+            uint32_t bits = 0;
+#ifdef VW_MESHER_SSE2
+            const __m128i key = _mm_set1_epi8((char)v);
+            for (int32_t x = 0; x < c; x += 16)
+                bits |= (uint32_t)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)&row[x]), key)) << x;
+#else
+            for (int32_t x = 0; x < c; x++)
+                bits |= (uint32_t)(row[x] == v) << x;
+#endif
+            matmask[i] = bits;
+        }
+        for (int d = 0; d < 6; d++) {
+            if (!dir_any[d])
+                continue;
+            for (int32_t i = 0; i < c * c; i++)
+                m->sel[i] = m->face[d][i] & matmask[i];
+            if (!merge_direction(m, w, (uint8_t)v, d, mesh))
+                return VW_ERROR_OUT_OF_MEMORY;
+        }
+    }
+    return VW_OK;
+}
+
+/* One frame per chunk edge, so that 16-voxel chunks do not pay the stack of 32-voxel ones. */
+#if defined(__GNUC__)
+#define VW_NOINLINE __attribute__((noinline))
+#else
+#define VW_NOINLINE
+#endif
+
+static VW_NOINLINE vw_status mesh_16(const vw_world *w, const vwi_chunk *ch, const int32_t cc[3], vw_mesh *mesh)
+{
+    _Alignas(16) uint8_t scratch[SCRATCH_BYTES(16)];
+    mesher m;
+    mesher_init(&m, 16, scratch);
+    return mesh_run(&m, w, ch, cc, mesh);
+}
+
+static VW_NOINLINE vw_status mesh_32(const vw_world *w, const vwi_chunk *ch, const int32_t cc[3], vw_mesh *mesh)
+{
+    _Alignas(16) uint8_t scratch[SCRATCH_BYTES(32)];
+    mesher m;
+    mesher_init(&m, 32, scratch);
+    return mesh_run(&m, w, ch, cc, mesh);
+}
+
+vw_status vw_mesh_chunk(const vw_world *w, uint32_t index, vw_mesh *mesh)
+{
+    if (!w || !mesh || index >= w->chunk_count)
+        return VW_ERROR_INVALID_ARGUMENT;
+    mesh->count = 0;
+    const vwi_chunk *ch = &w->chunk[index];
+    if (ch->solid == 0)
+        return VW_OK;
+    int32_t cc[3];
+    vw_world_chunk_coords(w, index, cc);
+    if (!ch->voxels && buried(w, ch, cc))
+        return VW_OK;
+    return w->chunk_size == 16 ? mesh_16(w, ch, cc, mesh) : mesh_32(w, ch, cc, mesh);
+}

@@ -1,0 +1,113 @@
+/*
+ * vw_internal.h — the world's storage, shared by the files of voxelworld (never installed).
+ *
+ * A world is a box of chunks_x * chunks_y * chunks_z chunks of edge C (16 or 32). Chunk
+ * (cx, cy, cz), relative to the origin, is chunk[cx + nx*(cy + ny*cz)]. A chunk is either
+ *   - uniform: voxels == NULL, every voxel is `uniform` (0 = all air) — no memory beyond the
+ *     table entry, which is what lets a large world hold its >100,000 surface chunks plus
+ *     millions of air and solid-rock chunks; or
+ *   - dense: voxels points at C*C*C bytes, voxel (x, y, z) at x + C*(y + C*z) (rows along X
+ *     are contiguous, which is what the mesher's 16-byte row compares want).
+ *
+ * Importers and generators that fill a world fast write dense arrays directly:
+ *     uint8_t *v = vwi_chunk_dense(world, index);   // converts a uniform chunk lazily
+ *     ... write v[x + C*(y + C*z)] ...
+ *     vwi_chunk_settle(world, index);               // recounts; compacts if now uniform
+ * or, for a chunk that is one value throughout, vwi_chunk_set_uniform(). These never mark
+ * chunks dirty: a world handed out by a loader starts with no dirty chunks (its user meshes
+ * everything once); only the public edit calls (vw_world_set, vw_world_fill) mark chunks.
+ */
+#ifndef VOXELWORLD_VW_INTERNAL_H
+#define VOXELWORLD_VW_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "voxelworld/vw.h"
+
+/* The OpenVDB shim (C++) fills worlds through this header too. */
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Limits checked by vw_world_create: a voxel axis up to 1<<20, and a chunk count whose
+ * object IDs (index + 1) fit in uint32 with room to spare. */
+#define VWI_MAX_AXIS        (1 << 20)
+#define VWI_MAX_CHUNKS      0x7FFFFFFFu
+/* Origins stay this far inside int64 so that origin + size never overflows. */
+#define VWI_MAX_ORIGIN      ((int64_t)1 << 60)
+
+typedef struct vwi_chunk {
+    uint8_t *voxels;  /* NULL: uniform; else C^3 bytes (see above)                       */
+    uint32_t solid;   /* voxels != 0 in this chunk (kept by set/fill/settle)             */
+    uint8_t uniform;  /* the value of every voxel while voxels == NULL                   */
+} vwi_chunk;
+
+struct vw_world {
+    int32_t chunk_size;   /* C                                                            */
+    int32_t chunk_shift;  /* log2(C)                                                      */
+    int64_t origin[3];
+    int32_t size[3];      /* voxels, multiples of C                                       */
+    int32_t chunks[3];
+    uint32_t chunk_count;
+    vwi_chunk *chunk;     /* chunk_count entries                                          */
+
+    uint64_t *dirty;      /* one bit per chunk                                            */
+    size_t dirty_count;
+
+    /* Running totals, kept by vwi_chunk_account() so that vw_world_get_info is O(1).   */
+    uint32_t nonempty_chunks;
+    uint32_t dense_chunks;
+    uint64_t solid_voxels;
+
+    vw_material material[256];
+};
+
+/* The chunk's dense array, converting a uniform chunk first (NULL when out of memory). */
+uint8_t *vwi_chunk_dense(vw_world *world, uint32_t index);
+/* Recounts a chunk after direct writes to its dense array and compacts it to uniform when
+ * every voxel holds one value. */
+void vwi_chunk_settle(vw_world *world, uint32_t index);
+/* Makes the chunk uniform (freeing a dense array). */
+void vwi_chunk_set_uniform(vw_world *world, uint32_t index, uint8_t value);
+
+/* Marks one chunk dirty (no range check). */
+void vwi_mark_dirty(vw_world *world, uint32_t index);
+
+static inline uint32_t vwi_chunk_volume(const vw_world *w)
+{
+    return (uint32_t)w->chunk_size * (uint32_t)w->chunk_size * (uint32_t)w->chunk_size;
+}
+
+static inline uint32_t vwi_index(const vw_world *w, int32_t cx, int32_t cy, int32_t cz)
+{
+    return (uint32_t)cx + (uint32_t)w->chunks[0] * ((uint32_t)cy + (uint32_t)w->chunks[1] * (uint32_t)cz);
+}
+
+/* Index of the lowest set bit (x != 0). */
+static inline int vwi_ctz64(uint64_t x)
+{
+#if defined(__GNUC__)
+    return __builtin_ctzll(x);
+#else
+    int n = 0;
+    while (!(x & 1)) {
+        x >>= 1;
+        n++;
+    }
+    return n;
+#endif
+}
+
+/* Writes "fmt" into err (if any) and returns status: the one way errors leave this module. */
+vw_status vwi_fail(vw_error *err, vw_status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VOXELWORLD_VW_INTERNAL_H */
