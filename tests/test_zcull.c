@@ -24,11 +24,8 @@
 #include <time.h>
 
 #include "test_support.h"
+#include "vis/vis.h"
 #include "zcull.h"
-
-#ifndef ZC_RASTER_ONLY
-#  include "vis/vis.h"
-#endif
 
 /* ---- helpers ------------------------------------------------------------------------- */
 
@@ -288,56 +285,6 @@ static void test_fill_rule_single_triangles(void **state)
         draw_fixed_tri(&z, tx[0], ty[0], 0, 0, 1);
         check_counts(&z, 1, (const int64_t(*)[3])tx, (const int64_t(*)[3])ty, 1);
         zt_free(&z);
-    }
-}
-
-/* ---- SIMD paths against the scalar reference ----------------------------------------- */
-
-static void test_simd_bit_exact(void **state)
-{
-    (void)state;
-    vis_zc_simd best = vis_zc_simd_resolve(VIS_ZC_SIMD_AUTO);
-    print_message("zcull: best ISA here: %s\n", vis_zc_simd_name(best));
-    uint64_t rng = 14;
-    const int iters = vt_small() ? 40 : 300;
-    for (int it = 0; it < iters; it++) {
-        uint32_t w = (uint32_t)irand(&rng, 1, 300), h = (uint32_t)irand(&rng, 1, 200);
-        int count_mode = it % 5 == 0;
-        zt_target z[3];
-        for (int p = 0; p < 3; p++)
-            zt_make(&z[p], w, h, count_mode, (vis_zc_simd)(VIS_ZC_SIMD_SCALAR + p));
-        int npoly = (int)irand(&rng, 1, 60);
-        for (int k = 0; k < npoly; k++) {
-            vis_zc_fixed_poly p;
-            memset(&p, 0, sizeof p);
-            p.n = (int)irand(&rng, 3, 8);
-            const int f = z[0].t.sub_bits;
-            double cx = urand(&rng, -20, w + 20), cy = urand(&rng, -20, h + 20), r = urand(&rng, 0.2, 150);
-            double a0 = urand(&rng, 0, 2 * ZT_PI);
-            for (int i = 0; i < p.n; i++) {
-                double a = a0 + 2 * ZT_PI * i / p.n;
-                p.x[i] = llround((cx + r * cos(a)) * ldexp(1, f));
-                p.y[i] = llround((cy + r * sin(a)) * ldexp(1, f));
-                p.margin[i] = it % 2 ? irand(&rng, 0, (int64_t)1 << (f + 4)) : 0;
-            }
-            p.za = urand(&rng, -0.01, 0.01);
-            p.zb = urand(&rng, -0.01, 0.01);
-            p.zc = urand(&rng, 0.0, 2.0);
-            for (int q = 0; q < 3; q++)
-                vis_zc_draw_fixed(&z[q].t, &p);
-        }
-        size_t nd, nt;
-        vis_zc_target_sizes(w, h, &nd, &nt);
-        for (int q = 1; q < 3; q++) {
-            if (z[q].t.simd != (vis_zc_simd)(VIS_ZC_SIMD_SCALAR + q))
-                continue; /* not runnable on this CPU: resolved to another path */
-            assert_memory_equal(z[0].depth, z[q].depth, nd * sizeof(float));
-            assert_memory_equal(z[0].tile_min, z[q].tile_min, nt * sizeof(float));
-            if (count_mode)
-                assert_memory_equal(z[0].count, z[q].count, nd * sizeof(uint32_t));
-        }
-        for (int q = 0; q < 3; q++)
-            zt_free(&z[q]);
     }
 }
 
@@ -634,6 +581,78 @@ static void rand_config_make(uint64_t *s, rand_config *cf, int max_res)
     }
 }
 
+/* ---- SIMD paths against the scalar reference ----------------------------------------- */
+
+
+static void test_simd_bit_exact(void **state)
+{
+    (void)state;
+    vis_zc_simd best = vis_zc_simd_resolve(VIS_ZC_SIMD_AUTO);
+    print_message("zcull: best ISA here: %s\n", vis_zc_simd_name(best));
+    uint64_t rng = 14;
+    const int iters = vt_small() ? 40 : 300;
+    for (int it = 0; it < iters; it++) {
+        uint32_t w = (uint32_t)irand(&rng, 1, 300), h = (uint32_t)irand(&rng, 1, 200);
+        int count_mode = it % 5 == 0;
+        zt_target z[3];
+        for (int p = 0; p < 3; p++)
+            zt_make(&z[p], w, h, count_mode, (vis_zc_simd)(VIS_ZC_SIMD_SCALAR + p));
+        int npoly = (int)irand(&rng, 1, 60);
+        for (int k = 0; k < npoly; k++) {
+            vis_zc_fixed_poly p;
+            memset(&p, 0, sizeof p);
+            p.n = (int)irand(&rng, 3, 8);
+            const int f = z[0].t.sub_bits;
+            double cx = urand(&rng, -20, w + 20), cy = urand(&rng, -20, h + 20), r = urand(&rng, 0.2, 150);
+            double a0 = urand(&rng, 0, 2 * ZT_PI);
+            for (int i = 0; i < p.n; i++) {
+                double a = a0 + 2 * ZT_PI * i / p.n;
+                p.x[i] = llround((cx + r * cos(a)) * ldexp(1, f));
+                p.y[i] = llround((cy + r * sin(a)) * ldexp(1, f));
+                p.margin[i] = it % 2 ? irand(&rng, 0, (int64_t)1 << (f + 4)) : 0;
+            }
+            p.za = urand(&rng, -0.01, 0.01);
+            p.zb = urand(&rng, -0.01, 0.01);
+            p.zc = urand(&rng, 0.0, 2.0);
+            for (int q = 0; q < 3; q++)
+                vis_zc_draw_fixed(&z[q].t, &p);
+        }
+        /* and projected occluders: quads (whose front end has its own AVX2 code) and
+         * triangles, through the clipper too */
+        if (it % 2) {
+            ref_cam c;
+            rand_camera(&rng, &c, w, h, INFINITY);
+            vis_zc_view v;
+            ref_view(&c, &z[0].t, &v);
+            int nq = (int)irand(&rng, 1, 40);
+            for (int k = 0; k < nq; k++) {
+                ref_occ o;
+                memset(&o, 0, sizeof o);
+                o.is_quad = k % 4 != 0;
+                double lo = k % 5 == 0 ? -500 : 0, hi = k % 5 == 0 ? 500 : 16;
+                if (o.is_quad)
+                    rand_quad(&rng, &o.q, lo, hi, k % 3 == 0);
+                else
+                    rand_tri(&rng, &o.t, lo, hi, k % 3 == 0);
+                for (int q = 0; q < 3; q++)
+                    draw_occ(&z[q].t, &v, &o);
+            }
+        }
+        size_t nd, nt;
+        vis_zc_target_sizes(w, h, &nd, &nt);
+        for (int q = 1; q < 3; q++) {
+            if (z[q].t.simd != (vis_zc_simd)(VIS_ZC_SIMD_SCALAR + q))
+                continue; /* not runnable on this CPU: resolved to another path */
+            assert_memory_equal(z[0].depth, z[q].depth, nd * sizeof(float));
+            assert_memory_equal(z[0].tile_min, z[q].tile_min, nt * sizeof(float));
+            if (count_mode)
+                assert_memory_equal(z[0].count, z[q].count, nd * sizeof(uint32_t));
+        }
+        for (int q = 0; q < 3; q++)
+            zt_free(&z[q]);
+    }
+}
+
 /* ---- clipping and the guard band against the reference -------------------------------- */
 
 /* Does the pixel-centre ray at (px, py) hit the occluder with camera depth w >= near
@@ -927,8 +946,6 @@ static void test_random_configurations(void **state)
 
 /* ---- the public API ------------------------------------------------------------------- */
 
-#ifndef ZC_RASTER_ONLY
-
 typedef struct count_alloc {
     long allocs;
 } count_alloc;
@@ -1218,13 +1235,22 @@ static void test_api_random_scenes(void **state)
         }
         vis_draw_entry lists[5][8];
         size_t counts[5];
+        float *depths[3];
         const uint32_t budgets[5] = {VIS_ZCULL_ALL_OCCLUDERS, VIS_ZCULL_ALL_OCCLUDERS, VIS_ZCULL_ALL_OCCLUDERS, 0, 2};
         for (int r = 0; r < 5; r++) {
             vis_zcull_desc d = {rc.w, rc.h, budgets[r], 0, (vis_zcull_simd)(r < 3 ? VIS_ZCULL_SIMD_SCALAR + r : 0)};
             assert_int_equal(vis_zcull_run(zc, scene, &cam, &d, lists[r], 8, &counts[r], NULL), VIS_OK);
             for (size_t i = 1; i < counts[r]; i++)
                 assert_true(lists[r][i - 1].id < lists[r][i].id);
+            if (r < 3) {
+                depths[r] = malloc((size_t)rc.w * rc.h * sizeof(float));
+                assert_int_equal(vis_zcull_depth(zc, depths[r]), VIS_OK);
+            }
         }
+        for (int r = 1; r < 3; r++) /* bit-identical depth on every path */
+            assert_memory_equal(depths[0], depths[r], (size_t)rc.w * rc.h * sizeof(float));
+        for (int r = 0; r < 3; r++)
+            free(depths[r]);
         for (int r = 1; r < 3; r++) {
             assert_int_equal(counts[r], counts[0]);
             assert_memory_equal(lists[r], lists[0], counts[0] * sizeof(vis_draw_entry));
@@ -1274,8 +1300,6 @@ static void test_api_random_scenes(void **state)
     vis_context_destroy(ctx);
 }
 
-#endif /* ZC_RASTER_ONLY */
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1289,11 +1313,9 @@ int main(void)
         cmocka_unit_test(test_snapping_is_conservative),
         cmocka_unit_test(test_box_rect_conservative),
         cmocka_unit_test(test_random_configurations),
-#ifndef ZC_RASTER_ONLY
         cmocka_unit_test(test_api_arguments),
         cmocka_unit_test(test_api_wall),
         cmocka_unit_test(test_api_random_scenes),
-#endif
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -99,15 +99,19 @@ typedef struct vis_flat_object {
 
 /* Ropes (Popov et al. 2007; Chang & Ihm 2010): for a node that has them, its box and the
  * node on the other side of each of its six faces (-x,+x,-y,+y,-z,+z; VIS_NO_ROPE = the
- * outside). rope_index[node] gives the node's entry in `ropes`, or VIS_NO_ROPE. */
+ * outside): the smallest node covering that face, never deeper than the node itself.
+ * rope_index[node] gives the node's entry in `ropes`, or VIS_NO_ROPE. Every node at most
+ * VIS_SHORT_STACK_MAX levels above the leaves has one; entry i < leaf count is leaf i
+ * (libvis/src/kdtree.c builds them, once, with the tree). */
 typedef struct vis_rope_node {
     float lo[3], hi[3];
     uint32_t link[6];
     uint32_t node;
-    uint32_t pad;
+    uint32_t height; /* levels from the node down to its deepest leaf (0: a leaf)           */
 } vis_rope_node;
 
 #define VIS_NO_ROPE 0xFFFFFFFFu
+#define VIS_SHORT_STACK_MAX 16u /* deepest short stack (and rope level) a pass may ask for  */
 
 #define VIS_META_AXIS(m) ((m) & 3u)
 #define VIS_META_FLAGS(m) (((m) >> 2) & 63u)
@@ -127,6 +131,7 @@ typedef struct vis_ray_setup {
     uint32_t traversal;  /* vis_traversal                                                  */
     uint32_t root;       /* root node index (0)                                            */
     uint32_t leaf_count;
+    uint32_t short_stack; /* N of shortstack / ropes-shortstack, 1..VIS_SHORT_STACK_MAX       */
 } vis_ray_setup;
 
 /* The scene arrays, as separate parameters because OpenCL 1.2 kernels cannot take structs
@@ -443,7 +448,12 @@ typedef struct vis_stack_entry {
 } vis_stack_entry;
 
 /* Front-to-back traversal with a full stack of 8-byte entries (Chang & Ihm 2010, "stack").
- * A ray lying exactly in a split plane visits both children. */
+ * A ray lying exactly in a split plane visits both children.
+ *
+ * Entries come off the stack in increasing t_min, so the first one that starts beyond the best
+ * hit ends the ray -- except for the far side of an in-plane node, which starts where the near
+ * side started and lies below entries that start later. While one is pending (in_plane > 0),
+ * entries beyond the best hit are dropped instead, down to it. */
 VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS, vis_hit *h)
 {
     float t_min, t_max;
@@ -451,6 +461,7 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
         return;
     vis_stack_entry stack[VIS_STACK_SIZE];
     int sp = 0;
+    uint32_t in_plane = 0u;
     uint32_t node = s->root;
     for (;;) {
         uint32_t info = nodes[node].info;
@@ -475,6 +486,7 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
                     stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
                     stack[sp].t_max = t_min;
                     ++sp;
+                    ++in_plane;
                 }
                 node = near_child;
             } else {
@@ -495,19 +507,24 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
             info = nodes[node].info;
         }
         vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
-        if (sp == 0)
-            return;
-        --sp;
-        node = stack[sp].node;
-        if (node & VIS_STACK_SAME_INTERVAL) {
-            node &= ~VIS_STACK_SAME_INTERVAL;
-            t_min = stack[sp].t_max; /* saved t_min; t_max stays */
-        } else {
-            t_min = t_max;
-            t_max = stack[sp].t_max;
+        for (;;) {
+            if (sp == 0)
+                return;
+            --sp;
+            node = stack[sp].node;
+            if (node & VIS_STACK_SAME_INTERVAL) {
+                node &= ~VIS_STACK_SAME_INTERVAL;
+                t_min = stack[sp].t_max; /* saved t_min; t_max stays */
+                --in_plane;
+            } else {
+                t_min = t_max;
+                t_max = stack[sp].t_max;
+            }
+            if (!(t_min > vis_t_limit(h->t)))
+                break;
+            if (in_plane == 0u)
+                return;
         }
-        if (t_min > vis_t_limit(h->t))
-            return;
     }
 }
 
@@ -523,6 +540,385 @@ VIS_INLINE void vis_traverse_bruteforce(const vis_ray *r, const vis_ray_setup *s
             vis_test_quad(r, &quads[leaf->loose_offset + i], objects, h);
         for (uint32_t i = 0; i < leaf->tri_count; ++i)
             vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
+    }
+}
+
+/* ---- stackless and short-stack methods (Chang & Ihm 2010, sections 2-3) ------------------
+ *
+ * Every method below visits the leaves that vis_traverse_stack visits, in the same order and
+ * with the same [t_min, t_max], so each primitive is tested with the same arithmetic and the
+ * buffers are bit-identical. Only where that cannot be shown from the ropes alone (a ray that
+ * leaves a node exactly through an edge or corner, or lies in one of its faces) does a rope
+ * walk hand the rest of the ray to the restart loop, which then visits a superset: the same
+ * leaves, plus some leaves it only touches at the hand-over point, with wider intervals.
+ * More leaves can only add real primitives to the minimum, and the termination test is the
+ * stack's, so the nearest hit is unchanged. */
+
+#ifdef __OPENCL_VERSION__
+typedef ulong vis_u64;
+#else
+typedef uint64_t vis_u64;
+#endif
+
+/* Index of the highest set bit of m (m != 0). */
+VIS_INLINE uint32_t vis_top_bit(vis_u64 m)
+{
+#if defined(__OPENCL_VERSION__)
+    return 63u - (uint32_t)clz(m);
+#elif defined(__GNUC__)
+    return 63u - (uint32_t)__builtin_clzll((unsigned long long)m);
+#else
+    uint32_t b = 0u;
+    while (m >>= 1)
+        ++b;
+    return b;
+#endif
+}
+
+/* kd-restart (Foley & Sugerman 2005), pushdown (Horn et al. 2007) and restart with a short
+ * ring stack of ring_n <= VIS_SHORT_STACK_MAX entries (Horn et al. 2007), over [t_min, t_max]
+ * from node `root`.
+ *
+ * Plain kd-restart only keeps t_min, which is not enough to be exact: a node that the stack
+ * method enters with an empty interval [t, t] (the ray passes through an edge or corner of
+ * it) would be entered again after every restart, and a ray lying in a split plane needs the
+ * far side with the *same* interval as the near side. So besides t_min the ray keeps a
+ * restart trail (Laine 2010, "Restart trail for stackless BVH traversal"), two 64-bit masks
+ * over tree levels: `pending` marks the levels where the descent went to the near child and
+ * the far child is still to come (what the stack would hold), `trail` the levels whose near
+ * child is finished. A restart takes the far child wherever the trail says so, which
+ * reproduces the stack method's order exactly; the t_min of an in-plane node (at most one per
+ * zero direction component on any path, since a descendant never splits on the same plane) is
+ * kept aside to restore it, as the stack's flagged entry does.
+ *
+ * pushdown: restart from the deepest node above which nothing is pending instead of the root.
+ * Short stack: far children also go to a ring of ring_n entries (overwriting the oldest);
+ * they are popped while it lasts, and when it is empty the ray restarts. */
+VIS_INLINE void vis_traverse_restart_range(const vis_ray *r, uint32_t root, float t_min, float t_max, uint32_t ring_n,
+                                           int pushdown, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    vis_stack_entry ring[VIS_SHORT_STACK_MAX];
+    uint32_t top = 0u, count = 0u;
+    vis_u64 trail = 0u, pending = 0u, inplane = 0u;
+    float ip_t[2];
+    uint32_t ip_n = 0u;
+    if (ring_n > VIS_SHORT_STACK_MAX)
+        ring_n = VIS_SHORT_STACK_MAX;
+    uint32_t start = root, start_level = 0u;
+    float start_t_max = t_max;
+    uint32_t node = root, level = 0u;
+    ip_t[0] = ip_t[1] = t_min;
+    for (;;) {
+        uint32_t info = nodes[node].info;
+        while ((info & 3u) != VIS_NODE_LEAF) {
+            uint32_t a = info & 3u;
+            uint32_t first = info >> 2;
+            float split = nodes[node].split;
+            float o = r->o[a], d = r->d[a];
+            uint32_t near_child, far_child;
+            if (o < split || (o == split && d < 0.0f)) {
+                near_child = first;
+                far_child = first + 1u;
+            } else {
+                near_child = first + 1u;
+                far_child = first;
+            }
+            /* The stack method's decisions, verbatim. */
+            int both = 0, in_plane = 0;
+            float t_split = 0.0f;
+            if (d == 0.0f) {
+                in_plane = o == split;
+                both = in_plane;
+                node = near_child;
+            } else {
+                t_split = (split - o) * r->inv[a];
+                if (t_split > t_max || t_split <= 0.0f)
+                    node = near_child;
+                else if (t_split < t_min)
+                    node = far_child;
+                else
+                    both = 1;
+            }
+            if (both) {
+                vis_u64 bit = (vis_u64)1u << level;
+                if (trail & bit) {
+                    node = far_child; /* near side done; t_min is already where it ends */
+                } else {
+                    if (!(pending & bit)) {
+                        pending |= bit;
+                        if (in_plane) {
+                            inplane |= bit;
+                            if (ip_n < 2u)
+                                ip_t[ip_n++] = t_min;
+                        }
+                    }
+                    if (ring_n) {
+                        ring[top].node = far_child;
+                        ring[top].t_max = t_max;
+                        top = top + 1u == ring_n ? 0u : top + 1u;
+                        if (count < ring_n)
+                            ++count;
+                    }
+                    node = near_child;
+                    if (!in_plane)
+                        t_max = t_split;
+                }
+            }
+            ++level;
+            if (pushdown && pending == 0u) {
+                start = node;
+                start_level = level;
+                start_t_max = t_max;
+            }
+            info = nodes[node].info;
+        }
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        for (;;) {
+            if (pending == 0u)
+                return;
+            /* "Pop": the deepest pending level; its near side is now finished. */
+            uint32_t l = vis_top_bit(pending);
+            vis_u64 bit = (vis_u64)1u << l;
+            pending &= ~bit;
+            trail = (trail & (bit - 1u)) | bit;
+            float next_t_min = t_max;
+            if (inplane & bit) {
+                inplane &= ~bit;
+                if (ip_n > 0u)
+                    next_t_min = ip_t[--ip_n];
+            }
+            if (count > 0u) {
+                top = top == 0u ? ring_n - 1u : top - 1u;
+                --count;
+                node = ring[top].node;
+                t_max = ring[top].t_max;
+                level = l + 1u;
+                if (pushdown && pending == 0u) {
+                    start = node;
+                    start_level = level;
+                    start_t_max = t_max;
+                }
+            } else {
+                node = start;
+                level = start_level;
+                t_max = start_t_max;
+            }
+            t_min = next_t_min;
+            if (!(t_min > vis_t_limit(h->t)))
+                break;
+            if (inplane == 0u)
+                return;
+            /* Beyond the best hit, but an in-plane far side (which starts earlier) is still
+             * pending, as in vis_traverse_stack: the levels below the deepest one lie in its
+             * near side and start later still, so drop them and pop it. */
+            uint32_t l_ip = vis_top_bit(inplane);
+            while (vis_top_bit(pending) > l_ip) {
+                pending &= ~((vis_u64)1u << vis_top_bit(pending));
+                if (count > 0u) {
+                    top = top == 0u ? ring_n - 1u : top - 1u;
+                    --count;
+                }
+            }
+        }
+    }
+}
+
+VIS_INLINE void vis_traverse_restart(const vis_ray *r, const vis_ray_setup *s, uint32_t ring_n, int pushdown,
+                                     VIS_SCENE_PARAMS, vis_hit *h)
+{
+    float t_min, t_max;
+    if (!vis_clip_scene(r, s->size, &t_min, &t_max))
+        return;
+    vis_traverse_restart_range(r, s->root, t_min, t_max, ring_n, pushdown, VIS_SCENE_ARGS, h);
+}
+
+/* The stack method over one subtree and interval (the short stack of ropes-shortstack: a
+ * subtree at most VIS_SHORT_STACK_MAX levels high never needs more entries). Returns 1 when
+ * the ray is finished (the next node starts beyond the best hit). */
+VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min, float t_max, VIS_SCENE_PARAMS,
+                                    vis_hit *h)
+{
+    vis_stack_entry stack[VIS_SHORT_STACK_MAX];
+    uint32_t sp = 0u, in_plane = 0u;
+    for (;;) {
+        uint32_t info = nodes[node].info;
+        while ((info & 3u) != VIS_NODE_LEAF) {
+            uint32_t a = info & 3u;
+            uint32_t first = info >> 2;
+            float split = nodes[node].split;
+            float o = r->o[a], d = r->d[a];
+            uint32_t near_child, far_child;
+            if (o < split || (o == split && d < 0.0f)) {
+                near_child = first;
+                far_child = first + 1u;
+            } else {
+                near_child = first + 1u;
+                far_child = first;
+            }
+            if (d == 0.0f) {
+                if (o == split && sp < VIS_SHORT_STACK_MAX) {
+                    stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
+                    stack[sp].t_max = t_min;
+                    ++sp;
+                    ++in_plane;
+                }
+                node = near_child;
+            } else {
+                float t_split = (split - o) * r->inv[a];
+                if (t_split > t_max || t_split <= 0.0f) {
+                    node = near_child;
+                } else if (t_split < t_min) {
+                    node = far_child;
+                } else {
+                    if (sp < VIS_SHORT_STACK_MAX) {
+                        stack[sp].node = far_child;
+                        stack[sp].t_max = t_max;
+                        ++sp;
+                    }
+                    node = near_child;
+                    t_max = t_split;
+                }
+            }
+            info = nodes[node].info;
+        }
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        for (;;) { /* as in vis_traverse_stack */
+            if (sp == 0u)
+                return 0;
+            --sp;
+            node = stack[sp].node;
+            if (node & VIS_STACK_SAME_INTERVAL) {
+                node &= ~VIS_STACK_SAME_INTERVAL;
+                t_min = stack[sp].t_max;
+                --in_plane;
+            } else {
+                t_min = t_max;
+                t_max = stack[sp].t_max;
+            }
+            if (!(t_min > vis_t_limit(h->t)))
+                break;
+            if (in_plane == 0u)
+                return 1;
+        }
+    }
+}
+
+/* Ropes (Popov et al. 2007) with n = 0; ropes + short stack (Chang & Ihm 2010) with n >= 1.
+ *
+ * The ray works through "regions": leaves (n = 0), or the highest nodes at most n levels above
+ * the leaves, whose subtree it walks with the stack method. Entering a region at t = b, it
+ * takes the region's exit distance e (the smallest face distance, computed by the same
+ * expression as the stack method's t_split of that plane, so e equals the t_max the stack
+ * method would have), walks it over [b, e], and follows the rope of the exit face to the node
+ * across, descending to the region that holds the ray just after e by comparing e with each
+ * split's distance.
+ *
+ * That is exactly the stack method's sequence as long as every plane crossing is strict. It
+ * is not when the ray enters a region through several faces at once, leaves through an edge
+ * or corner (two exit distances equal), meets a split plane at the very distance it enters
+ * (the stack method then visits a leaf with an empty interval [e, e] as well), or lies in a
+ * face of the region (the stack method walks both sides). Each of these is detected, on
+ * computed distances, and the rest of the ray [b, t_max] goes to vis_traverse_restart_range
+ * from the root (with the same short stack): exact, and rare. */
+VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uint32_t n, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    float t0, t1;
+    if (!vis_clip_scene(r, s->size, &t0, &t1))
+        return;
+    float b = t0;
+    uint32_t came = 3u; /* axis of the face the ray came in through; 3: the scene entry */
+    uint32_t node = s->root;
+    for (;;) {
+        /* Down to the region holding the ray just after b. */
+        int degenerate = 0;
+        uint32_t entry = VIS_NO_ROPE;
+        for (;;) {
+            uint32_t info = nodes[node].info;
+            if ((info & 3u) == VIS_NODE_LEAF) {
+                entry = info >> 2;
+                break;
+            }
+            if (n != 0u) {
+                uint32_t e = rope_index[node];
+                if (e != VIS_NO_ROPE && ropes[e].height <= n) {
+                    entry = e;
+                    break;
+                }
+            }
+            uint32_t a = info & 3u;
+            float split = nodes[node].split;
+            float o = r->o[a], d = r->d[a];
+            uint32_t side;
+            if (d == 0.0f) {
+                if (o == split) {
+                    degenerate = 1; /* lying in the split plane */
+                    break;
+                }
+                side = o < split ? 0u : 1u;
+            } else {
+                float t_split = (split - o) * r->inv[a];
+                if (t_split == b) {
+                    degenerate = 1; /* meets the plane where it enters */
+                    break;
+                }
+                side = (b < t_split) == (d > 0.0f) ? 0u : 1u;
+            }
+            node = (info >> 2) + side;
+        }
+        const VIS_GLOBAL vis_rope_node *rn = &ropes[entry];
+        /* The region's slab distances. */
+        float e = VIS_INF;
+        uint32_t exit_face = 6u;
+        int exit_tie = 0, exit_inside = 0;
+        for (uint32_t a = 0u; a < 3u && !degenerate; ++a) {
+            float lo = rn->lo[a], hi = rn->hi[a];
+            float o = r->o[a], d = r->d[a];
+            if (d == 0.0f) {
+                if (!(o > lo && o < hi))
+                    degenerate = 1; /* lying in a face */
+                continue;
+            }
+            float t_lo = (lo - o) * r->inv[a], t_hi = (hi - o) * r->inv[a];
+            float t_in = d > 0.0f ? t_lo : t_hi, t_out = d > 0.0f ? t_hi : t_lo;
+            float c_in = d > 0.0f ? lo : hi, c_out = d > 0.0f ? hi : lo;
+            /* Entered through this face too (or the distances disagree): only the face it came
+             * through, or the scene's own boundary, may start exactly at b. */
+            if (t_in > b || (t_in == b && a != came && c_in != 0.0f && c_in != s->size[a]))
+                degenerate = 1;
+            if (t_out < e) {
+                e = t_out;
+                exit_face = 2u * a + (d > 0.0f ? 1u : 0u);
+                exit_tie = 0;
+                exit_inside = c_out != 0.0f && c_out != s->size[a];
+            } else if (t_out == e) {
+                exit_tie = 1;
+                exit_inside |= c_out != 0.0f && c_out != s->size[a];
+            }
+        }
+        if (degenerate || !(e >= b)) {
+            vis_traverse_restart_range(r, s->root, b, t1, n, 0, VIS_SCENE_ARGS, h);
+            return;
+        }
+        int last = e > t1 || (e == t1 && !exit_inside);
+        float t_end = e < t1 ? e : t1;
+        if (n == 0u || rn->height == 0u) {
+            vis_leaf_intersect(r, &leaves[n == 0u ? entry : nodes[rn->node].info >> 2], buckets, quads, tris,
+                               objects, b, t_end, h);
+        } else if (vis_traverse_subtree(r, rn->node, b, t_end, VIS_SCENE_ARGS, h)) {
+            return;
+        }
+        if (last || t_end > vis_t_limit(h->t))
+            return;
+        if (exit_tie) {
+            /* Out through an edge or corner. */
+            vis_traverse_restart_range(r, s->root, t_end, t1, n, 0, VIS_SCENE_ARGS, h);
+            return;
+        }
+        node = rn->link[exit_face];
+        if (node == VIS_NO_ROPE)
+            return;
+        b = t_end;
+        came = exit_face >> 1;
     }
 }
 
@@ -550,6 +946,11 @@ VIS_INLINE uint32_t vis_hit_leaf_id(const vis_ray *r, const vis_hit *h, VIS_SCEN
 
 #define VIS_TRAVERSAL_ID_STACK 0u
 #define VIS_TRAVERSAL_ID_BRUTEFORCE 1u
+#define VIS_TRAVERSAL_ID_RESTART 2u
+#define VIS_TRAVERSAL_ID_PUSHDOWN 3u
+#define VIS_TRAVERSAL_ID_SHORTSTACK 4u
+#define VIS_TRAVERSAL_ID_ROPES 5u
+#define VIS_TRAVERSAL_ID_ROPES_SHORTSTACK 6u
 
 /* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write. */
 VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, VIS_SCENE_PARAMS,
@@ -561,10 +962,16 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
     h.t = VIS_INF;
     h.object = VIS_NO_OBJECT;
     h.id = 0u;
-    if (s->traversal == VIS_TRAVERSAL_ID_BRUTEFORCE)
-        vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);
-    else
+    uint32_t method = s->traversal;
+    if (method == VIS_TRAVERSAL_ID_STACK)
         vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
+    else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
+        vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);
+    else if (method == VIS_TRAVERSAL_ID_ROPES || method == VIS_TRAVERSAL_ID_ROPES_SHORTSTACK)
+        vis_traverse_ropes(&r, s, method == VIS_TRAVERSAL_ID_ROPES ? 0u : s->short_stack, VIS_SCENE_ARGS, &h);
+    else
+        vis_traverse_restart(&r, s, method == VIS_TRAVERSAL_ID_SHORTSTACK ? s->short_stack : 0u,
+                             method == VIS_TRAVERSAL_ID_PUSHDOWN, VIS_SCENE_ARGS, &h);
     if (h.object == VIS_NO_OBJECT) {
         *out_id = 0u;
         *out_depth = VIS_INF;

@@ -113,6 +113,7 @@ void vis_trace_desc_defaults(vis_trace_desc *desc)
     desc->height = 512;
     desc->ids = VIS_IDS_OBJECT;
     desc->traversal = VIS_TRAVERSAL_STACK;
+    desc->short_stack = 4;
 }
 
 vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, vis_trace_desc *out)
@@ -126,14 +127,19 @@ vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, 
         }
         d.ids = desc->ids;
         d.traversal = desc->traversal;
+        if (desc->short_stack)
+            d.short_stack = desc->short_stack;
     }
     if (d.width == 0 || d.height == 0 || d.width > VIS_MAX_RESOLUTION || d.height > VIS_MAX_RESOLUTION)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "resolution %ux%u is outside 1..%u per axis", d.width, d.height,
                         VIS_MAX_RESOLUTION);
     if (d.ids != VIS_IDS_OBJECT && d.ids != VIS_IDS_LEAF)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown ID mode %d", (int)d.ids);
-    if ((unsigned)d.traversal > (unsigned)VIS_TRAVERSAL_BRUTEFORCE)
+    if ((unsigned)d.traversal > (unsigned)VIS_TRAVERSAL_ROPES_SHORTSTACK)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown traversal %d", (int)d.traversal);
+    if (d.short_stack > VIS_MAX_SHORT_STACK)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "short_stack %u exceeds %u", d.short_stack,
+                        VIS_MAX_SHORT_STACK);
     *out = d;
     return VIS_OK;
 }

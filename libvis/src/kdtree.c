@@ -102,6 +102,172 @@ static void count_nodes(const vis_scene *s, const uint32_t c0[3], const uint32_t
     count_nodes(s, rc0, c1, depth + 1, nodes, leaves);
 }
 
+/* ---- ropes ----------------------------------------------------------------------------
+ *
+ * Popov et al. 2007 (Stackless kd-tree traversal for high performance GPU ray tracing): each
+ * leaf knows its box and, for each of its six faces, the smallest node on the other side that
+ * covers the whole face; a ray leaving the leaf follows that link and descends to the leaf
+ * holding its exit point, with no stack. Chang & Ihm 2010 (seeds/000, "rope with short
+ * stack") keep ropes only on the nodes N levels above the leaves and walk the N levels below
+ * them with a short stack, which cuts the rope memory (their Table 4).
+ *
+ * The tree never changes after creation, so neither do the ropes: they are built once here.
+ * N is chosen per pass (vis_trace_desc.short_stack), so every node up to
+ * VIS_ROPE_MAX_HEIGHT levels above the leaves gets an entry: a pass with N uses the highest
+ * nodes of height <= N on each path (exactly the nodes N levels up when all leaves are at one
+ * depth) and never reads the others. Entry i < leaf_count is leaf i, so plain ropes index
+ * `ropes` by leaf without rope_index.
+ *
+ * A link never points deeper than the node it starts from. That keeps the node reached from
+ * a link at or above the level a pass works on (the smallest covering node may otherwise be a
+ * child of that level's node split across the face's normal), and changes nothing for leaves
+ * of one depth, whose neighbours cover their faces exactly.
+ */
+
+typedef struct rope_target {
+    uint32_t node;
+    uint32_t depth;
+    uint32_t c0[3], c1[3]; /* its cells */
+} rope_target;
+
+typedef struct rope_state {
+    vis_scene *s;
+    uint8_t *height;
+    uint32_t next_inner; /* next free entry for inner nodes */
+} rope_state;
+
+/* The split cell of an inner node, by the build's rule (build_node). */
+static uint32_t node_mid(uint32_t axis, const uint32_t c0[3], const uint32_t c1[3])
+{
+    return c0[axis] + (c1[axis] - c0[axis]) / 2;
+}
+
+static uint32_t compute_heights(const vis_scene *s, uint32_t node, uint8_t *height)
+{
+    uint32_t info = s->nodes[node].info;
+    uint32_t h = 0;
+    if ((info & 3u) != VIS_NODE_LEAF) {
+        uint32_t first = info >> 2;
+        uint32_t hl = compute_heights(s, first, height), hr = compute_heights(s, first + 1, height);
+        h = 1 + (hl > hr ? hl : hr);
+    }
+    height[node] = (uint8_t)(h > 255 ? 255 : h);
+    return h;
+}
+
+/* Descends from t (which covers the face) while one child still covers the cell layer just
+ * across the face, no deeper than max_depth. */
+static void rope_descend(const vis_scene *s, rope_target *t, const uint32_t lo[3], const uint32_t hi[3],
+                         uint32_t max_depth)
+{
+    while (t->depth < max_depth) {
+        uint32_t info = s->nodes[t->node].info;
+        if ((info & 3u) == VIS_NODE_LEAF)
+            return;
+        uint32_t a = info & 3u, mid = node_mid(a, t->c0, t->c1), first = info >> 2;
+        if (hi[a] <= mid) {
+            t->node = first;
+            t->c1[a] = mid;
+        } else if (lo[a] >= mid) {
+            t->node = first + 1;
+            t->c0[a] = mid;
+        } else {
+            return;
+        }
+        ++t->depth;
+    }
+}
+
+static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const uint32_t c1[3], uint32_t depth,
+                      rope_target link[6])
+{
+    vis_scene *s = rs->s;
+    /* Narrow each inherited link to this node's faces. */
+    for (uint32_t f = 0; f < 6; ++f) {
+        if (link[f].node == VIS_NO_ROPE)
+            continue;
+        uint32_t a = f >> 1, lo[3], hi[3];
+        memcpy(lo, c0, sizeof lo);
+        memcpy(hi, c1, sizeof hi);
+        if (f & 1u) {
+            lo[a] = c1[a];
+            hi[a] = c1[a] + 1;
+        } else {
+            lo[a] = c0[a] - 1;
+            hi[a] = c0[a];
+        }
+        rope_descend(s, &link[f], lo, hi, depth);
+    }
+    uint32_t info = s->nodes[node].info;
+    uint32_t e = VIS_NO_ROPE;
+    if (rs->height[node] <= VIS_ROPE_MAX_HEIGHT)
+        e = (info & 3u) == VIS_NODE_LEAF ? info >> 2 : rs->next_inner++;
+    s->rope_index[node] = e;
+    if (e != VIS_NO_ROPE) {
+        vis_rope_node *rn = &s->ropes[e];
+        memset(rn, 0, sizeof *rn);
+        for (int a = 0; a < 3; ++a) {
+            /* The very expressions of build_node, so box faces equal split planes bit for bit. */
+            rn->lo[a] = (float)c0[a] * s->desc.cell_size;
+            float hi = (float)c1[a] * s->desc.cell_size;
+            rn->hi[a] = hi < s->desc.size[a] ? hi : s->desc.size[a];
+        }
+        for (uint32_t f = 0; f < 6; ++f)
+            rn->link[f] = link[f].node;
+        rn->node = node;
+        rn->height = rs->height[node];
+    }
+    if ((info & 3u) == VIS_NODE_LEAF)
+        return;
+    uint32_t a = info & 3u, first = info >> 2, mid = node_mid(a, c0, c1);
+    uint32_t lc1[3] = {c1[0], c1[1], c1[2]}, rc0[3] = {c0[0], c0[1], c0[2]};
+    lc1[a] = mid;
+    rc0[a] = mid;
+    rope_target child[6];
+    /* Left child: its high face on the split axis looks at the right child. */
+    memcpy(child, link, sizeof child);
+    child[2 * a + 1].node = first + 1;
+    child[2 * a + 1].depth = depth + 1;
+    memcpy(child[2 * a + 1].c0, rc0, sizeof rc0);
+    memcpy(child[2 * a + 1].c1, c1, sizeof rc0);
+    rope_fill(rs, first, c0, lc1, depth + 1, child);
+    memcpy(child, link, sizeof child);
+    child[2 * a].node = first;
+    child[2 * a].depth = depth + 1;
+    memcpy(child[2 * a].c0, c0, sizeof rc0);
+    memcpy(child[2 * a].c1, lc1, sizeof rc0);
+    rope_fill(rs, first + 1, rc0, c1, depth + 1, child);
+}
+
+static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
+{
+    rope_state rs = {s, NULL, 0};
+    rs.height = vis_calloc(s->ctx, s->node_count, 1);
+    s->rope_index = vis_calloc(s->ctx, s->node_count, sizeof *s->rope_index);
+    if (!rs.height || !s->rope_index) {
+        vis_free(s->ctx, rs.height);
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the ropes of %u nodes", s->node_count);
+    }
+    compute_heights(s, 0, rs.height);
+    uint32_t count = 0;
+    for (uint32_t i = 0; i < s->node_count; ++i)
+        count += rs.height[i] <= VIS_ROPE_MAX_HEIGHT;
+    s->ropes = vis_calloc(s->ctx, count, sizeof *s->ropes);
+    if (!s->ropes) {
+        vis_free(s->ctx, rs.height);
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for %u rope nodes", count);
+    }
+    s->rope_count = count;
+    rs.next_inner = s->leaf_count;
+    rope_target none[6];
+    for (int f = 0; f < 6; ++f)
+        none[f].node = VIS_NO_ROPE; /* the root's faces are the scene's */
+    uint32_t zero[3] = {0, 0, 0};
+    rope_fill(&rs, 0, zero, cells, 0, none);
+    vis_free(s->ctx, rs.height);
+    return VIS_OK;
+}
+
 vis_status vis_kdtree_build(vis_scene *s)
 {
     uint32_t cells[3];
@@ -128,7 +294,7 @@ vis_status vis_kdtree_build(vis_scene *s)
     build_node(&b, 0, zero, cells, 0);
     s->node_count = b.next_node;
     s->leaf_count = b.next_leaf;
-    return VIS_OK;
+    return build_ropes(s, cells);
 }
 
 /* Leaves whose closed box overlaps the object's box. A box touching a split plane only from

@@ -6,11 +6,13 @@
 
 #define VIS_KD_MAX_BUCKET_EXTENT 4096u
 #define VIS_KD_NO_BUCKETS 0xFFFFFFFFu
+#define VIS_ROPE_MAX_HEIGHT VIS_SHORT_STACK_MAX /* nodes up to this height get ropes */
 
 /* Depth at which every leaf is a single cell. */
 uint32_t vis_kdtree_full_depth(const uint32_t cells[3]);
 
-/* Builds nodes and (empty) leaves over s->desc; sets s->kd_depth, node and leaf counts. */
+/* Builds nodes and (empty) leaves over s->desc, and the ropes (never changed afterwards);
+ * sets s->kd_depth, node, leaf and rope counts. */
 vis_status vis_kdtree_build(vis_scene *s);
 
 /* Leaf indices overlapped by the box (see kdtree.c for the boundary rule). Writes at most

@@ -672,6 +672,39 @@ vis_status vis_scene_remove_object(vis_scene *s, uint32_t id)
 
 /* ---- queries ------------------------------------------------------------------------- */
 
+/* Bytes of the rope nodes a pass with short stack N walks (N = 0: plain ropes): on each
+ * root-to-leaf path the highest node of height <= N, i.e. the nodes of height <= N whose
+ * parent is higher than N. */
+static void rope_usage(const vis_scene *s, uint64_t used[VIS_MAX_SHORT_STACK + 1])
+{
+    memset(used, 0, (VIS_MAX_SHORT_STACK + 1) * sizeof *used);
+    if (!s->rope_index || s->node_count == 0)
+        return;
+    struct {
+        uint32_t node, parent_height;
+    } stack[2 * 64];
+    uint32_t sp = 0;
+    stack[sp].node = 0;
+    stack[sp].parent_height = VIS_MAX_SHORT_STACK + 1; /* the root has no parent */
+    ++sp;
+    while (sp > 0) {
+        --sp;
+        uint32_t node = stack[sp].node, parent_h = stack[sp].parent_height;
+        uint32_t e = s->rope_index[node];
+        uint32_t h = e == VIS_NO_ROPE ? VIS_MAX_SHORT_STACK + 1 : s->ropes[e].height;
+        for (uint32_t n = h; n < parent_h && n <= VIS_MAX_SHORT_STACK; ++n)
+            used[n] += sizeof(vis_rope_node);
+        uint32_t info = s->nodes[node].info;
+        if ((info & 3u) == VIS_NODE_LEAF || sp + 2 > sizeof stack / sizeof stack[0])
+            continue;
+        for (uint32_t c = 0; c < 2; ++c) {
+            stack[sp].node = (info >> 2) + c;
+            stack[sp].parent_height = h;
+            ++sp;
+        }
+    }
+}
+
 vis_status vis_scene_get_info(const vis_scene *s, vis_scene_info *out)
 {
     if (!s || !out)
@@ -701,6 +734,11 @@ vis_status vis_scene_get_info(const vis_scene *s, vis_scene_info *out)
     for (uint32_t i = 0; i < s->object_slots; ++i)
         b += (uint64_t)s->object_host[i].quad_cap * sizeof(vis_flat_quad) +
              (uint64_t)s->object_host[i].tri_cap * sizeof(vis_flat_tri);
+    /* Ropes (kdtree.c): entries of the nodes up to VIS_MAX_SHORT_STACK levels high, an index
+     * per node. */
+    out->rope_bytes = (uint64_t)s->rope_count * sizeof *s->ropes + (uint64_t)s->node_count * sizeof *s->rope_index;
+    rope_usage(s, out->rope_bytes_used);
+    b += out->rope_bytes;
     out->bytes = b;
     return VIS_OK;
 }

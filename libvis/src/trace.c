@@ -27,6 +27,7 @@ static vis_status make_setup(vis_context *ctx, const vis_scene *scene, const vis
     memcpy(setup->size, scene->desc.size, sizeof setup->size);
     setup->id_mode = d->ids == VIS_IDS_LEAF ? 1u : 0u;
     setup->traversal = (uint32_t)d->traversal;
+    setup->short_stack = d->short_stack;
     setup->root = 0;
     setup->leaf_count = scene->leaf_count;
     return VIS_OK;

@@ -229,22 +229,34 @@ static float zc_tile_sse2(const zc_tile_job *jb)
 #if defined(ZC_HAVE_AVX2)
 __attribute__((target("avx2"))) static float zc_tile_avx2(const zc_tile_job *jb)
 {
-    __m256 lane = _mm256_loadu_ps(jb->lane);
-    __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    __m256i ea[ZC_MAXE];
-    for (int k = 0; k < jb->nc; k++)
-        ea[k] = _mm256_mullo_epi32(_mm256_set1_epi32(jb->a[k]), iota);
+    const __m256 lane = _mm256_loadu_ps(jb->lane);
+    const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const int nc = jb->nc;
+    /* edge values of the current row, stepped by b per row: exact integer adds */
+    __m256i ev[ZC_MAXE], eb[ZC_MAXE];
+    for (int k = 0; k < nc; k++) {
+        ev[k] = _mm256_add_epi32(_mm256_set1_epi32(jb->e[k]), _mm256_mullo_epi32(_mm256_set1_epi32(jb->a[k]), iota));
+        eb[k] = _mm256_set1_epi32(jb->b[k]);
+    }
+    if (jb->count) {
+        const __m256i one = _mm256_set1_epi32(1);
+        for (int j = 0; j < 8; j++) {
+            __m256i m = _mm256_setzero_si256();
+            for (int k = 0; k < nc; k++) {
+                m = _mm256_or_si256(m, ev[k]);
+                ev[k] = _mm256_add_epi32(ev[k], eb[k]);
+            }
+            __m256i *c = (__m256i *)(jb->count + j * 8);
+            _mm256_storeu_si256(c, _mm256_add_epi32(_mm256_loadu_si256(c), _mm256_add_epi32(one, _mm256_srai_epi32(m, 31))));
+        }
+        return 0.0f;
+    }
     __m256 mn = _mm256_set1_ps(FLT_MAX);
-    __m256i one = _mm256_set1_epi32(1);
     for (int j = 0; j < 8; j++) {
         __m256i m = _mm256_setzero_si256();
-        for (int k = 0; k < jb->nc; k++)
-            m = _mm256_or_si256(m, _mm256_add_epi32(_mm256_set1_epi32(jb->e[k] + jb->b[k] * j), ea[k]));
-        if (jb->count) {
-            __m256i *c = (__m256i *)(jb->count + j * 8);
-            __m256i inc = _mm256_add_epi32(one, _mm256_srai_epi32(m, 31));
-            _mm256_storeu_si256(c, _mm256_add_epi32(_mm256_loadu_si256(c), inc));
-            continue;
+        for (int k = 0; k < nc; k++) {
+            m = _mm256_or_si256(m, ev[k]);
+            ev[k] = _mm256_add_epi32(ev[k], eb[k]);
         }
         float *dp = jb->depth + j * 8;
         __m256 o = _mm256_loadu_ps(dp);
@@ -277,10 +289,10 @@ static zc_tile_fn zc_tile_kernel(vis_zc_simd simd)
 /* ---- setup and traversal ------------------------------------------------------------- */
 
 /* Plain comparisons: fmin/fmax/ldexp/ceil are library calls without fast-math, and NaN
- * never reaches these (inputs are finite by construction). */
+ * never reaches these (inputs are finite by construction). fabs is a builtin (a mask). */
 static inline double zc_maxd(double a, double b) { return a > b ? a : b; }
 static inline double zc_mind(double a, double b) { return a < b ? a : b; }
-static inline double zc_absd(double a) { return a < 0 ? -a : a; }
+static inline double zc_absd(double a) { return fabs(a); }
 
 /* Round to nearest (ties to even) for |x| <= 2^51, as nearbyint does in the default
  * rounding mode, without the library call: the sum is rounded in double (SSE2, no excess
@@ -313,23 +325,7 @@ static int zc_setup_edges(const vis_zc_target *t, int n, const int64_t *xin, con
 {
     const int f = t->sub_bits;
     const int64_t half = (int64_t)1 << (f - 1);
-    int64_t area2 = 0;
-    for (int i = 0; i < n; i++) {
-        int j = i + 1 == n ? 0 : i + 1;
-        area2 += xin[i] * yin[j] - xin[j] * yin[i];
-    }
-    if (area2 == 0)
-        return 0;
-    /* Wind the polygon so that its inside is where every edge function is positive. */
-    int64_t x[ZC_MAXE], y[ZC_MAXE], mg[ZC_MAXE];
-    for (int i = 0; i < n; i++) {
-        int src = area2 > 0 ? i : n - 1 - i;
-        x[i] = xin[src];
-        y[i] = yin[src];
-        /* reversed, edge i runs from old vertex n-1-i to n-2-i: old edge n-2-i */
-        int se = area2 > 0 ? i : (2 * n - 2 - i) % n;
-        mg[i] = margin_in ? margin_in[se] : 0;
-    }
+    const int64_t *x = xin, *y = yin;
     int64_t minx = x[0], maxx = x[0], miny = y[0], maxy = y[0];
     for (int i = 1; i < n; i++) {
         minx = x[i] < minx ? x[i] : minx;
@@ -346,30 +342,40 @@ static int zc_setup_edges(const vis_zc_target *t, int n, const int64_t *xin, con
     if (Y1 > (int64_t)t->height - 1) Y1 = (int64_t)t->height - 1;
     if (X0 > X1 || Y0 > Y1)
         return 0;
+    int64_t area2 = 0;
+    for (int i = 0; i < n; i++) {
+        int j = i + 1 == n ? 0 : i + 1;
+        area2 += x[i] * y[j] - x[j] * y[i];
+    }
+    if (area2 == 0)
+        return 0;
+    /* Wound the other way, every edge function is negated (same lines, inside flipped). */
+    const int64_t sgn = area2 > 0 ? 1 : -1;
     s->n = n;
     s->x0 = (int32_t)X0;
     s->y0 = (int32_t)Y0;
     s->x1 = (int32_t)X1;
     s->y1 = (int32_t)Y1;
-    /* Traversal touches whole tiles: the shrink bound must hold for every centre in them. */
-    double cx0 = (double)((X0 & ~(int64_t)7) << f) + (double)half;
-    double cx1 = (double)((X1 | 7) << f) + (double)half;
-    double cy0 = (double)((Y0 & ~(int64_t)7) << f) + (double)half;
-    double cy1 = (double)((Y1 | 7) << f) + (double)half;
+    /* The shrink, in edge-function units: for p a pixel centre, v_i a snapped vertex and
+     * e the vertex errors (|e| <= eps per coordinate, d = e_j - e_i),
+     *   E_exact(p) - E_snapped(p) = cross(d, p - v_i) - cross(D + d, e_i),
+     * bounded by 2 eps (|p-v_i|_x + |p-v_i|_y) + eps (|Dx| + |Dy|) + 4 eps^2. Traversal
+     * touches whole tiles, so p ranges over the tiles around the bounds: one bound, from the
+     * tile-aligned extent, holds for every edge. */
+    int64_t m = 0;
+    if (eps >= 0) {
+        double ext = (double)(((((X1 | 7) - (X0 & ~(int64_t)7)) + ((Y1 | 7) - (Y0 & ~(int64_t)7)) + 2) << f));
+        double bb = (double)((maxx - minx) + (maxy - miny));
+        m = (int64_t)(eps * (2.0 * ext + bb) + 4.0 * eps * eps) + 2; /* >= ceil(bound) + 1 */
+    }
     for (int i = 0; i < n; i++) {
         int j = i + 1 == n ? 0 : i + 1;
-        int64_t dx = x[j] - x[i], dy = y[j] - y[i];
-        int64_t m = mg[i];
-        if (eps >= 0) {
-            /* E_exact(p) - E_snapped(p) = cross(d, q) - cross(D + d, e0) with q = p - v_i,
-             * e the vertex errors (|e| <= eps per coordinate), d = e_j - e_i. */
-            double qx = zc_maxd(zc_absd(cx0 - (double)x[i]), zc_absd(cx1 - (double)x[i]));
-            double qy = zc_maxd(zc_absd(cy0 - (double)y[i]), zc_absd(cy1 - (double)y[i]));
-            double bound = 2.0 * eps * (qx + qy) + eps * (zc_absd((double)dx) + zc_absd((double)dy)) + 4.0 * eps * eps;
-            m = (int64_t)bound + 2; /* >= ceil(bound) + 1 */
-        }
-        /* Top-left rule (y down, inside on the left of each edge): a top edge runs right
-         * (dy == 0, dx > 0), a left edge runs up (dy < 0). Others exclude E == 0. */
+        int64_t dx = sgn * (x[j] - x[i]), dy = sgn * (y[j] - y[i]);
+        if (margin_in)
+            m = margin_in[i];
+        /* Top-left rule (y down, edges wound with the inside on their left): a top edge
+         * runs right (dy == 0, dx > 0), a left edge runs up (dy < 0). Others exclude E == 0.
+         * Reversed, an edge runs from v_j to v_i, but v_i still lies on its line. */
         int tl = dy < 0 || (dy == 0 && dx > 0);
         /* E(p) = dx*(py - y_i) - dy*(px - x_i) at p = (X*2^f + half, Y*2^f + half)
          *      = 2^f*(dx*Y - dy*X) + K.  E - m - !tl >= 0  <=>  dx*Y - dy*X + floor((K - m - !tl)/2^f) >= 0
@@ -382,6 +388,15 @@ static int zc_setup_edges(const vis_zc_target *t, int n, const int64_t *xin, con
     return 1;
 }
 
+/* Depth at a tile's first pixel, lowered by a bound on the float evaluation error of every
+ * pixel of the tile: each rounding (dT, za, zb, row, lane and the two sums) is within 2^-24
+ * of |dT| + 7(|za| + |zb|); 2^-21 covers them all. */
+static inline float zc_tile_dt(const zc_setup *s, double zgrad8, int tx, int ty)
+{
+    double pt = s->z0 + s->zx * (double)(tx * 8) + s->zy * (double)(ty * 8);
+    return (float)(pt - (zc_absd(pt) + zgrad8) * 0x1p-21);
+}
+
 static void zc_traverse(vis_zc_target *t, const zc_setup *s)
 {
     const int n = s->n;
@@ -391,12 +406,24 @@ static void zc_traverse(vis_zc_target *t, const zc_setup *s)
     float lane[8], row[8];
     float za = (float)s->zx, zb = (float)s->zy;
     float lane_max = 0.0f, row_max = 0.0f;
+#if defined(ZC_X86)
+    {
+        const __m128 i0 = _mm_setr_ps(0, 1, 2, 3), i1 = _mm_setr_ps(4, 5, 6, 7);
+        const __m128 va = _mm_set1_ps(za), vb = _mm_set1_ps(zb);
+        _mm_storeu_ps(lane, _mm_mul_ps(va, i0));
+        _mm_storeu_ps(lane + 4, _mm_mul_ps(va, i1));
+        _mm_storeu_ps(row, _mm_mul_ps(vb, i0));
+        _mm_storeu_ps(row + 4, _mm_mul_ps(vb, i1));
+    }
+#else
     for (int i = 0; i < 8; i++) {
         lane[i] = za * (float)i;
         row[i] = zb * (float)i;
-        lane_max = lane[i] > lane_max ? lane[i] : lane_max;
-        row_max = row[i] > row_max ? row[i] : row_max;
     }
+#endif
+    /* the products are monotonic in i: the largest is at one end */
+    lane_max = lane[7] > 0.0f ? lane[7] : 0.0f;
+    row_max = row[7] > 0.0f ? row[7] : 0.0f;
     const double zgrad8 = 8.0 * (zc_absd(s->zx) + zc_absd(s->zy));
     job.lane = lane;
     job.row = row;
@@ -410,17 +437,47 @@ static void zc_traverse(vis_zc_target *t, const zc_setup *s)
         hi[k] = (a > 0 ? a * 7 : 0) + (b > 0 ? b * 7 : 0);
         erow[k] = a * (int64_t)(tx0 * 8) + b * (int64_t)(ty0 * 8) + s->c[k];
     }
-    t->polygons++;
-    for (int ty = ty0; ty <= ty1; ty++) {
-        for (int k = 0; k < n; k++)
-            e[k] = erow[k];
-        for (int tx = tx0; tx <= tx1; tx++) {
-            int reject = 0, nc = 0;
-            for (int k = 0; k < n; k++) {
-                if (e[k] + hi[k] < 0) {
-                    reject = 1;
+    if (depth_mode && (tx1 - tx0 + 1) * (ty1 - ty0 + 1) > 2) {
+        /* The whole polygon first: its largest stored depth is that of a corner tile (the
+         * tile depth is monotonic in the affine plane; a rounding exception could only skip
+         * a write, which is conservative). Hidden everywhere: done. */
+        float dm = zc_tile_dt(s, zgrad8, tx0, ty0);
+        float d1 = zc_tile_dt(s, zgrad8, tx1, ty0), d2 = zc_tile_dt(s, zgrad8, tx0, ty1);
+        float d3 = zc_tile_dt(s, zgrad8, tx1, ty1);
+        dm = d1 > dm ? d1 : dm;
+        dm = d2 > dm ? d2 : dm;
+        dm = d3 > dm ? d3 : dm;
+        dm = (dm + row_max) + lane_max;
+        int hidden = 1;
+        for (int ty = ty0; ty <= ty1 && hidden; ty++) {
+            const float *tm = t->tile_min + (size_t)ty * t->tiles_x;
+            for (int tx = tx0; tx <= tx1; tx++)
+                if (dm > tm[tx]) {
+                    hidden = 0;
                     break;
                 }
+        }
+        if (hidden)
+            return;
+    }
+    t->polygons++;
+    for (int ty = ty0; ty <= ty1; ty++) {
+        size_t ti = (size_t)ty * t->tiles_x + (size_t)tx0;
+        for (int k = 0; k < n; k++)
+            e[k] = erow[k];
+        for (int tx = tx0; tx <= tx1; tx++, ti++) {
+            float dt = 0.0f;
+            if (depth_mode) {
+                dt = zc_tile_dt(s, zgrad8, tx, ty);
+                /* Rounded addition is monotonic, so this bounds every value the kernel
+                 * computes: skip tiles already nearer everywhere (hierarchical test). */
+                if (!((dt + row_max) + lane_max > t->tile_min[ti]))
+                    goto next;
+            }
+            int nc = 0;
+            for (int k = 0; k < n; k++) {
+                if (e[k] + hi[k] < 0)
+                    goto next;
                 if (e[k] + lo[k] < 0) {
                     job.e[nc] = (int32_t)e[k];
                     job.a[nc] = (int32_t)s->a[k];
@@ -428,33 +485,18 @@ static void zc_traverse(vis_zc_target *t, const zc_setup *s)
                     nc++;
                 }
             }
-            if (!reject) {
-                size_t ti = (size_t)ty * t->tiles_x + (size_t)tx;
-                job.nc = nc;
-                if (depth_mode) {
-                    /* Lowered by a bound on the float evaluation error of every pixel of
-                     * the tile: each of the five roundings (dT, za, zb, row, lane and the two
-                     * sums) is within 2^-24 of |dT| + 7(|za| + |zb|); 2^-21 covers them. */
-                    double pt = s->z0 + s->zx * (double)(tx * 8) + s->zy * (double)(ty * 8);
-                    float dt = (float)(pt - (zc_absd(pt) + zgrad8) * 0x1p-21);
-                    /* Rounded addition is monotonic, so this bounds every value the kernel
-                     * computes: skip tiles already nearer everywhere (hierarchical test). */
-                    float dmax = (dt + row_max) + lane_max;
-                    if (dmax > t->tile_min[ti]) {
-                        job.dt = dt;
-                        job.depth = t->depth + ti * VIS_ZC_TILE_PIXELS;
-                        t->tile_min[ti] = kernel(&job);
-                        t->tiles++;
-                    }
-                } else {
-                    job.dt = 0.0f;
-                    job.depth = t->depth + ti * VIS_ZC_TILE_PIXELS;
-                    job.count = t->count + ti * VIS_ZC_TILE_PIXELS;
-                    kernel(&job);
-                    job.count = NULL;
-                    t->tiles++;
-                }
+            job.nc = nc;
+            job.dt = dt;
+            job.depth = t->depth + ti * VIS_ZC_TILE_PIXELS;
+            if (depth_mode) {
+                t->tile_min[ti] = kernel(&job);
+            } else {
+                job.count = t->count + ti * VIS_ZC_TILE_PIXELS;
+                kernel(&job);
+                job.count = NULL;
             }
+            t->tiles++;
+        next:
             for (int k = 0; k < n; k++)
                 e[k] += s->a[k] * 8;
         }
@@ -560,68 +602,66 @@ static int zc_clip(const vis_zc_view *v, int planes, zc_hv *poly, int n)
     return n;
 }
 
-int vis_zc_draw_polygon(vis_zc_target *t, const vis_zc_view *v, const double (*p)[3], int n)
+/* Outcode bits of a homogeneous vertex: 0 near, 1..4 guard band (the clip planes), 5..8 the
+ * outermost pixel centres (left, right, top, bottom: reject-only planes). */
+static inline int zc_outcode(const vis_zc_view *v, double x, double y, double w)
 {
-    if (n < 3 || n > 4)
-        return 0;
-    zc_hv h[VIS_ZC_MAX_VERTS];
-    double pmax = 0.0;
-    int below = 0x7ff, above = 0;
-    const double W = v->width, H = v->height;
-    for (int i = 0; i < n; i++) {
-        h[i].x = v->rx[0] * p[i][0] + v->rx[1] * p[i][1] + v->rx[2] * p[i][2];
-        h[i].y = v->ry[0] * p[i][0] + v->ry[1] * p[i][1] + v->ry[2] * p[i][2];
-        h[i].w = v->rw[0] * p[i][0] + v->rw[1] * p[i][1] + v->rw[2] * p[i][2];
-        for (int a = 0; a < 3; a++)
-            pmax = zc_maxd(pmax, zc_absd(p[i][a]));
-        /* outside the pixel centres: left, right, top, bottom; then the clip planes */
-        int out = 0;
-        out |= (h[i].x < 0.5 * h[i].w) << 5;
-        out |= (h[i].x > (W - 0.5) * h[i].w) << 6;
-        out |= (h[i].y < 0.5 * h[i].w) << 7;
-        out |= (h[i].y > (H - 0.5) * h[i].w) << 8;
-        for (int q = 0; q < 5; q++)
-            out |= (zc_plane_dist(v, q, h[i]) < 0) << q;
-        below &= out;
-        above |= out;
-    }
-    /* All vertices beyond one plane: nothing to draw (behind the near plane, or no pixel
-     * centre can be inside). Dropping an occluder is always conservative. */
-    if (below & 0x1e1)
-        return 0;
-    if (above & 0x1f)
-        n = zc_clip(v, above & 0x1f, h, n);
-    if (n < 3)
-        return 0;
+    double g = v->guard * w;
+    return (w < v->near_dist) | ((x < -g) << 1) | ((x > g) << 2) | ((y < -g) << 3) | ((y > g) << 4) |
+           ((x < 0.5 * w) << 5) | ((x > (v->width - 0.5) * w) << 6) | ((y < 0.5 * w) << 7) |
+           ((y > (v->height - 0.5) * w) << 8);
+}
 
+/* A polygon projected and snapped: exact (double) screen positions and depths, and the
+ * fixed-point vertices with the largest snapping residual (sub-pixels). */
+typedef struct zc_proj {
+    double sx[VIS_ZC_MAX_VERTS], sy[VIS_ZC_MAX_VERTS], iw[VIS_ZC_MAX_VERTS];
+    int64_t X[VIS_ZC_MAX_VERTS], Y[VIS_ZC_MAX_VERTS];
+    double res, iwmin, iwmax;
+} zc_proj;
+
+/* The one projection/snapping sequence; the AVX2 quad front end performs the same
+ * operations in the same order, lane by lane, so both give the same bits. */
+static void zc_project(const vis_zc_target *t, const zc_hv *h, int n, zc_proj *pr)
+{
     const int f = t->sub_bits;
     const double scale = (double)((int64_t)1 << f);
     const double lim = (double)((int64_t)1 << (t->guard_bits + f));
-    double sx[VIS_ZC_MAX_VERTS], sy[VIS_ZC_MAX_VERTS], iw[VIS_ZC_MAX_VERTS];
-    int64_t X[VIS_ZC_MAX_VERTS], Y[VIS_ZC_MAX_VERTS];
-    double res = 0.0, wmin = INFINITY, iwmin = INFINITY, iwmax = 0.0;
+    double res = 0.0, iwmin = INFINITY, iwmax = 0.0;
     for (int i = 0; i < n; i++) {
-        double w = h[i].w;
-        iw[i] = 1.0 / w;
-        sx[i] = h[i].x * iw[i];
-        sy[i] = h[i].y * iw[i];
-        wmin = zc_mind(wmin, w);
-        iwmin = zc_mind(iwmin, iw[i]);
-        iwmax = zc_maxd(iwmax, iw[i]);
-        double fx = zc_mind(zc_maxd(zc_round(sx[i] * scale), -lim), lim);
-        double fy = zc_mind(zc_maxd(zc_round(sy[i] * scale), -lim), lim);
-        res = zc_maxd(res, zc_maxd(zc_absd(sx[i] * scale - fx), zc_absd(sy[i] * scale - fy)));
-        X[i] = (int64_t)fx;
-        Y[i] = (int64_t)fy;
+        double iw = 1.0 / h[i].w;
+        double sx = h[i].x * iw, sy = h[i].y * iw;
+        double fx = zc_mind(zc_maxd(zc_round(sx * scale), -lim), lim);
+        double fy = zc_mind(zc_maxd(zc_round(sy * scale), -lim), lim);
+        res = zc_maxd(res, zc_maxd(zc_absd(sx * scale - fx), zc_absd(sy * scale - fy)));
+        iwmin = zc_mind(iwmin, iw);
+        iwmax = zc_maxd(iwmax, iw);
+        pr->iw[i] = iw;
+        pr->sx[i] = sx;
+        pr->sy[i] = sy;
+        pr->X[i] = (int64_t)fx;
+        pr->Y[i] = (int64_t)fy;
     }
-    if (!(wmin > 0.0))
+    pr->res = res;
+    pr->iwmin = iwmin;
+    pr->iwmax = iwmax;
+}
+
+/* Sets up and draws a projected polygon whose vertices all had w >= near and lay in the
+ * guard band. pmax bounds |P| of the camera-relative points it came from. */
+static int zc_draw_projected(vis_zc_target *t, const vis_zc_view *v, const zc_proj *pr, int n, double pmax)
+{
+    const double *sx = pr->sx, *sy = pr->sy, *iw = pr->iw;
+    const double iwmin = pr->iwmin, iwmax = pr->iwmax;
+    if (!(iwmax > 0.0) || !(iwmax < INFINITY))
         return 0;
     /* Bound (in sub-pixels) on how far each snapped coordinate is from the exact projection:
      * the snapping residual plus the double rounding of transform, clip and divide, which is
      * a few ulps of |P| * err_scale / w (2^-44 leaves a wide margin). */
-    double eps = res + (pmax * v->err_scale / wmin) * 0x1p-44 * scale + 0x1p-30;
+    const double scale = (double)((int64_t)1 << t->sub_bits);
+    double eps = pr->res + (pmax * v->err_scale * iwmax) * 0x1p-44 * scale + 0x1p-30;
     zc_setup s;
-    if (!zc_setup_edges(t, n, X, Y, NULL, eps, &s))
+    if (!zc_setup_edges(t, n, pr->X, pr->Y, NULL, eps, &s))
         return 0;
 
     /* The 1/w plane through the exact vertices (affine in screen space for a planar
@@ -653,7 +693,7 @@ int vis_zc_draw_polygon(vis_zc_target *t, const vis_zc_view *v, const double (*p
         ym = zc_maxd(ym, zc_absd(sy[i]));
     }
     double bias = 2.0 * fit + (zc_absd(za) * (xm + 16.0) + zc_absd(zb) * (ym + 16.0) + zc_absd(zc) + iwmax) * 0x1p-46;
-    if (!(bias < 0.5 * (iwmax - iwmin)) || !isfinite(za) || !isfinite(zb) || !isfinite(zc)) {
+    if (!(bias < 0.5 * (iwmax - iwmin)) || !(zc_absd(za) + zc_absd(zb) + zc_absd(zc) < INFINITY)) {
         /* Ill-conditioned (edge-on, tiny) or flat: the farthest vertex depth. */
         za = 0.0;
         zb = 0.0;
@@ -668,21 +708,204 @@ int vis_zc_draw_polygon(vis_zc_target *t, const vis_zc_view *v, const double (*p
     return 1;
 }
 
+/* Clips (near plane, and the guard band only where a vertex leaves it) and draws. */
+static int zc_draw_homogeneous(vis_zc_target *t, const vis_zc_view *v, zc_hv *h, int n, int below, int above,
+                               double pmax)
+{
+    /* All vertices beyond one plane: nothing to draw (behind the near plane, or no pixel
+     * centre can be inside). Dropping an occluder is always conservative. */
+    if (below & 0x1e1)
+        return 0;
+    if (above & 0x1f) {
+        n = zc_clip(v, above & 0x1f, h, n);
+        if (n < 3)
+            return 0;
+    }
+    zc_proj pr;
+    zc_project(t, h, n, &pr);
+    return zc_draw_projected(t, v, &pr, n, pmax);
+}
+
+int vis_zc_draw_polygon(vis_zc_target *t, const vis_zc_view *v, const double (*p)[3], int n)
+{
+    if (n < 3 || n > 4)
+        return 0;
+    zc_hv h[VIS_ZC_MAX_VERTS];
+    double pmax = 0.0;
+    int below = 0x1ff, above = 0;
+    for (int i = 0; i < n; i++) {
+        h[i].x = v->rx[0] * p[i][0] + v->rx[1] * p[i][1] + v->rx[2] * p[i][2];
+        h[i].y = v->ry[0] * p[i][0] + v->ry[1] * p[i][1] + v->ry[2] * p[i][2];
+        h[i].w = v->rw[0] * p[i][0] + v->rw[1] * p[i][1] + v->rw[2] * p[i][2];
+        for (int a = 0; a < 3; a++)
+            pmax = zc_maxd(pmax, zc_absd(p[i][a]));
+        int out = zc_outcode(v, h[i].x, h[i].y, h[i].w);
+        below &= out;
+        above |= out;
+    }
+    return zc_draw_homogeneous(t, v, h, n, below, above, pmax);
+}
+
+#if defined(ZC_HAVE_AVX2)
+/* The quad front end on four lanes, one corner each: the same operations in the same order
+ * as vis_zc_draw_quad's scalar code and zc_project, so the results are identical. Returns
+ * the outcodes; fills pr only when no clipping is needed. */
+__attribute__((target("avx2"))) static void zc_quad_front_avx2(const vis_zc_target *t, const vis_zc_view *v,
+                                                               const double uv[4], uint32_t a, uint32_t ua,
+                                                               uint32_t va, double pa, zc_hv *h, int *below,
+                                                               int *above, zc_proj *pr)
+{
+    const __m256d u = _mm256_setr_pd(uv[0], uv[1], uv[1], uv[0]);
+    const __m256d vv = _mm256_setr_pd(uv[2], uv[2], uv[3], uv[3]);
+    const double *rows[3] = {v->rx, v->ry, v->rw};
+    __m256d c[3];
+    for (int r = 0; r < 3; r++) {
+        const double *m = rows[r];
+        __m256d A = _mm256_set1_pd(m[a] * pa);
+        __m256d U = _mm256_mul_pd(_mm256_set1_pd(m[ua]), u);
+        __m256d V = _mm256_mul_pd(_mm256_set1_pd(m[va]), vv);
+        c[r] = _mm256_add_pd(_mm256_add_pd(A, U), V);
+    }
+    const __m256d x = c[0], y = c[1], w = c[2];
+    const __m256d g = _mm256_mul_pd(_mm256_set1_pd(v->guard), w);
+    const __m256d ng = _mm256_sub_pd(_mm256_setzero_pd(), g);
+    const __m256d half = _mm256_set1_pd(0.5);
+    const __m256d lw = _mm256_mul_pd(half, w);
+    const __m256d rw = _mm256_mul_pd(_mm256_set1_pd(v->width - 0.5), w);
+    const __m256d bw = _mm256_mul_pd(_mm256_set1_pd(v->height - 0.5), w);
+    const __m256d c0 = _mm256_cmp_pd(w, _mm256_set1_pd(v->near_dist), _CMP_LT_OQ);
+    const __m256d c1 = _mm256_cmp_pd(x, ng, _CMP_LT_OQ), c2 = _mm256_cmp_pd(x, g, _CMP_GT_OQ);
+    const __m256d c3 = _mm256_cmp_pd(y, ng, _CMP_LT_OQ), c4 = _mm256_cmp_pd(y, g, _CMP_GT_OQ);
+    /* reject planes: all four corners beyond one of them */
+    int bl = (_mm256_movemask_pd(c0) == 15) | (_mm256_movemask_pd(_mm256_cmp_pd(x, lw, _CMP_LT_OQ)) == 15) << 5 |
+             (_mm256_movemask_pd(_mm256_cmp_pd(x, rw, _CMP_GT_OQ)) == 15) << 6 |
+             (_mm256_movemask_pd(_mm256_cmp_pd(y, lw, _CMP_LT_OQ)) == 15) << 7 |
+             (_mm256_movemask_pd(_mm256_cmp_pd(y, bw, _CMP_GT_OQ)) == 15) << 8;
+    int ab = 0;
+    if (_mm256_movemask_pd(_mm256_or_pd(_mm256_or_pd(c0, c1), _mm256_or_pd(_mm256_or_pd(c2, c3), c4))))
+        ab = (_mm256_movemask_pd(c0) != 0) | (_mm256_movemask_pd(c1) != 0) << 1 | (_mm256_movemask_pd(c2) != 0) << 2 |
+             (_mm256_movemask_pd(c3) != 0) << 3 | (_mm256_movemask_pd(c4) != 0) << 4;
+    *below = bl;
+    *above = ab;
+    if ((bl & 0x1e1) || (ab & 0x1f)) {
+        /* rejected, or the generic clipper takes it from here */
+        double xs[4], ys[4], ws[4];
+        _mm256_storeu_pd(xs, x);
+        _mm256_storeu_pd(ys, y);
+        _mm256_storeu_pd(ws, w);
+        for (int i = 0; i < 4; i++) {
+            h[i].x = xs[i];
+            h[i].y = ys[i];
+            h[i].w = ws[i];
+        }
+        return;
+    }
+    const int f = t->sub_bits;
+    const __m256d scale = _mm256_set1_pd((double)((int64_t)1 << f));
+    const __m256d lim = _mm256_set1_pd((double)((int64_t)1 << (t->guard_bits + f)));
+    const __m256d nlim = _mm256_set1_pd(-(double)((int64_t)1 << (t->guard_bits + f)));
+    const __m256d magic = _mm256_set1_pd(0x1.8p52);
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    __m256d iw = _mm256_div_pd(_mm256_set1_pd(1.0), w);
+    __m256d sx = _mm256_mul_pd(x, iw), sy = _mm256_mul_pd(y, iw);
+    __m256d xsc = _mm256_mul_pd(sx, scale), ysc = _mm256_mul_pd(sy, scale);
+    /* zc_mind(zc_maxd(r, -lim), lim): maxpd/minpd return the second operand on ties */
+    __m256d fx = _mm256_min_pd(_mm256_max_pd(_mm256_sub_pd(_mm256_add_pd(xsc, magic), magic), nlim), lim);
+    __m256d fy = _mm256_min_pd(_mm256_max_pd(_mm256_sub_pd(_mm256_add_pd(ysc, magic), magic), nlim), lim);
+    __m256d r = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_sub_pd(xsc, fx)), _mm256_andnot_pd(sign, _mm256_sub_pd(ysc, fy)));
+    /* horizontal max/min: exact, so the order does not matter */
+    __m128d r2 = _mm_max_pd(_mm256_castpd256_pd128(r), _mm256_extractf128_pd(r, 1));
+    __m128d lo2 = _mm_min_pd(_mm256_castpd256_pd128(iw), _mm256_extractf128_pd(iw, 1));
+    __m128d hi2 = _mm_max_pd(_mm256_castpd256_pd128(iw), _mm256_extractf128_pd(iw, 1));
+    r2 = _mm_max_sd(r2, _mm_unpackhi_pd(r2, r2));
+    lo2 = _mm_min_sd(lo2, _mm_unpackhi_pd(lo2, lo2));
+    hi2 = _mm_max_sd(hi2, _mm_unpackhi_pd(hi2, hi2));
+    pr->res = _mm_cvtsd_f64(r2);
+    pr->iwmin = _mm_cvtsd_f64(lo2);
+    pr->iwmax = _mm_cvtsd_f64(hi2);
+    _mm256_storeu_pd(pr->iw, iw);
+    _mm256_storeu_pd(pr->sx, sx);
+    _mm256_storeu_pd(pr->sy, sy);
+    /* |fx|, |fy| <= 2^26: exact in int32 */
+    __m128i ix = _mm256_cvtpd_epi32(fx), iy = _mm256_cvtpd_epi32(fy);
+    /* No pixel centre inside the bounds (most distant quads): stop here, as zc_setup_edges
+     * would. Centre X*2^f + half in [min, max] for X in [0, W-1]. */
+    {
+        __m128i mnx = _mm_min_epi32(ix, _mm_shuffle_epi32(ix, _MM_SHUFFLE(1, 0, 3, 2)));
+        __m128i mxx = _mm_max_epi32(ix, _mm_shuffle_epi32(ix, _MM_SHUFFLE(1, 0, 3, 2)));
+        __m128i mny = _mm_min_epi32(iy, _mm_shuffle_epi32(iy, _MM_SHUFFLE(1, 0, 3, 2)));
+        __m128i mxy = _mm_max_epi32(iy, _mm_shuffle_epi32(iy, _MM_SHUFFLE(1, 0, 3, 2)));
+        mnx = _mm_min_epi32(mnx, _mm_shuffle_epi32(mnx, _MM_SHUFFLE(2, 3, 0, 1)));
+        mxx = _mm_max_epi32(mxx, _mm_shuffle_epi32(mxx, _MM_SHUFFLE(2, 3, 0, 1)));
+        mny = _mm_min_epi32(mny, _mm_shuffle_epi32(mny, _MM_SHUFFLE(2, 3, 0, 1)));
+        mxy = _mm_max_epi32(mxy, _mm_shuffle_epi32(mxy, _MM_SHUFFLE(2, 3, 0, 1)));
+        const int64_t hf = (int64_t)1 << (f - 1);
+        int64_t X0 = -zc_floor_shift(hf - _mm_cvtsi128_si32(mnx), f), X1 = zc_floor_shift(_mm_cvtsi128_si32(mxx) - hf, f);
+        int64_t Y0 = -zc_floor_shift(hf - _mm_cvtsi128_si32(mny), f), Y1 = zc_floor_shift(_mm_cvtsi128_si32(mxy) - hf, f);
+        if (X0 < 0) X0 = 0;
+        if (Y0 < 0) Y0 = 0;
+        if (X1 > (int64_t)t->width - 1) X1 = (int64_t)t->width - 1;
+        if (Y1 > (int64_t)t->height - 1) Y1 = (int64_t)t->height - 1;
+        if (X0 > X1 || Y0 > Y1) {
+            *below |= 0x100; /* reported as rejected */
+            return;
+        }
+    }
+    int32_t xi[4], yi[4];
+    _mm_storeu_si128((__m128i *)xi, ix);
+    _mm_storeu_si128((__m128i *)yi, iy);
+    for (int i = 0; i < 4; i++) {
+        pr->X[i] = xi[i];
+        pr->Y[i] = yi[i];
+    }
+}
+#endif
+
 int vis_zc_draw_quad(vis_zc_target *t, const vis_zc_view *v, const vis_flat_quad *q)
 {
     uint32_t a = VIS_META_AXIS(q->meta);
     if (a > 2)
         return 0;
-    uint32_t ua = (a + 1) % 3, va = (a + 2) % 3;
+    uint32_t ua = a == 2 ? 0 : a + 1, va = a == 0 ? 2 : a - 1;
     double pa = (double)q->plane - v->eye[a];
-    double u0 = (double)q->u0 - v->eye[ua], u1 = (double)q->u1 - v->eye[ua];
-    double v0 = (double)q->v0 - v->eye[va], v1 = (double)q->v1 - v->eye[va];
-    double p[4][3];
-    p[0][a] = pa; p[0][ua] = u0; p[0][va] = v0;
-    p[1][a] = pa; p[1][ua] = u1; p[1][va] = v0;
-    p[2][a] = pa; p[2][ua] = u1; p[2][va] = v1;
-    p[3][a] = pa; p[3][ua] = u0; p[3][va] = v1;
-    return vis_zc_draw_polygon(t, v, (const double(*)[3])p, 4);
+    double uv[4] = {(double)q->u0 - v->eye[ua], (double)q->u1 - v->eye[ua], (double)q->v0 - v->eye[va],
+                    (double)q->v1 - v->eye[va]};
+    double pmax = zc_maxd(zc_maxd(zc_absd(pa), zc_maxd(zc_absd(uv[0]), zc_absd(uv[1]))),
+                          zc_maxd(zc_absd(uv[2]), zc_absd(uv[3])));
+    zc_hv h[VIS_ZC_MAX_VERTS];
+    int below = 0x1ff, above = 0;
+#if defined(ZC_HAVE_AVX2)
+    if (t->simd == VIS_ZC_SIMD_AVX2) {
+        zc_proj pr;
+        zc_quad_front_avx2(t, v, uv, a, ua, va, pa, h, &below, &above, &pr);
+        if (below & 0x1e1)
+            return 0;
+        if (!(above & 0x1f))
+            return zc_draw_projected(t, v, &pr, 4, pmax);
+        return zc_draw_homogeneous(t, v, h, 4, below, above, pmax);
+    }
+#endif
+    /* The corners (u0,v0), (u1,v0), (u1,v1), (u0,v1) share their terms: each row of the
+     * transform costs 5 products instead of 12. */
+    const double *rows[3] = {v->rx, v->ry, v->rw};
+    double c[3][4];
+    for (int r = 0; r < 3; r++) {
+        const double *m = rows[r];
+        double A = m[a] * pa, U0 = m[ua] * uv[0], U1 = m[ua] * uv[1], V0 = m[va] * uv[2], V1 = m[va] * uv[3];
+        c[r][0] = (A + U0) + V0;
+        c[r][1] = (A + U1) + V0;
+        c[r][2] = (A + U1) + V1;
+        c[r][3] = (A + U0) + V1;
+    }
+    for (int i = 0; i < 4; i++) {
+        h[i].x = c[0][i];
+        h[i].y = c[1][i];
+        h[i].w = c[2][i];
+        int out = zc_outcode(v, h[i].x, h[i].y, h[i].w);
+        below &= out;
+        above |= out;
+    }
+    return zc_draw_homogeneous(t, v, h, 4, below, above, pmax);
 }
 
 int vis_zc_draw_tri(vis_zc_target *t, const vis_zc_view *v, const vis_flat_tri *tri)
@@ -715,39 +938,51 @@ vis_zc_box_class vis_zc_box_classify(const vis_zc_target *t, const vis_zc_view *
     /* Every hit inside the box lies at least dd from the eye. */
     if (v->far_dist < INFINITY && dd > v->far_dist * (1.0 + 1e-9))
         return VIS_ZC_BOX_CULLED;
-    zc_hv c[8];
-    for (int i = 0; i < 8; i++) {
-        double P[3] = {(i & 1) ? Hh[0] : L[0], (i & 2) ? Hh[1] : L[1], (i & 4) ? Hh[2] : L[2]};
-        c[i].x = v->rx[0] * P[0] + v->rx[1] * P[1] + v->rx[2] * P[2];
-        c[i].y = v->ry[0] * P[0] + v->ry[1] * P[1] + v->ry[2] * P[2];
-        c[i].w = v->rw[0] * P[0] + v->rw[1] * P[1] + v->rw[2] * P[2];
-    }
-    /* Rounding slack of the corner transforms (|P| * err_scale * a few ulps). */
-    double tol = mag * v->err_scale * 0x1p-40;
+    /* The largest value over the box of a linear function c.P is the sum over the axes of
+     * the larger of c_a*lo_a and c_a*hi_a (and the smallest likewise): five planes through
+     * the eye (behind it, and beyond the outermost pixel centres) without the corners.
+     * Rounding slack: |P| * err_scale * a few ulps. */
+    const double tol = mag * v->err_scale * 0x1p-40;
     const double W = v->width, H = v->height;
-    /* Culled only when the whole box is strictly beyond one plane through the outermost
-     * pixel centres (or behind the eye): no pixel-centre ray can reach it. */
-    int below = 0x1f;
-    double wmin = INFINITY;
-    for (int i = 0; i < 8; i++) {
-        int out = 0;
-        out |= (c[i].w < -tol) << 0;
-        out |= (c[i].x - 0.5 * c[i].w < -tol) << 1;
-        out |= ((W - 0.5) * c[i].w - c[i].x < -tol) << 2;
-        out |= (c[i].y - 0.5 * c[i].w < -tol) << 3;
-        out |= ((H - 0.5) * c[i].w - c[i].y < -tol) << 4;
-        below &= out;
-        wmin = zc_mind(wmin, c[i].w);
+    double pl[5][3];
+    for (int a = 0; a < 3; a++) {
+        pl[0][a] = v->rw[a];                              /* w >= 0            */
+        pl[1][a] = v->rx[a] - 0.5 * v->rw[a];             /* x >= 0.5 w        */
+        pl[2][a] = (W - 0.5) * v->rw[a] - v->rx[a];       /* x <= (W - 0.5) w  */
+        pl[3][a] = v->ry[a] - 0.5 * v->rw[a];
+        pl[4][a] = (H - 0.5) * v->rw[a] - v->ry[a];
     }
-    if (below)
-        return VIS_ZC_BOX_CULLED;
+    for (int k = 0; k < 5; k++) {
+        double mx = 0.0;
+        for (int a = 0; a < 3; a++)
+            mx += zc_maxd(pl[k][a] * L[a], pl[k][a] * Hh[a]);
+        if (mx < -tol)
+            return VIS_ZC_BOX_CULLED; /* no pixel-centre ray can reach it */
+    }
+    double wmin = 0.0;
+    for (int a = 0; a < 3; a++)
+        wmin += zc_mind(v->rw[a] * L[a], v->rw[a] * Hh[a]);
     /* Reaching in front of the near plane (or around the eye): visible, conservatively. */
     if (wmin <= v->near_dist + tol + v->near_dist * 0x1p-30)
         return VIS_ZC_BOX_NEAR;
+    /* The corners' screen bounds. Per axis the two products, then the sums. */
+    double px[3][2], py[3][2], pw[3][2];
+    for (int a = 0; a < 3; a++) {
+        px[a][0] = v->rx[a] * L[a];
+        px[a][1] = v->rx[a] * Hh[a];
+        py[a][0] = v->ry[a] * L[a];
+        py[a][1] = v->ry[a] * Hh[a];
+        pw[a][0] = v->rw[a] * L[a];
+        pw[a][1] = v->rw[a] * Hh[a];
+    }
     double minx = INFINITY, maxx = -INFINITY, miny = INFINITY, maxy = -INFINITY;
     for (int i = 0; i < 8; i++) {
-        double iw = 1.0 / c[i].w;
-        double x = c[i].x * iw, y = c[i].y * iw;
+        int i0 = i & 1, i1 = (i >> 1) & 1, i2 = i >> 2;
+        double cx = (px[0][i0] + px[1][i1]) + px[2][i2];
+        double cy = (py[0][i0] + py[1][i1]) + py[2][i2];
+        double cw = (pw[0][i0] + pw[1][i1]) + pw[2][i2];
+        double iw = 1.0 / cw;
+        double x = cx * iw, y = cy * iw;
         minx = zc_mind(minx, x);
         maxx = zc_maxd(maxx, x);
         miny = zc_mind(miny, y);

@@ -3,9 +3,47 @@
 
 #include <string.h>
 
+/* Values of the short-stack methods carry N: VC_TRAVERSAL(method, N), see names.h. */
 static const vc_name traversal_names[] = {
     {"stack", VIS_TRAVERSAL_STACK},
     {"bruteforce", VIS_TRAVERSAL_BRUTEFORCE},
+    {"restart", VIS_TRAVERSAL_RESTART},
+    {"pushdown", VIS_TRAVERSAL_PUSHDOWN},
+    {"ropes", VIS_TRAVERSAL_ROPES},
+    {"shortstack", VIS_TRAVERSAL_SHORTSTACK}, /* the library default N */
+    {"ropes-shortstack", VIS_TRAVERSAL_ROPES_SHORTSTACK},
+    {"shortstack:1", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 1)},
+    {"shortstack:2", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 2)},
+    {"shortstack:3", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 3)},
+    {"shortstack:4", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 4)},
+    {"shortstack:5", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 5)},
+    {"shortstack:6", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 6)},
+    {"shortstack:7", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 7)},
+    {"shortstack:8", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 8)},
+    {"shortstack:9", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 9)},
+    {"shortstack:10", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 10)},
+    {"shortstack:11", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 11)},
+    {"shortstack:12", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 12)},
+    {"shortstack:13", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 13)},
+    {"shortstack:14", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 14)},
+    {"shortstack:15", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 15)},
+    {"shortstack:16", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 16)},
+    {"ropes-shortstack:1", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 1)},
+    {"ropes-shortstack:2", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 2)},
+    {"ropes-shortstack:3", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 3)},
+    {"ropes-shortstack:4", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 4)},
+    {"ropes-shortstack:5", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 5)},
+    {"ropes-shortstack:6", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 6)},
+    {"ropes-shortstack:7", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 7)},
+    {"ropes-shortstack:8", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 8)},
+    {"ropes-shortstack:9", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 9)},
+    {"ropes-shortstack:10", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 10)},
+    {"ropes-shortstack:11", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 11)},
+    {"ropes-shortstack:12", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 12)},
+    {"ropes-shortstack:13", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 13)},
+    {"ropes-shortstack:14", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 14)},
+    {"ropes-shortstack:15", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 15)},
+    {"ropes-shortstack:16", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 16)},
 };
 
 static const vc_name backend_names[] = {

@@ -19,7 +19,13 @@ typedef struct vc_name_table {
     const char *what; /* "traversal", ... for messages */
 } vc_name_table;
 
-extern const vc_name_table vc_traversals; /* vis_traversal    */
+extern const vc_name_table vc_traversals; /* vis_traversal, and N: see below */
+
+/* A vc_traversals value is the method, with the short-stack depth N of "shortstack:N" and
+ * "ropes-shortstack:N" above it (N = 0: the library's default). */
+#define VC_TRAVERSAL(method, n) ((int)(method) | ((int)(n) << 8))
+static inline vis_traversal vc_traversal_method(int value) { return (vis_traversal)(value & 0xFF); }
+static inline uint32_t vc_traversal_short_stack(int value) { return (uint32_t)value >> 8; }
 extern const vc_name_table vc_backends;   /* vis_backend_kind */
 extern const vc_name_table vc_id_modes;   /* vis_id_mode      */
 

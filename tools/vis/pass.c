@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "names.h"
 #include "timer.h"
 
 vis_trace_desc cli_trace_desc(const cli_args *a)
@@ -13,7 +14,8 @@ vis_trace_desc cli_trace_desc(const cli_args *a)
     d.width = a->width;
     d.height = a->height;
     d.ids = a->ids;
-    d.traversal = a->traversal;
+    d.traversal = vc_traversal_method((int)a->traversal); /* names.h: N rides along */
+    d.short_stack = vc_traversal_short_stack((int)a->traversal);
     return d;
 }
 

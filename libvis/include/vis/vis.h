@@ -206,6 +206,13 @@ typedef struct vis_scene_info {
     uint64_t bytes;         /* host memory held by the scene                                */
     uint64_t edits;         /* set/remove calls so far                                      */
     uint64_t relocations;   /* leaf updates that outgrew their slot and moved (no rebuild)  */
+    uint64_t rope_bytes;    /* rope data held (built once with the tree, part of `bytes`):
+                               box + six neighbour links of every node up to
+                               VIS_MAX_SHORT_STACK levels above the leaves, and a 4-byte
+                               node-to-rope index                                           */
+    uint64_t rope_bytes_used[17]; /* of those, the rope nodes a method walks: [0] ropes (one
+                               per leaf), [N] ropes-shortstack with N (one per node N levels
+                               above the leaves; Chang & Ihm 2010, Table 4)                  */
 } vis_scene_info;
 
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
@@ -238,16 +245,31 @@ typedef enum vis_id_mode {
                            every object of that leaf (conservative: fewer misses, more overdraw) */
 } vis_id_mode;
 
-/* kd-tree traversal methods (Chang & Ihm 2010). All give identical buffers. */
+/* kd-tree traversal methods (Chang & Ihm 2010; docs/traversal.md). All give bit-identical
+ * ID and depth buffers; they differ in speed and in the per-ray state they need. */
 typedef enum vis_traversal {
-    VIS_TRAVERSAL_STACK = 0,  /* full stack, 8-byte entries (default)                        */
-    VIS_TRAVERSAL_BRUTEFORCE  /* no tree: every primitive of every object (the reference)    */
+    VIS_TRAVERSAL_STACK = 0,      /* full stack, 8-byte entries (default)                    */
+    VIS_TRAVERSAL_BRUTEFORCE = 1, /* no tree: every primitive of every object (the reference) */
+    VIS_TRAVERSAL_RESTART = 2,    /* kd-restart (Foley & Sugerman 2005): after each leaf,
+                                     restart from the root past it; no stack                 */
+    VIS_TRAVERSAL_PUSHDOWN = 3,   /* kd-restart from the deepest node still holding the rest
+                                     of the ray (Horn et al. 2007); no stack                 */
+    VIS_TRAVERSAL_SHORTSTACK = 4, /* restart with a ring stack of short_stack entries (Horn
+                                     et al. 2007); restarts only when it runs empty          */
+    VIS_TRAVERSAL_ROPES = 5,      /* neighbour links on every leaf face (Popov et al. 2007);
+                                     no stack                                                */
+    VIS_TRAVERSAL_ROPES_SHORTSTACK = 6 /* ropes on the nodes short_stack levels above the
+                                     leaves, a short stack below them (Chang & Ihm 2010)     */
 } vis_traversal;
+
+#define VIS_MAX_SHORT_STACK 16u
 
 typedef struct vis_trace_desc {
     uint32_t width, height;    /* default 512 x 512; each at most VIS_MAX_RESOLUTION           */
     vis_id_mode ids;           /* default VIS_IDS_OBJECT                                      */
     vis_traversal traversal;   /* default VIS_TRAVERSAL_STACK                                 */
+    uint32_t short_stack;      /* N for VIS_TRAVERSAL_SHORTSTACK and _ROPES_SHORTSTACK:
+                                  1..VIS_MAX_SHORT_STACK, default (0) 4; ignored otherwise    */
 } vis_trace_desc;
 
 #define VIS_MAX_RESOLUTION 16384u

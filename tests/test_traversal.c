@@ -1,0 +1,951 @@
+/* test_traversal.c — the traversal methods (restart, pushdown, short stack, ropes, ropes +
+ * short stack; Chang & Ihm 2010) against the stack method and an independent brute force.
+ *
+ * Every method must give the very same ID and depth buffers as `stack` and as the oracle (a
+ * loop over every primitive as the caller handed it to the scene, no tree): on random worlds
+ * of several shapes and kd depths (also shallow trees and sizes that are not powers of two,
+ * whose leaves lie at different depths), on the hard cases of DESIGN.md, after edits, in leaf
+ * ID mode, and ray by ray on rays built to be degenerate: starting on split planes and chunk
+ * corners, lying in split planes, running along axes and exact diagonals through cell corners,
+ * ending exactly on a split plane. The ropes themselves are checked against their definition
+ * (Popov et al. 2007): each link points to the smallest node, no deeper than its own, that
+ * covers the face; VIS_NO_ROPE exactly on the scene boundary. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "common/trace_core.h"
+#include "camera.h"
+#include "scene.h"
+#include "test_support.h"
+#include "vis/vis.h"
+
+/* ---- the methods under test ------------------------------------------------------------ */
+
+typedef struct method {
+    vis_traversal traversal;
+    uint32_t n;
+    const char *name;
+} method;
+
+static const method methods[] = {
+    {VIS_TRAVERSAL_RESTART, 0, "restart"},
+    {VIS_TRAVERSAL_PUSHDOWN, 0, "pushdown"},
+    {VIS_TRAVERSAL_SHORTSTACK, 1, "shortstack:1"},
+    {VIS_TRAVERSAL_SHORTSTACK, 2, "shortstack:2"},
+    {VIS_TRAVERSAL_SHORTSTACK, 3, "shortstack:3"},
+    {VIS_TRAVERSAL_SHORTSTACK, 4, "shortstack:4"},
+    {VIS_TRAVERSAL_SHORTSTACK, 8, "shortstack:8"},
+    {VIS_TRAVERSAL_ROPES, 0, "ropes"},
+    {VIS_TRAVERSAL_ROPES_SHORTSTACK, 1, "ropes-shortstack:1"},
+    {VIS_TRAVERSAL_ROPES_SHORTSTACK, 2, "ropes-shortstack:2"},
+    {VIS_TRAVERSAL_ROPES_SHORTSTACK, 3, "ropes-shortstack:3"},
+    {VIS_TRAVERSAL_ROPES_SHORTSTACK, 4, "ropes-shortstack:4"},
+    {VIS_TRAVERSAL_ROPES_SHORTSTACK, 8, "ropes-shortstack:8"},
+    {VIS_TRAVERSAL_ROPES_SHORTSTACK, 16, "ropes-shortstack:16"},
+};
+#define METHOD_COUNT (sizeof methods / sizeof methods[0])
+
+/* ---- a test world: objects kept by the test for the oracle ------------------------------ */
+
+typedef struct tobj {
+    uint32_t id;
+    vis_quad *quads;
+    uint32_t nq;
+    vis_triangle *tris;
+    uint32_t nt;
+} tobj;
+
+typedef struct tworld {
+    tobj *objs;
+    uint32_t n, cap;
+    float size[3];
+} tworld;
+
+static tobj *add_obj(tworld *w, uint32_t id)
+{
+    if (w->n == w->cap) {
+        w->cap = w->cap ? w->cap * 2 : 64;
+        w->objs = realloc(w->objs, w->cap * sizeof *w->objs);
+    }
+    tobj *o = &w->objs[w->n++];
+    memset(o, 0, sizeof *o);
+    o->id = id;
+    return o;
+}
+
+static void obj_quad(tobj *o, uint32_t axis, float plane, float u0, float v0, float u1, float v1)
+{
+    o->quads = realloc(o->quads, (o->nq + 1) * sizeof *o->quads);
+    vis_quad q = {axis, 0, plane, u0, v0, u1, v1};
+    o->quads[o->nq++] = q;
+}
+
+static void obj_tri(tobj *o, const float a[3], const float b[3], const float c[3])
+{
+    o->tris = realloc(o->tris, (o->nt + 1) * sizeof *o->tris);
+    vis_triangle t;
+    memset(&t, 0, sizeof t);
+    memcpy(t.v[0], a, 12);
+    memcpy(t.v[1], b, 12);
+    memcpy(t.v[2], c, 12);
+    o->tris[o->nt++] = t;
+}
+
+static void obj_box(tobj *o, const float lo[3], const float hi[3])
+{
+    for (uint32_t a = 0; a < 3; ++a) {
+        uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
+        obj_quad(o, a, lo[a], lo[u], lo[v], hi[u], hi[v]);
+        obj_quad(o, a, hi[a], lo[u], lo[v], hi[u], hi[v]);
+    }
+}
+
+static void free_obj(tobj *o)
+{
+    free(o->quads);
+    free(o->tris);
+    o->quads = NULL;
+    o->tris = NULL;
+    o->nq = o->nt = 0;
+}
+
+static void free_world(tworld *w)
+{
+    for (uint32_t i = 0; i < w->n; ++i)
+        free_obj(&w->objs[i]);
+    free(w->objs);
+    memset(w, 0, sizeof *w);
+}
+
+static void set_obj(vis_scene *s, const tobj *o)
+{
+    vis_mesh m = {o->quads, o->nq, o->tris, o->nt};
+    if (vis_scene_set_object(s, o->id, &m) != VIS_OK)
+        fail_msg("set_object %u failed", o->id);
+}
+
+static vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth)
+{
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    memcpy(d.size, w->size, sizeof d.size);
+    if (origin)
+        memcpy(d.origin, origin, sizeof d.origin);
+    d.kd_depth = kd_depth;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    for (uint32_t i = 0; i < w->n; ++i)
+        set_obj(s, &w->objs[i]);
+    return s;
+}
+
+/* Chunk objects of voxel boxes (some with a face exactly on the chunk boundary), pairs of
+ * identical boxes under two IDs (ties), and entities of triangles and off-grid quads that
+ * straddle leaves. */
+static void random_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = 16.0f * nx;
+    w->size[1] = 16.0f * ny;
+    w->size[2] = 16.0f * nz;
+    for (int cz = 0; cz < nz; ++cz)
+        for (int cy = 0; cy < ny; ++cy)
+            for (int cx = 0; cx < nx; ++cx) {
+                if (vt_rand_unit(rng) < 0.35)
+                    continue;
+                tobj *o = add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz)));
+                int boxes = 1 + (int)(vt_rand(rng) % 5);
+                for (int b = 0; b < boxes; ++b) {
+                    float lo[3], hi[3];
+                    int c[3] = {cx, cy, cz};
+                    for (int a = 0; a < 3; ++a) {
+                        int l = (int)(vt_rand(rng) % 16), e = 1 + (int)(vt_rand(rng) % 8);
+                        if (vt_rand_unit(rng) < 0.2) /* touch the chunk boundary */
+                            l = vt_rand(rng) & 1 ? 0 : 16 - e;
+                        if (l + e > 16)
+                            e = 16 - l;
+                        lo[a] = (float)(c[a] * 16 + l);
+                        hi[a] = lo[a] + (float)e;
+                    }
+                    obj_box(o, lo, hi);
+                }
+                if (vt_rand_unit(rng) < 0.3) {
+                    uint32_t a = (uint32_t)(vt_rand(rng) % 3), u = (a + 1) % 3, v = (a + 2) % 3;
+                    int c[3] = {cx, cy, cz};
+                    float plane = (float)(c[a] * 16 + (vt_rand(rng) & 1 ? 16 : 0));
+                    obj_quad(o, a, plane, (float)(c[u] * 16), (float)(c[v] * 16), (float)(c[u] * 16 + 16),
+                             (float)(c[v] * 16 + 16));
+                }
+            }
+    for (int i = 0; i < 3; ++i) {
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = (float)(vt_rand(rng) % (uint64_t)(w->size[a] - 4));
+            hi[a] = lo[a] + 3;
+        }
+        obj_box(add_obj(w, 100001 + 2 * i), lo, hi);
+        obj_box(add_obj(w, 100000 + 2 * i), lo, hi);
+    }
+    for (int i = 0; i < 4; ++i) {
+        tobj *o = add_obj(w, 200000 + i);
+        float p[3];
+        for (int a = 0; a < 3; ++a)
+            p[a] = (float)(vt_rand_unit(rng) * (w->size[a] - 6.0) + 0.5);
+        float a0[3] = {p[0], p[1], p[2]}, a1[3] = {p[0] + 5.3f, p[1] + 0.7f, p[2]};
+        float a2[3] = {p[0], p[1] + 4.1f, p[2] + 5.2f}, a3[3] = {p[0] + 5.3f, p[1] + 4.1f, p[2] + 5.2f};
+        obj_tri(o, a0, a1, a2);
+        obj_tri(o, a1, a3, a2);
+        obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
+        /* an off-grid box across a chunk corner */
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            float c = 16.0f * (float)(1 + (int)(vt_rand(rng) % (uint64_t)(w->size[a] / 16.0f > 1 ? w->size[a] / 16.0f - 1 : 1)));
+            if (c >= w->size[a])
+                c = w->size[a] / 2;
+            lo[a] = c - 1.5f;
+            hi[a] = c + 2.25f;
+        }
+        obj_box(o, lo, hi);
+    }
+}
+
+/* Full-chunk cubes in a 3D checkerboard: every chunk edge and corner is shared by filled and
+ * empty chunks, so rays through them touch cube faces exactly where they cross several split
+ * planes at once (the stack method's empty-interval leaves). */
+static void checker_world(tworld *w, int nx, int ny, int nz)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = 16.0f * nx;
+    w->size[1] = 16.0f * ny;
+    w->size[2] = 16.0f * nz;
+    for (int cz = 0; cz < nz; ++cz)
+        for (int cy = 0; cy < ny; ++cy)
+            for (int cx = 0; cx < nx; ++cx) {
+                if ((cx + cy + cz) % 2 == 0)
+                    continue;
+                float lo[3] = {16.0f * cx, 16.0f * cy, 16.0f * cz};
+                float hi[3] = {lo[0] + 16.0f, lo[1] + 16.0f, lo[2] + 16.0f};
+                obj_box(add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz))), lo, hi);
+            }
+}
+
+/* ---- the oracle ----------------------------------------------------------------------- */
+
+static void oracle_ray(const tworld *w, const vis_ray *r, float *t_out, uint32_t *id_out)
+{
+    float best = INFINITY;
+    uint32_t bid = 0;
+    for (uint32_t i = 0; i < w->n; ++i) {
+        const tobj *o = &w->objs[i];
+        for (uint32_t k = 0; k < o->nq + o->nt; ++k) {
+            float t;
+            int hit;
+            if (k < o->nq) {
+                const vis_quad *q = &o->quads[k];
+                hit = vis_quad_intersect(r, q->axis, q->plane, q->u0, q->v0, q->u1, q->v1, &t);
+            } else {
+                const vis_triangle *tr = &o->tris[k - o->nq];
+                hit = vis_triangle_intersect(r, tr->v[0], tr->v[1], tr->v[2], &t);
+            }
+            if (!hit || !(t >= r->t_near) || t > r->t_far)
+                continue;
+            if (t < best || (t == best && o->id < bid)) {
+                best = t;
+                bid = o->id;
+            }
+        }
+    }
+    *t_out = best;
+    *id_out = bid;
+}
+
+static vis_context *make_ctx(uint32_t threads)
+{
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.backend = VIS_BACKEND_CPU;
+    cd.threads = threads;
+    vis_context *ctx = NULL;
+    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
+    return ctx;
+}
+
+/* ---- buffers: every method == stack == oracle ------------------------------------------- */
+
+static void trace_or_fail(vis_context *ctx, vis_scene *scene, const vis_camera *cam, const vis_trace_desc *td,
+                          uint32_t *ids, float *depth, const char *what, const char *name)
+{
+    if (vis_trace(ctx, scene, cam, td, ids, depth) != VIS_OK)
+        fail_msg("%s, %s: %s", what, name, vis_context_last_error(ctx));
+}
+
+/* ties_may_slip: `stack` may differ from the oracle where the oracle's lower ID ties at the very
+ * same depth (see test_checkerboard_views); the methods must still equal `stack` exactly. */
+static void check_view_ids(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
+                           uint32_t H, vis_id_mode ids_mode, int ties_may_slip, const char *what)
+{
+    size_t n = (size_t)W * H;
+    uint32_t *ref_ids = malloc(n * 4), *ids = malloc(n * 4);
+    float *ref_depth = malloc(n * 4), *depth = malloc(n * 4);
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = W;
+    td.height = H;
+    td.ids = ids_mode;
+    trace_or_fail(ctx, scene, cam, &td, ref_ids, ref_depth, what, "stack");
+
+    if (ids_mode == VIS_IDS_OBJECT) {
+        vis_scene_info info;
+        vis_scene_get_info(scene, &info);
+        vis_camera_frame fr;
+        assert_int_equal(vis_camera_frame_make(ctx, cam, info.origin, W, H, &fr), VIS_OK);
+        vis_ray_setup s;
+        vis_camera_frame_ray_setup(&fr, &s);
+        for (uint32_t y = 0; y < H; ++y)
+            for (uint32_t x = 0; x < W; ++x) {
+                vis_ray r;
+                vis_ray_for_pixel(&s, x, y, &r);
+                float t;
+                uint32_t id;
+                oracle_ray(w, &r, &t, &id);
+                size_t i = (size_t)y * W + x;
+                if (ties_may_slip && ref_ids[i] > id && memcmp(&ref_depth[i], &t, 4) == 0) {
+                    print_message("NOTE: %s: pixel (%u,%u): stack id %u, oracle id %u at the same depth %.9g\n", what,
+                                  x, y, ref_ids[i], id, (double)t);
+                    continue;
+                }
+                if (ref_ids[i] != id || memcmp(&ref_depth[i], &t, 4) != 0)
+                    fail_msg("%s: pixel (%u,%u): stack id %u t %.9g, oracle id %u t %.9g", what, x, y, ref_ids[i],
+                             (double)ref_depth[i], id, (double)t);
+            }
+    }
+    for (size_t m = 0; m < METHOD_COUNT; ++m) {
+        td.traversal = methods[m].traversal;
+        td.short_stack = methods[m].n;
+        memset(ids, 0xEE, n * 4);
+        trace_or_fail(ctx, scene, cam, &td, ids, depth, what, methods[m].name);
+        for (size_t i = 0; i < n; ++i)
+            if (ids[i] != ref_ids[i] || memcmp(&depth[i], &ref_depth[i], 4) != 0)
+                fail_msg("%s, %s: pixel (%zu,%zu): id %u t %.9g, stack (= oracle) id %u t %.9g", what, methods[m].name,
+                         i % W, i / W, ids[i], (double)depth[i], ref_ids[i], (double)ref_depth[i]);
+    }
+    free(ref_ids), free(ids), free(ref_depth), free(depth);
+}
+
+static void check_view(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
+                       uint32_t H, const char *what)
+{
+    check_view_ids(ctx, scene, w, cam, W, H, VIS_IDS_OBJECT, 0, what);
+}
+
+static void random_camera(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
+{
+    memset(cam, 0, sizeof *cam);
+    for (int a = 0; a < 3; ++a) {
+        double e = vt_rand_unit(rng) * (size[a] * 1.6) - size[a] * 0.3;
+        double u = vt_rand_unit(rng);
+        if (u < 0.25)
+            e = floor(e / 16.0) * 16.0; /* on a split plane / chunk corner */
+        else if (u < 0.4)
+            e = floor(e); /* on a voxel plane */
+        cam->eye[a] = origin[a] + e;
+        cam->target[a] = origin[a] + vt_rand_unit(rng) * size[a];
+        if (vt_rand_unit(rng) < 0.3)
+            cam->target[a] = origin[a] + floor(cam->target[a] - origin[a]);
+    }
+    double u = vt_rand_unit(rng);
+    if (u < 0.15) { /* along an axis */
+        for (int a = 0; a < 3; ++a)
+            if (a != 1)
+                cam->target[a] = cam->eye[a];
+    } else if (u < 0.3) { /* along an exact diagonal: rays through cell corners */
+        double k = 8.0 + floor(vt_rand_unit(rng) * 16.0);
+        cam->target[0] = cam->eye[0] + (vt_rand(rng) & 1 ? k : -k);
+        cam->target[1] = cam->eye[1] + (vt_rand(rng) & 1 ? k : vt_rand(rng) & 1 ? -k : 0.0);
+        cam->target[2] = cam->eye[2] + (vt_rand(rng) & 1 ? k : -k);
+    }
+    cam->fovy_deg = 20.0 + vt_rand_unit(rng) * 100.0;
+    if (vt_rand_unit(rng) < 0.25) /* a far plane, sometimes exactly on a split distance */
+        cam->far_dist = 8.0 + floor(vt_rand_unit(rng) * 4.0) * 8.0;
+}
+
+static void test_random_worlds(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    uint64_t rng = 20100601;
+    /* Shapes in chunks: powers of two (every leaf at one depth) and not (leaves at several
+     * depths, ropes-shortstack regions of mixed height). */
+    static const int shapes[][3] = {{4, 2, 4}, {3, 2, 3}, {5, 3, 2}, {2, 2, 2}, {8, 1, 4}, {3, 3, 3}};
+    static const uint32_t depths[] = {0, 1, 2, 3, 5};
+    int rounds = vt_small() ? 4 : 12, cams = vt_small() ? 3 : 6;
+    for (int wi = 0; wi < rounds; ++wi) {
+        const int *sh = shapes[wi % 6];
+        tworld w;
+        random_world(&w, &rng, sh[0], sh[1], sh[2]);
+        uint32_t depth = depths[wi % 5];
+        vis_scene *scene = make_scene(ctx, &w, NULL, depth);
+        const double zero[3] = {0, 0, 0};
+        for (int ci = 0; ci < cams; ++ci) {
+            vis_camera cam;
+            random_camera(&cam, &rng, w.size, zero);
+            char what[96];
+            snprintf(what, sizeof what, "world %d (%dx%dx%d chunks, kd_depth %u), camera %d", wi, sh[0], sh[1], sh[2],
+                     depth, ci);
+            check_view(ctx, scene, &w, &cam, ci & 1 ? 41 : 40, ci & 1 ? 33 : 32, what);
+        }
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
+/* Edits between passes: the tree and its ropes stay, leaf contents change. */
+static void test_edits_between_passes(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    uint64_t rng = 77;
+    tworld w;
+    random_world(&w, &rng, 4, 2, 3);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_scene_info before;
+    vis_scene_get_info(scene, &before);
+    const double zero[3] = {0, 0, 0};
+    int rounds = vt_small() ? 3 : 8;
+    for (int e = 0; e < rounds; ++e) {
+        /* remove a few, change a few, add one straddling leaves */
+        for (int k = 0; k < 3 && w.n > 1; ++k) {
+            uint32_t i = (uint32_t)(vt_rand(&rng) % w.n);
+            assert_int_equal(vis_scene_remove_object(scene, w.objs[i].id), VIS_OK);
+            free_obj(&w.objs[i]);
+            w.objs[i] = w.objs[--w.n];
+        }
+        for (int k = 0; k < 3 && w.n > 0; ++k) {
+            tobj *o = &w.objs[vt_rand(&rng) % w.n];
+            float lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = (float)(vt_rand(&rng) % (uint64_t)(w.size[a] - 8));
+                hi[a] = lo[a] + 1.0f + (float)(vt_rand(&rng) % 7);
+            }
+            free_obj(o);
+            obj_box(o, lo, hi);
+            set_obj(scene, o);
+        }
+        tobj *o = add_obj(&w, 300000 + (uint32_t)e);
+        float lo[3] = {14.0f, 10.0f, 14.0f}, hi[3] = {18.0f + (float)e, 17.0f, 33.0f};
+        obj_box(o, lo, hi);
+        set_obj(scene, o);
+        for (int c = 0; c < 3; ++c) {
+            vis_camera cam;
+            random_camera(&cam, &rng, w.size, zero);
+            check_view(ctx, scene, &w, &cam, 37, 29, "after edits");
+        }
+    }
+    vis_scene_info after;
+    vis_scene_get_info(scene, &after);
+    assert_true(after.rope_bytes == before.rope_bytes); /* built once, never changed */
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* ---- hard cases ------------------------------------------------------------------------- */
+
+static void wall_world(tworld *w)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = w->size[1] = w->size[2] = 32.0f;
+    float flo[3] = {0, 0, 0}, fhi[3] = {32, 1, 32};
+    obj_box(add_obj(w, 1), flo, fhi);
+    float lo[3] = {16, 1, 4}, hi[3] = {17, 12, 28};
+    obj_box(add_obj(w, 2), lo, hi);
+    float lo2[3] = {4, 1, 16}, hi2[3] = {16, 12, 17};
+    obj_box(add_obj(w, 3), lo2, hi2);
+    /* quads lying exactly in split planes, seen from both sides by in-plane rays' neighbours */
+    obj_quad(add_obj(w, 4), 0, 16.0f, 20.0f, 0.0f, 24.0f, 4.0f);
+    obj_quad(add_obj(w, 5), 2, 16.0f, 20.0f, 20.0f, 24.0f, 24.0f);
+}
+
+static void test_hard_cases(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    tworld w;
+    wall_world(&w);
+    static const uint32_t depths[] = {0, 1, 2};
+    const double views[][7] = {
+        {16, 6, 0, 16, 6, 32, 0},     /* in the split plane x=16                              */
+        {16, 16, 16, 16, 0, 16, 0},   /* straight down from a chunk corner                    */
+        {16, 16, 16, 16, 32, 16, 0},  /* straight up                                          */
+        {0, 6, 16, 32, 6, 16, 0},     /* along +x in the plane z=16                           */
+        {31, 6, 16, 0, 6, 16, 0},     /* along -x                                             */
+        {0, 1, 0, 32, 1, 32, 0},      /* diagonal in the floor's top plane                    */
+        {16, 12, 0, 16, 12, 32, 0},   /* along the wall's top edge                            */
+        {17, 12, 17, 0, 0, 0, 0},     /* from the wall's corner                               */
+        {8, 30, 8, 16.5, 1, 16.5, 0},
+        {0, 16, 0, 32, 16, 32, 0},    /* exact diagonal through the corners of every chunk    */
+        {0, 0, 0, 32, 32, 32, 0},     /* the main diagonal: through the corner of 8 chunks    */
+        {32, 32, 32, 0, 0, 0, 0},
+        {0.5, 6, 16, 32, 6, 16, 15.5},/* far plane exactly on the split plane x=16            */
+        {0.5, 16, 16, 32, 16, 16, 15.5},
+        {-10, 16, 16, 40, 16, 16, 26},/* from outside, far exactly on x=16                    */
+        {-8, -8, -8, 40, 40, 40, 0},  /* enters the scene exactly at its corner               */
+        {16, 16, -5, 16, 16, 40, 0},  /* along the line where two split planes meet           */
+    };
+    for (size_t di = 0; di < sizeof depths / sizeof depths[0]; ++di) {
+        vis_scene *scene = make_scene(ctx, &w, NULL, depths[di]);
+        for (size_t i = 0; i < sizeof views / sizeof views[0]; ++i) {
+            vis_camera cam;
+            memset(&cam, 0, sizeof cam);
+            memcpy(cam.eye, views[i], 24);
+            memcpy(cam.target, views[i] + 3, 24);
+            cam.far_dist = views[i][6];
+            char what[64];
+            snprintf(what, sizeof what, "hard view %zu, kd_depth %u", i, depths[di]);
+            check_view(ctx, scene, &w, &cam, 33, 33, what);
+            check_view(ctx, scene, &w, &cam, 32, 32, what);
+        }
+        vis_scene_destroy(scene);
+    }
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* Views over the checkerboard. Where a ray passes within rounding of a chunk edge, the tree
+ * walk (every method, `stack` included: they all see the same plane distances) may put it on
+ * one side of the edge while the quad test of the chunk on the other side, computing the hit
+ * point from another plane's distance, lands exactly on its closed edge: a hit at the very
+ * same depth in a leaf the ray never enters. The depth is then still exact; only the tie rule
+ * (lowest ID) can slip. Such pixels are listed as NOTEs; the methods must equal `stack` bit
+ * for bit regardless. */
+static void test_checkerboard_views(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    tworld w;
+    checker_world(&w, 4, 4, 4);
+    const uint32_t depths[] = {0, 2, 4};
+    const double views[][6] = {
+        {0, 0, 0, 64, 64, 64}, {-16, 32, -16, 80, 32, 80}, {32, 32, 32, 0, 0, 64}, {8, 40, 8, 40, 8, 40},
+        {32, 70, 32, 32, 0, 32}, {16, 16, -10, 16, 16, 64}, {64, 48, 0, 0, 48, 64}, {24, 24, 24, 64, 24, 24},
+    };
+    for (size_t di = 0; di < sizeof depths / sizeof depths[0]; ++di) {
+        vis_scene *scene = make_scene(ctx, &w, NULL, depths[di]);
+        for (size_t i = 0; i < sizeof views / sizeof views[0]; ++i) {
+            vis_camera cam;
+            memset(&cam, 0, sizeof cam);
+            memcpy(cam.eye, views[i], 24);
+            memcpy(cam.target, views[i] + 3, 24);
+            cam.fovy_deg = 90;
+            check_view_ids(ctx, scene, &w, &cam, 33, 33, VIS_IDS_OBJECT, 1, "checkerboard view");
+            check_view_ids(ctx, scene, &w, &cam, 32, 31, VIS_IDS_OBJECT, 1, "checkerboard view");
+        }
+        vis_scene_destroy(scene);
+    }
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+static void test_closed_room_ties_inside_solid(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    /* A closed room of six 1-voxel walls meeting exactly at edges and corners. */
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = w.size[1] = w.size[2] = 48.0f;
+    float L = 16, H = 32;
+    float walls[6][6] = {{L, L, L, H, L + 1, H}, {L, H - 1, L, H, H, H}, {L, L, L, L + 1, H, H},
+                         {H - 1, L, L, H, H, H}, {L, L, L, H, H, L + 1}, {L, L, H - 1, H, H, H}};
+    for (int i = 0; i < 6; ++i)
+        obj_box(add_obj(&w, 1 + i), walls[i], walls[i] + 3);
+    float out_lo[3] = {0, 0, 0}, out_hi[3] = {48, 2, 48};
+    obj_box(add_obj(&w, 50), out_lo, out_hi);
+    /* the same quad in two objects in different leaves: lowest ID wins */
+    obj_quad(add_obj(&w, 61), 2, 40.0f, 34, 34, 46, 46);
+    obj_quad(add_obj(&w, 60), 2, 40.0f, 34, 34, 46, 46);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    uint64_t rng = 99;
+    int n = vt_small() ? 6 : 20;
+    for (int i = 0; i < n; ++i) {
+        vis_camera cam;
+        memset(&cam, 0, sizeof cam);
+        for (int a = 0; a < 3; ++a) {
+            cam.eye[a] = L + 1 + vt_rand_unit(&rng) * (H - L - 2);
+            if (i % 3 == 0)
+                cam.eye[a] = floor(cam.eye[a]);
+            cam.target[a] = L + vt_rand_unit(&rng) * (H - L);
+        }
+        if (i % 4 == 0) {
+            cam.target[0] = L + 1, cam.target[1] = H - 1, cam.target[2] = L + 1;
+        }
+        if (i % 5 == 1) { /* from the centre (a split-plane corner) to a room corner */
+            cam.eye[0] = cam.eye[1] = cam.eye[2] = 24;
+            cam.target[0] = cam.target[1] = cam.target[2] = L + 1;
+        }
+        cam.fovy_deg = 90;
+        check_view(ctx, scene, &w, &cam, 41, 37, "inside the closed room");
+    }
+    vis_camera ties = {{40, 40, 20}, {40, 40, 47}, 40, 0, 0};
+    check_view(ctx, scene, &w, &ties, 16, 16, "ties");
+    vis_camera solid = {{24.5, 24.5, 16.5}, {30, 20, 40}, 90, 0, 0};
+    check_view(ctx, scene, &w, &solid, 20, 20, "camera inside a solid wall");
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+static void test_far_origin_and_leaf_ids(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    uint64_t rng = 4242;
+    tworld w;
+    random_world(&w, &rng, 3, 2, 3);
+    const double far_o[3] = {1048576.0, 0.0, -1048576.0};
+    vis_scene *scene = make_scene(ctx, &w, far_o, 0);
+    vis_scene *shallow = make_scene(ctx, &w, NULL, 3);
+    const double zero[3] = {0, 0, 0};
+    for (int i = 0; i < 4; ++i) {
+        vis_camera cam;
+        random_camera(&cam, &rng, w.size, far_o);
+        check_view(ctx, scene, &w, &cam, 32, 32, "far from the origin");
+        random_camera(&cam, &rng, w.size, zero);
+        check_view_ids(ctx, shallow, &w, &cam, 40, 30, VIS_IDS_LEAF, 0, "leaf IDs");
+    }
+    vis_scene_destroy(scene);
+    vis_scene_destroy(shallow);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* ---- ray by ray: degenerate rays through the shared traversal code ----------------------- */
+
+static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis_ray *r, vis_hit *h)
+{
+    const vis_kd_node *nodes = v->nodes;
+    const vis_flat_leaf *leaves = v->leaves;
+    const uint32_t *buckets = v->buckets;
+    const vis_flat_quad *quads = v->quads;
+    const vis_flat_tri *tris = v->tris;
+    const vis_flat_object *objects = v->objects;
+    const uint32_t *object_leaves = v->object_leaves;
+    const vis_rope_node *ropes = v->ropes;
+    const uint32_t *rope_index = v->rope_index;
+    (void)object_leaves;
+    h->t = INFINITY;
+    h->object = VIS_NO_OBJECT;
+    h->id = 0;
+    switch (s->traversal) {
+    case VIS_TRAVERSAL_ID_STACK: vis_traverse_stack(r, s, VIS_SCENE_ARGS, h); break;
+    case VIS_TRAVERSAL_ID_RESTART: vis_traverse_restart(r, s, 0, 0, VIS_SCENE_ARGS, h); break;
+    case VIS_TRAVERSAL_ID_PUSHDOWN: vis_traverse_restart(r, s, 0, 1, VIS_SCENE_ARGS, h); break;
+    case VIS_TRAVERSAL_ID_SHORTSTACK: vis_traverse_restart(r, s, s->short_stack, 0, VIS_SCENE_ARGS, h); break;
+    case VIS_TRAVERSAL_ID_ROPES: vis_traverse_ropes(r, s, 0, VIS_SCENE_ARGS, h); break;
+    case VIS_TRAVERSAL_ID_ROPES_SHORTSTACK: vis_traverse_ropes(r, s, s->short_stack, VIS_SCENE_ARGS, h); break;
+    default: fail_msg("unknown traversal %u", s->traversal);
+    }
+}
+
+static void make_ray(vis_ray *r, const float o[3], const int dir[3], float t_near, float t_far)
+{
+    float d[3] = {(float)dir[0], (float)dir[1], (float)dir[2]};
+    float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int a = 0; a < 3; ++a) {
+        r->o[a] = o[a];
+        r->d[a] = d[a] / len;
+        r->inv[a] = 1.0f / r->d[a];
+    }
+    r->t_near = t_near;
+    r->t_far = t_far;
+}
+
+/* lattice: origins on multiples of 8 and directions in {-1,0,1}^3 (exact diagonals through
+ * chunk edges and corners); otherwise origins on split planes or integers, directions in
+ * {-2..2}^3. */
+static void check_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int count, int lattice, const char *what)
+{
+    vis_scene_view v = vis_scene_get_view(scene);
+    vis_ray_setup s;
+    memset(&s, 0, sizeof s);
+    memcpy(s.size, w->size, sizeof s.size);
+    s.root = 0;
+    s.leaf_count = v.leaf_count;
+    for (int i = 0; i < count; ++i) {
+        float o[3];
+        int dir[3];
+        for (int a = 0; a < 3; ++a) {
+            double u = vt_rand_unit(rng);
+            double x = vt_rand_unit(rng) * (w->size[a] + 16.0) - 8.0;
+            if (lattice)
+                x = 8.0 * floor(x / 8.0 + 0.5);
+            else if (u < 0.45)
+                x = 16.0 * floor(x / 16.0 + 0.5); /* on a split plane / the scene boundary */
+            else if (u < 0.8)
+                x = floor(x);
+            o[a] = (float)x;
+            dir[a] = lattice ? (int)(vt_rand(rng) % 3) - 1 : (int)(vt_rand(rng) % 5) - 2;
+        }
+        if (dir[0] == 0 && dir[1] == 0 && dir[2] == 0)
+            dir[vt_rand(rng) % 3] = 1;
+        float t_far = INFINITY;
+        if (vt_rand_unit(rng) < 0.3)
+            t_far = (float)(1 + vt_rand(rng) % 40);
+        vis_ray r;
+        make_ray(&r, o, dir, 0.05f, t_far);
+        float ot;
+        uint32_t oid;
+        oracle_ray(w, &r, &ot, &oid);
+        s.traversal = VIS_TRAVERSAL_ID_STACK;
+        vis_hit ref;
+        trace_ray(&v, &s, &r, &ref);
+        if (ref.id != oid || memcmp(&ref.t, &ot, 4) != 0)
+            fail_msg("%s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g: stack id %u t %.9g, oracle id %u t %.9g", what,
+                     (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2], (double)t_far, ref.id,
+                     (double)ref.t, oid, (double)ot);
+        for (size_t m = 0; m < METHOD_COUNT; ++m) {
+            s.traversal = (uint32_t)methods[m].traversal;
+            s.short_stack = methods[m].n;
+            vis_hit h;
+            trace_ray(&v, &s, &r, &h);
+            if (h.id != ref.id || memcmp(&h.t, &ref.t, 4) != 0 || h.object != ref.object)
+                fail_msg("%s, %s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g: id %u t %.9g, stack (= oracle) id %u t %.9g",
+                         what, methods[m].name, (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2],
+                         (double)t_far, h.id, (double)h.t, ref.id, (double)ref.t);
+        }
+    }
+}
+
+static void test_degenerate_rays(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(1);
+    uint64_t rng = 31337;
+    static const int shapes[][3] = {{4, 2, 4}, {3, 3, 3}, {5, 2, 3}, {2, 2, 2}};
+    static const uint32_t depths[] = {0, 2, 3, 1};
+    int rounds = vt_small() ? 4 : 8, rays = vt_small() ? 1500 : 6000;
+    for (int wi = 0; wi < rounds; ++wi) {
+        tworld w;
+        const int *sh = shapes[wi % 4];
+        random_world(&w, &rng, sh[0], sh[1], sh[2]);
+        vis_scene *scene = make_scene(ctx, &w, NULL, depths[wi % 4]);
+        char what[64];
+        snprintf(what, sizeof what, "world %d, kd_depth %u", wi, depths[wi % 4]);
+        check_rays(scene, &w, &rng, rays, 0, what);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    tworld w;
+    wall_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    check_rays(scene, &w, &rng, rays, 0, "wall world");
+    check_rays(scene, &w, &rng, rays, 1, "wall world, lattice rays");
+    vis_scene_destroy(scene);
+    free_world(&w);
+    static const int checkers[][4] = {{4, 4, 4, 0}, {5, 3, 4, 0}, {4, 4, 4, 3}, {6, 2, 5, 4}};
+    for (int ci = 0; ci < 4; ++ci) {
+        checker_world(&w, checkers[ci][0], checkers[ci][1], checkers[ci][2]);
+        scene = make_scene(ctx, &w, NULL, (uint32_t)checkers[ci][3]);
+        char what[64];
+        snprintf(what, sizeof what, "checkerboard %d, kd_depth %d", ci, checkers[ci][3]);
+        check_rays(scene, &w, &rng, rays, 1, what);
+        check_rays(scene, &w, &rng, rays / 2, 0, what);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
+/* ---- the ropes against their definition --------------------------------------------------- */
+
+typedef struct node_box {
+    float lo[3], hi[3];
+    uint32_t depth;
+} node_box;
+
+static void collect_boxes(const vis_scene *s, uint32_t node, const float lo[3], const float hi[3], uint32_t depth,
+                          node_box *out, uint32_t *height)
+{
+    memcpy(out[node].lo, lo, 12);
+    memcpy(out[node].hi, hi, 12);
+    out[node].depth = depth;
+    uint32_t info = s->nodes[node].info;
+    if ((info & 3u) == VIS_NODE_LEAF) {
+        height[node] = 0;
+        return;
+    }
+    uint32_t a = info & 3u, first = info >> 2;
+    float l1[3], h0[3];
+    memcpy(l1, hi, 12);
+    memcpy(h0, lo, 12);
+    l1[a] = h0[a] = s->nodes[node].split;
+    collect_boxes(s, first, lo, l1, depth + 1, out, height);
+    collect_boxes(s, first + 1, h0, hi, depth + 1, out, height);
+    uint32_t hl = height[first], hr = height[first + 1];
+    height[node] = 1 + (hl > hr ? hl : hr);
+}
+
+/* Does box b cover face f of box n from the other side? */
+static int covers_face(const node_box *b, const node_box *n, uint32_t f)
+{
+    uint32_t a = f >> 1;
+    if (f & 1u) {
+        if (b->lo[a] != n->hi[a])
+            return 0;
+    } else if (b->hi[a] != n->lo[a]) {
+        return 0;
+    }
+    for (uint32_t k = 0; k < 3; ++k)
+        if (k != a && (b->lo[k] > n->lo[k] || b->hi[k] < n->hi[k]))
+            return 0;
+    return 1;
+}
+
+static void check_ropes(vis_context *ctx, const float size[3], uint32_t kd_depth)
+{
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    memcpy(d.size, size, sizeof d.size);
+    d.kd_depth = kd_depth;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    node_box *box = calloc(s->node_count, sizeof *box);
+    uint32_t *height = calloc(s->node_count, sizeof *height);
+    float zero[3] = {0, 0, 0};
+    collect_boxes(s, 0, zero, d.size, 0, box, height);
+    uint32_t entries = 0, leaf_depth_min = 99, leaf_depth_max = 0;
+    for (uint32_t node = 0; node < s->node_count; ++node) {
+        uint32_t info = s->nodes[node].info, e = s->rope_index[node];
+        int leaf = (info & 3u) == VIS_NODE_LEAF;
+        if (leaf) {
+            leaf_depth_min = box[node].depth < leaf_depth_min ? box[node].depth : leaf_depth_min;
+            leaf_depth_max = box[node].depth > leaf_depth_max ? box[node].depth : leaf_depth_max;
+            assert_int_equal(e, info >> 2); /* leaf i is entry i */
+            /* the leaf's box is the traced one, bit for bit */
+            assert_memory_equal(s->leaves[info >> 2].lo, box[node].lo, 12);
+            assert_memory_equal(s->leaves[info >> 2].hi, box[node].hi, 12);
+        }
+        if (height[node] > VIS_MAX_SHORT_STACK) {
+            assert_int_equal(e, VIS_NO_ROPE);
+            continue;
+        }
+        assert_true(e < s->rope_count);
+        ++entries;
+        const vis_rope_node *rn = &s->ropes[e];
+        assert_int_equal(rn->node, node);
+        assert_int_equal(rn->height, height[node]);
+        assert_memory_equal(rn->lo, box[node].lo, 12);
+        assert_memory_equal(rn->hi, box[node].hi, 12);
+        for (uint32_t f = 0; f < 6; ++f) {
+            uint32_t a = f >> 1;
+            int boundary = (f & 1u) ? box[node].hi[a] == d.size[a] : box[node].lo[a] == 0.0f;
+            uint32_t l = rn->link[f];
+            if (boundary) {
+                if (l != VIS_NO_ROPE)
+                    fail_msg("node %u face %u lies on the scene boundary but links to %u", node, f, l);
+                continue;
+            }
+            if (l == VIS_NO_ROPE || l >= s->node_count)
+                fail_msg("node %u face %u: no neighbour link (%u)", node, f, l);
+            if (!covers_face(&box[l], &box[node], f))
+                fail_msg("node %u face %u: link %u does not cover the face", node, f, l);
+            assert_true(box[l].depth <= box[node].depth);
+            /* the smallest such node: no child of it (within the depth) covers the face */
+            uint32_t li = s->nodes[l].info;
+            if ((li & 3u) != VIS_NODE_LEAF && box[l].depth < box[node].depth) {
+                assert_false(covers_face(&box[li >> 2], &box[node], f));
+                assert_false(covers_face(&box[(li >> 2) + 1], &box[node], f));
+            }
+        }
+    }
+    assert_int_equal(entries, s->rope_count);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_true(info.rope_bytes == (uint64_t)s->rope_count * sizeof(vis_rope_node) + (uint64_t)s->node_count * 4u);
+    assert_true(info.rope_bytes_used[0] == (uint64_t)s->leaf_count * sizeof(vis_rope_node));
+    for (uint32_t n = 1; n <= VIS_MAX_SHORT_STACK; ++n) {
+        assert_true(info.rope_bytes_used[n] <= info.rope_bytes_used[n - 1]);
+        if (leaf_depth_min == leaf_depth_max) { /* one leaf depth: exactly the nodes n levels up */
+            uint32_t level = leaf_depth_max > n ? leaf_depth_max - n : 0, at = 0;
+            for (uint32_t node = 0; node < s->node_count; ++node)
+                at += box[node].depth == level;
+            assert_true(info.rope_bytes_used[n] == (uint64_t)at * sizeof(vis_rope_node));
+        }
+    }
+    free(box);
+    free(height);
+    vis_scene_destroy(s);
+}
+
+static void test_ropes_definition(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(1);
+    const float sizes[][3] = {{64, 32, 64}, {48, 32, 80}, {16, 16, 16}, {512, 128, 512}, {100, 40, 70}, {16, 16, 400}};
+    const uint32_t depths[] = {0, 2, 5};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; ++i)
+        for (size_t k = 0; k < sizeof depths / sizeof depths[0]; ++k)
+            check_ropes(ctx, sizes[i], depths[k]);
+    vis_context_destroy(ctx);
+}
+
+/* ---- input --------------------------------------------------------------------------------- */
+
+static void test_desc_validation(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(1);
+    tworld w;
+    wall_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_camera cam = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
+    uint32_t ids[16];
+    for (int i = 0; i < 16; ++i)
+        ids[i] = 0xABCDABCD;
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    assert_int_equal(td.traversal, VIS_TRAVERSAL_STACK);
+    assert_int_equal(td.short_stack, 4);
+    td.width = td.height = 4;
+    td.traversal = VIS_TRAVERSAL_SHORTSTACK;
+    td.short_stack = VIS_MAX_SHORT_STACK + 1;
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_ERROR_INVALID_ARGUMENT);
+    assert_non_null(strstr(vis_context_last_error(ctx), "short_stack"));
+    td.traversal = (vis_traversal)7;
+    td.short_stack = 0;
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_ERROR_INVALID_ARGUMENT);
+    for (int i = 0; i < 16; ++i)
+        assert_int_equal(ids[i], 0xABCDABCD); /* untouched */
+    td.traversal = VIS_TRAVERSAL_ROPES_SHORTSTACK; /* 0 = the default N */
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK);
+    td.short_stack = VIS_MAX_SHORT_STACK;
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_ropes_definition),
+        cmocka_unit_test(test_desc_validation),
+        cmocka_unit_test(test_hard_cases),
+        cmocka_unit_test(test_degenerate_rays),
+        cmocka_unit_test(test_checkerboard_views),
+        cmocka_unit_test(test_closed_room_ties_inside_solid),
+        cmocka_unit_test(test_random_worlds),
+        cmocka_unit_test(test_edits_between_passes),
+        cmocka_unit_test(test_far_origin_and_leaf_ids),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

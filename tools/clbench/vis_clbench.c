@@ -1,0 +1,373 @@
+/* vis_clbench.c — OpenCL conformance and timing on a real world, for machines where the
+ * cmocka tests cannot run (a GPU box without cmocka) and for the figures in docs/opencl.md.
+ *
+ *   vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,N,...]
+ *
+ * 1. Conformance: the camera path of the world plus N random cameras, 512x512 and 61x47,
+ *    object and leaf IDs, every traversal method, CPU backend vs OpenCL: ID and depth buffers
+ *    must be equal byte for byte; then the same after random voxel edits. Exit code 1 on any
+ *    difference.
+ * 2. One 512x512 pass: kernel time (event profiling) and end-to-end time (vis_trace: sync,
+ *    kernel, readback of IDs and depths), median and minimum over --reps passes per view.
+ * 3. Batches: vis_trace_batch of N views at 512x512 (IDs only, and IDs + depths): kernel and
+ *    end-to-end rays per second.
+ * 4. Bytes uploaded per single-voxel edit (median, max over 200 edits).
+ *
+ * Built by hand (docs/opencl.md) against build outputs: libvis, voxelworld, tools/common. */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "camera_path.h"
+#include "timer.h"
+#include "vis/vis.h"
+#include "voxelworld/vw.h"
+#include "world_scene.h"
+
+static uint64_t rng_next(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static double rng_unit(uint64_t *s) { return (double)(rng_next(s) >> 11) * (1.0 / 9007199254740992.0); }
+
+static void die(const char *what, vis_context *ctx)
+{
+    fprintf(stderr, "vis_clbench: %s: %s\n", what, ctx ? vis_context_last_error(ctx) : "");
+    exit(2);
+}
+
+static vis_context *open_ctx(vis_backend_kind kind, const char *device)
+{
+    vis_context_desc d;
+    vis_context_desc_defaults(&d);
+    d.backend = kind;
+    d.opencl_device = device;
+    vis_context *ctx = NULL;
+    if (vis_context_create(&d, &ctx) != VIS_OK) {
+        fprintf(stderr, "vis_clbench: no %s context\n", kind == VIS_BACKEND_CPU ? "CPU" : "OpenCL");
+        exit(2);
+    }
+    return ctx;
+}
+
+/* A camera somewhere above the terrain, looking at a random point of the world. */
+static void random_camera(const vw_world *w, uint64_t *rng, vis_camera *cam)
+{
+    double lo[3], hi[3];
+    world_scene_bounds(w, lo, hi);
+    memset(cam, 0, sizeof *cam);
+    int64_t x = (int64_t)(lo[0] + rng_unit(rng) * (hi[0] - lo[0]));
+    int64_t z = (int64_t)(lo[2] + rng_unit(rng) * (hi[2] - lo[2]));
+    double ground = (double)vc_surface_height(w, x, z);
+    cam->eye[0] = (double)x + rng_unit(rng);
+    cam->eye[2] = (double)z + rng_unit(rng);
+    cam->eye[1] = ground + 1.5 + rng_unit(rng) * (rng_unit(rng) < 0.5 ? 8.0 : 120.0);
+    if (rng_unit(rng) < 0.15) /* on integer planes (chunk corners, split planes) */
+        for (int a = 0; a < 3; ++a)
+            cam->eye[a] = floor(cam->eye[a] / 16.0) * 16.0 + (a == 1 ? 16.0 : 0.0);
+    for (int a = 0; a < 3; ++a)
+        cam->target[a] = lo[a] + rng_unit(rng) * (hi[a] - lo[a]);
+    cam->target[1] = ground + (rng_unit(rng) - 0.5) * 40.0;
+    if (rng_unit(rng) < 0.1) { /* along an axis */
+        cam->target[0] = cam->eye[0];
+        cam->target[2] = cam->eye[2] + (rng_unit(rng) < 0.5 ? 50.0 : -50.0);
+        cam->target[1] = cam->eye[1];
+    }
+    cam->fovy_deg = 40.0 + rng_unit(rng) * 60.0;
+}
+
+typedef struct bufs {
+    uint32_t *ia, *ib;
+    float *da, *db;
+} bufs;
+
+static uint32_t g_traversals;
+static uint64_t g_compared, g_failures;
+
+static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene *sb, const vis_camera *cam, uint32_t W,
+                    uint32_t H, bufs *b, const char *what)
+{
+    size_t n = (size_t)W * H;
+    for (uint32_t mode = 0; mode < 2; ++mode)
+        for (uint32_t t = 0; t < g_traversals; ++t) {
+            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
+                continue; /* every quad of the world per ray: tiny buffers only */
+            vis_trace_desc td;
+            vis_trace_desc_defaults(&td);
+            td.width = W;
+            td.height = H;
+            td.ids = (vis_id_mode)mode;
+            td.traversal = (vis_traversal)t;
+            td.short_stack = 1u + (uint32_t)(g_compared % 8u);
+            memset(b->ib, 0xAB, n * 4);
+            if (vis_trace(cpu, sa, cam, &td, b->ia, b->da) != VIS_OK)
+                die("cpu trace", cpu);
+            if (vis_trace(cl, sb, cam, &td, b->ib, b->db) != VIS_OK)
+                die("opencl trace", cl);
+            ++g_compared;
+            size_t bad = 0, first = 0;
+            for (size_t i = 0; i < n; ++i)
+                if (b->ia[i] != b->ib[i] || memcmp(&b->da[i], &b->db[i], 4) != 0) {
+                    if (!bad)
+                        first = i;
+                    ++bad;
+                }
+            if (bad) {
+                ++g_failures;
+                printf("MISMATCH %s %ux%u ids=%u traversal=%u: %zu pixels; first (%zu,%zu): cpu %u %.9g, opencl %u %.9g\n",
+                       what, W, H, mode, t, bad, first % W, first / W, b->ia[first], (double)b->da[first],
+                       b->ib[first], (double)b->db[first]);
+            }
+        }
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+int main(int argc, char **argv)
+{
+    const char *spec = "gen:default", *device = NULL, *batches = "16,64,256";
+    int ncams = 100, reps = 200;
+    for (int i = 1; i + 1 < argc; i += 2) {
+        if (!strcmp(argv[i], "--scene"))
+            spec = argv[i + 1];
+        else if (!strcmp(argv[i], "--device"))
+            device = argv[i + 1];
+        else if (!strcmp(argv[i], "--cameras"))
+            ncams = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--reps"))
+            reps = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--batch"))
+            batches = argv[i + 1];
+        else {
+            fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..]\n");
+            return 2;
+        }
+    }
+    vw_error werr;
+    vw_world *wa = NULL, *wb = NULL;
+    double t0 = vc_now_ms();
+    if (vw_world_from_spec(spec, NULL, NULL, &wa, &werr) != VW_OK || vw_world_from_spec(spec, NULL, NULL, &wb, &werr) != VW_OK) {
+        fprintf(stderr, "vis_clbench: %s: %s\n", spec, werr.message);
+        return 2;
+    }
+    vis_context *cpu = open_ctx(VIS_BACKEND_CPU, NULL), *cl = open_ctx(VIS_BACKEND_OPENCL, device);
+    vis_backend_info bc, bo;
+    vis_context_backend(cpu, &bc);
+    vis_context_backend(cl, &bo);
+    printf("scene %s; cpu: %s; opencl: %s (%s); libvis %s\n", spec, bc.device, bo.device, bo.is_gpu ? "GPU" : "not GPU",
+           vis_version());
+    world_scene *sa = NULL, *sb = NULL;
+    if (world_scene_create(cpu, wa, NULL, &sa, NULL, &werr) || world_scene_create(cl, wb, NULL, &sb, &(world_scene_stats){0}, &werr)) {
+        fprintf(stderr, "vis_clbench: world_scene: %s\n", werr.message);
+        return 2;
+    }
+    vis_scene *A = world_scene_scene(sa), *B = world_scene_scene(sb);
+    vis_scene_info si;
+    vis_scene_get_info(B, &si);
+    printf("world built in %.0f ms: %u objects, %llu quads, %u leaves\n", vc_now_ms() - t0, si.objects,
+           (unsigned long long)si.quads, si.leaves);
+
+    /* Traversal methods: the CPU accepts 0..n-1. */
+    {
+        vis_camera c = {{1, 1, 1}, {2, 2, 2}, 60, 0, 0};
+        uint32_t id;
+        vis_trace_desc td;
+        vis_trace_desc_defaults(&td);
+        td.width = td.height = 1;
+        for (uint32_t t = 0; t < 64; ++t) {
+            td.traversal = (vis_traversal)t;
+            if (vis_trace(cpu, A, &c, &td, &id, NULL) != VIS_OK)
+                break;
+            g_traversals = t + 1;
+        }
+    }
+
+    /* ---- 1. conformance ---- */
+    vc_view views[VC_MAX_VIEWS];
+    size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
+    size_t big = 512 * 512;
+    bufs b = {malloc(big * 4), malloc(big * 4), malloc(big * 4), malloc(big * 4)};
+    uint64_t rng = 2024;
+    double c0 = vc_now_ms();
+    uint32_t cams = 0;
+    uint64_t full_bytes = 0;
+    for (size_t i = 0; i < nv; ++i, ++cams) {
+        compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, views[i].name);
+        if (i == 0)
+            vis_scene_last_upload_bytes(B, &full_bytes); /* the first sync: the whole scene */
+        compare(cpu, A, cl, B, &views[i].camera, 48, 40, &b, views[i].name);
+    }
+    for (int i = 0; i < ncams; ++i, ++cams) {
+        vis_camera c;
+        random_camera(wa, &rng, &c);
+        char what[32];
+        snprintf(what, sizeof what, "random %d", i);
+        compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, what);
+        if (i % 10 == 0)
+            compare(cpu, A, cl, B, &c, 16, 12, &b, what); /* with the brute force */
+    }
+    /* Random voxel edits on both worlds, then everything again. */
+    vw_world_info wi;
+    vw_world_get_info(wa, &wi);
+    for (int e = 0; e < 300; ++e) {
+        int64_t x = wi.origin[0] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[0]);
+        int64_t z = wi.origin[2] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[2]);
+        int64_t y = vc_surface_height(wa, x, z) - (int64_t)(rng_next(&rng) % 3);
+        vw_voxel v = (vw_voxel)(rng_next(&rng) % 2 ? 0 : 1 + rng_next(&rng) % 8);
+        vw_world_set(wa, x, y, z, v);
+        vw_world_set(wb, x, y, z, v);
+    }
+    if (world_scene_update(sa, NULL, &werr) || world_scene_update(sb, NULL, &werr)) {
+        fprintf(stderr, "vis_clbench: update: %s\n", werr.message);
+        return 2;
+    }
+    for (size_t i = 0; i < nv; ++i, ++cams)
+        compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, "after edits");
+    for (int i = 0; i < ncams / 2; ++i, ++cams) {
+        vis_camera c;
+        random_camera(wa, &rng, &c);
+        compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, "after edits");
+    }
+    printf("conformance: %u cameras, %llu buffer pairs (%u traversals x object/leaf IDs), %llu mismatches, %.1f s\n",
+           cams, (unsigned long long)g_compared, g_traversals, (unsigned long long)g_failures,
+           (vc_now_ms() - c0) * 1e-3);
+
+    /* ---- 2. one 512x512 pass ---- */
+    double *km = malloc((size_t)reps * sizeof *km), *tm = malloc((size_t)reps * sizeof *tm);
+    vis_camera def;
+    vc_camera_default(wa, &def);
+    printf("\n512x512 pass, %d reps after 20 warm-ups (median / min ms):\n", reps);
+    printf("%-12s %-10s %18s %18s %18s %14s\n", "view", "traversal", "opencl kernel", "opencl end-to-end",
+           "e2e ids only", "cpu e2e");
+    for (size_t vi = 0; vi <= nv; ++vi) {
+        const vis_camera *cam = vi == 0 ? &def : &views[vi - 1].camera;
+        const char *name = vi == 0 ? "default" : views[vi - 1].name;
+        for (uint32_t t = 0; t < g_traversals; ++t) {
+            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || (vi > 0 && t != 0))
+                continue;
+            vis_trace_desc td;
+            vis_trace_desc_defaults(&td);
+            td.traversal = (vis_traversal)t;
+            vis_timing tg;
+            for (int r = 0; r < 20; ++r)
+                vis_trace(cl, B, cam, &td, b.ib, b.db);
+            for (int r = 0; r < reps; ++r) {
+                if (vis_trace(cl, B, cam, &td, b.ib, b.db) != VIS_OK)
+                    die("trace", cl);
+                vis_context_last_timing(cl, &tg);
+                km[r] = tg.kernel_ms;
+                tm[r] = tg.total_ms;
+            }
+            qsort(km, (size_t)reps, sizeof *km, cmp_double);
+            qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
+            double kmed = km[reps / 2], kmin = km[0], tmed = tm[reps / 2], tmin = tm[0];
+            for (int r = 0; r < reps; ++r) {
+                vis_trace(cl, B, cam, &td, b.ib, NULL);
+                vis_context_last_timing(cl, &tg);
+                tm[r] = tg.total_ms;
+            }
+            qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
+            double imed = tm[reps / 2];
+            int creps = 5;
+            for (int r = 0; r < creps; ++r) {
+                vis_trace(cpu, A, cam, &td, b.ia, b.da);
+                vis_context_last_timing(cpu, &tg);
+                km[r] = tg.total_ms;
+            }
+            qsort(km, (size_t)creps, sizeof *km, cmp_double);
+            printf("%-12s %-10u %8.4f / %7.4f %8.4f / %7.4f %18.4f %14.3f\n", name, t, kmed, kmin, tmed, tmin, imed,
+                   km[creps / 2]);
+        }
+    }
+
+    /* ---- 3. batches ---- */
+    printf("\nbatches of 512x512 views (vis_trace_batch, stack traversal, object IDs):\n");
+    printf("%6s %12s %12s %14s %14s %16s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
+           "e2e+depth Grays/s");
+    for (const char *p = batches; *p;) {
+        uint32_t n = (uint32_t)strtoul(p, (char **)&p, 10);
+        if (*p == ',')
+            ++p;
+        if (n == 0)
+            break;
+        vis_camera *cams_b = malloc(n * sizeof *cams_b);
+        for (uint32_t i = 0; i < n; ++i)
+            random_camera(wa, &rng, &cams_b[i]);
+        uint32_t *ids = malloc((size_t)n * big * 4);
+        float *depth = malloc((size_t)n * big * 4);
+        if (!ids || !depth) {
+            printf("%6u: out of host memory\n", n);
+            break;
+        }
+        vis_timing tg;
+        double bk[5], bt[5], bd[5];
+        for (int r = 0; r < 6; ++r) {
+            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, NULL) != VIS_OK)
+                die("batch", cl);
+            vis_context_last_timing(cl, &tg);
+            if (r) {
+                bk[r - 1] = tg.kernel_ms;
+                bt[r - 1] = tg.total_ms;
+            }
+        }
+        for (int r = 0; r < 5; ++r) {
+            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, depth) != VIS_OK)
+                die("batch", cl);
+            vis_context_last_timing(cl, &tg);
+            bd[r] = tg.total_ms;
+        }
+        qsort(bk, 5, sizeof(double), cmp_double);
+        qsort(bt, 5, sizeof(double), cmp_double);
+        qsort(bd, 5, sizeof(double), cmp_double);
+        double rays = (double)n * (double)big;
+        printf("%6u %12.3f %12.3f %14.2f %14.2f %16.2f\n", n, bk[2], bt[2], rays / (bk[2] * 1e6), rays / (bt[2] * 1e6),
+               rays / (bd[2] * 1e6));
+        /* spot check: the batch's first and last views equal single passes */
+        vis_trace(cl, B, &cams_b[n - 1], NULL, b.ib, NULL);
+        if (memcmp(b.ib, ids + (size_t)(n - 1) * big, big * 4) != 0) {
+            printf("MISMATCH batch view %u vs single pass\n", n - 1);
+            ++g_failures;
+        }
+        free(cams_b);
+        free(ids);
+        free(depth);
+    }
+
+    /* ---- 4. bytes per single-voxel edit ---- */
+    int ne = 200;
+    double *eb = malloc((size_t)ne * sizeof *eb);
+    for (int e = 0; e < ne; ++e) {
+        int64_t x = wi.origin[0] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[0]);
+        int64_t z = wi.origin[2] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[2]);
+        int64_t y = vc_surface_height(wb, x, z) - (int64_t)(rng_next(&rng) % 2);
+        vw_world_set(wb, x, y, z, vw_world_get(wb, x, y, z) ? 0 : 1);
+        if (world_scene_update(sb, NULL, &werr))
+            die("update", NULL);
+        vis_timing tg;
+        if (vis_trace(cl, B, &def, NULL, b.ib, NULL) != VIS_OK)
+            die("trace", cl);
+        vis_context_last_timing(cl, &tg);
+        eb[e] = (double)tg.upload_bytes;
+    }
+    qsort(eb, (size_t)ne, sizeof *eb, cmp_double);
+    printf("\nsingle-voxel edits: %d, bytes uploaded per edit: median %.0f, min %.0f, max %.0f (whole scene: %llu)\n",
+           ne, eb[ne / 2], eb[0], eb[ne - 1], (unsigned long long)full_bytes);
+    printf("\nRESULT %s\n", g_failures ? "MISMATCHES FOUND" : "bit-identical");
+    world_scene_destroy(sa);
+    world_scene_destroy(sb);
+    vis_context_destroy(cpu);
+    vis_context_destroy(cl);
+    vw_world_destroy(wa);
+    vw_world_destroy(wb);
+    return g_failures ? 1 : 0;
+}
