@@ -452,8 +452,9 @@ typedef struct vis_stack_entry {
  *
  * Entries come off the stack in increasing t_min, so the first one that starts beyond the best
  * hit ends the ray -- except for the far side of an in-plane node, which starts where the near
- * side started and lies below entries that start later. While one is pending (in_plane > 0),
- * entries beyond the best hit are dropped instead, down to it. */
+ * side started and lies below entries that start later. So before ending the ray, the stack is
+ * searched for such an entry (once per ray at most, off the hot path); the entries above it
+ * all start beyond the best hit and are dropped. */
 VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS, vis_hit *h)
 {
     float t_min, t_max;
@@ -461,7 +462,6 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
         return;
     vis_stack_entry stack[VIS_STACK_SIZE];
     int sp = 0;
-    uint32_t in_plane = 0u;
     uint32_t node = s->root;
     for (;;) {
         uint32_t info = nodes[node].info;
@@ -486,7 +486,6 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
                     stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
                     stack[sp].t_max = t_min;
                     ++sp;
-                    ++in_plane;
                 }
                 node = near_child;
             } else {
@@ -507,23 +506,35 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
             info = nodes[node].info;
         }
         vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
-        for (;;) {
-            if (sp == 0)
-                return;
-            --sp;
-            node = stack[sp].node;
-            if (node & VIS_STACK_SAME_INTERVAL) {
-                node &= ~VIS_STACK_SAME_INTERVAL;
-                t_min = stack[sp].t_max; /* saved t_min; t_max stays */
-                --in_plane;
-            } else {
-                t_min = t_max;
-                t_max = stack[sp].t_max;
+        if (sp == 0)
+            return;
+        --sp;
+        node = stack[sp].node;
+        if (node & VIS_STACK_SAME_INTERVAL) {
+            node &= ~VIS_STACK_SAME_INTERVAL;
+            t_min = stack[sp].t_max; /* saved t_min; t_max stays */
+        } else {
+            t_min = t_max;
+            t_max = stack[sp].t_max;
+        }
+        if (t_min > vis_t_limit(h->t)) {
+            /* Past the best hit: done, unless an in-plane far side is still below. Its near side
+             * ends where the entry just above it ends (or, with none between, where the one
+             * just popped does). */
+            for (;;) {
+                int k = sp - 1;
+                while (k >= 0 && !(stack[k].node & VIS_STACK_SAME_INTERVAL))
+                    --k;
+                if (k < 0)
+                    return;
+                if (k + 1 < sp)
+                    t_max = stack[k + 1].t_max;
+                sp = k;
+                node = stack[k].node & ~VIS_STACK_SAME_INTERVAL;
+                t_min = stack[k].t_max;
+                if (!(t_min > vis_t_limit(h->t)))
+                    break;
             }
-            if (!(t_min > vis_t_limit(h->t)))
-                break;
-            if (in_plane == 0u)
-                return;
         }
     }
 }
@@ -739,7 +750,7 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
                                     vis_hit *h)
 {
     vis_stack_entry stack[VIS_SHORT_STACK_MAX];
-    uint32_t sp = 0u, in_plane = 0u;
+    int sp = 0;
     for (;;) {
         uint32_t info = nodes[node].info;
         while ((info & 3u) != VIS_NODE_LEAF) {
@@ -756,11 +767,10 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
                 far_child = first;
             }
             if (d == 0.0f) {
-                if (o == split && sp < VIS_SHORT_STACK_MAX) {
+                if (o == split && sp < (int)VIS_SHORT_STACK_MAX) {
                     stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
                     stack[sp].t_max = t_min;
                     ++sp;
-                    ++in_plane;
                 }
                 node = near_child;
             } else {
@@ -770,7 +780,7 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
                 } else if (t_split < t_min) {
                     node = far_child;
                 } else {
-                    if (sp < VIS_SHORT_STACK_MAX) {
+                    if (sp < (int)VIS_SHORT_STACK_MAX) {
                         stack[sp].node = far_child;
                         stack[sp].t_max = t_max;
                         ++sp;
@@ -782,23 +792,32 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
             info = nodes[node].info;
         }
         vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
-        for (;;) { /* as in vis_traverse_stack */
-            if (sp == 0u)
-                return 0;
-            --sp;
-            node = stack[sp].node;
-            if (node & VIS_STACK_SAME_INTERVAL) {
-                node &= ~VIS_STACK_SAME_INTERVAL;
-                t_min = stack[sp].t_max;
-                --in_plane;
-            } else {
-                t_min = t_max;
-                t_max = stack[sp].t_max;
+        if (sp == 0)
+            return 0;
+        --sp;
+        node = stack[sp].node;
+        if (node & VIS_STACK_SAME_INTERVAL) {
+            node &= ~VIS_STACK_SAME_INTERVAL;
+            t_min = stack[sp].t_max;
+        } else {
+            t_min = t_max;
+            t_max = stack[sp].t_max;
+        }
+        if (t_min > vis_t_limit(h->t)) {
+            for (;;) { /* as in vis_traverse_stack */
+                int k = sp - 1;
+                while (k >= 0 && !(stack[k].node & VIS_STACK_SAME_INTERVAL))
+                    --k;
+                if (k < 0)
+                    return 1;
+                if (k + 1 < sp)
+                    t_max = stack[k + 1].t_max;
+                sp = k;
+                node = stack[k].node & ~VIS_STACK_SAME_INTERVAL;
+                t_min = stack[k].t_max;
+                if (!(t_min > vis_t_limit(h->t)))
+                    break;
             }
-            if (!(t_min > vis_t_limit(h->t)))
-                break;
-            if (in_plane == 0u)
-                return 1;
         }
     }
 }

@@ -12,6 +12,8 @@
  * 3. Batches: vis_trace_batch of N views at 512x512 (IDs only, and IDs + depths): kernel and
  *    end-to-end rays per second.
  * 4. Bytes uploaded per single-voxel edit (median, max over 200 edits).
+ * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
+ * (registers, spills, stack per kernel).
  *
  * Built by hand (docs/opencl.md) against build outputs: libvis, voxelworld, tools/common. */
 #define _POSIX_C_SOURCE 200809L
@@ -19,6 +21,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
 
 #include "camera_path.h"
 #include "timer.h"
@@ -127,6 +132,45 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
         }
 }
 
+/* Builds the embedded kernels on the first NVIDIA device with -cl-nv-verbose and prints
+ * the build log: ptxas's registers, spills and stack frame per kernel (why a kernel is as
+ * fast as it is). Same source and options as the library, plus the verbose flag. */
+extern const char vis_kernels_source[];
+extern const size_t vis_kernels_source_size;
+
+static void nv_verbose(void)
+{
+    cl_platform_id plats[8];
+    cl_uint np = 0;
+    if (clGetPlatformIDs(8, plats, &np) != CL_SUCCESS)
+        return;
+    for (cl_uint p = 0; p < np && p < 8; ++p) {
+        char name[256] = "";
+        clGetPlatformInfo(plats[p], CL_PLATFORM_NAME, sizeof name, name, NULL);
+        if (!strstr(name, "NVIDIA"))
+            continue;
+        cl_device_id dev;
+        if (clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_GPU, 1, &dev, NULL) != CL_SUCCESS)
+            return;
+        cl_int e;
+        cl_context ctx = clCreateContext(NULL, 1, &dev, NULL, NULL, &e);
+        const char *pre = "#if defined(cl_khr_fp64)\n#pragma OPENCL EXTENSION cl_khr_fp64 : enable\n#endif\n";
+        const char *srcs[2] = {pre, vis_kernels_source};
+        size_t lens[2] = {strlen(pre), vis_kernels_source_size};
+        cl_program prog = clCreateProgramWithSource(ctx, 2, srcs, lens, &e);
+        e = clBuildProgram(prog, 1, &dev, "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose", NULL, NULL);
+        size_t n = 0;
+        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, 0, NULL, &n);
+        char *log = calloc(n + 1, 1);
+        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, n, log, NULL);
+        printf("nvidia build (%d), -cl-nv-verbose log:\n%s\n", (int)e, log);
+        free(log);
+        clReleaseProgram(prog);
+        clReleaseContext(ctx);
+        return;
+    }
+}
+
 static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -148,8 +192,13 @@ int main(int argc, char **argv)
             reps = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--batch"))
             batches = argv[i + 1];
+        else if (!strcmp(argv[i], "--nv-verbose") && !strcmp(argv[i + 1], "1")) {
+            nv_verbose();
+            return 0;
+        }
         else {
-            fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..]\n");
+            fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..] "
+                            "[--nv-verbose 1]\n");
             return 2;
         }
     }
@@ -246,7 +295,7 @@ int main(int argc, char **argv)
     double *km = malloc((size_t)reps * sizeof *km), *tm = malloc((size_t)reps * sizeof *tm);
     vis_camera def;
     vc_camera_default(wa, &def);
-    printf("\n512x512 pass, %d reps after 20 warm-ups (median / min ms):\n", reps);
+    printf("\n512x512 pass, %d reps after %d warm-ups (median / min ms):\n", reps, reps < 20 ? reps : 20);
     printf("%-12s %-10s %18s %18s %18s %14s\n", "view", "traversal", "opencl kernel", "opencl end-to-end",
            "e2e ids only", "cpu e2e");
     for (size_t vi = 0; vi <= nv; ++vi) {
@@ -259,7 +308,7 @@ int main(int argc, char **argv)
             vis_trace_desc_defaults(&td);
             td.traversal = (vis_traversal)t;
             vis_timing tg;
-            for (int r = 0; r < 20; ++r)
+            for (int r = 0; r < (reps < 20 ? reps : 20); ++r) /* warm-up */
                 vis_trace(cl, B, cam, &td, b.ib, b.db);
             for (int r = 0; r < reps; ++r) {
                 if (vis_trace(cl, B, cam, &td, b.ib, b.db) != VIS_OK)

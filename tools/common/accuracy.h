@@ -69,11 +69,12 @@ typedef struct vc_accuracy_summary {
 /* Averages n >= 0 frames (n = 0 gives zeros and occluded_culled = 1). */
 void vc_accuracy_summarize(const vc_accuracy *frames, size_t n, vc_accuracy_summary *out);
 
-/* A buffer with the display's aspect ratio holding about edge*edge pixels: the ID buffer a
- * game would use for a display of display_w x display_h when it budgets edge^2 rays (a square
- * buffer would see a narrower view than a wide display: aspect = W/H sets the horizontal
- * field of view). Each side is at least 1 and at most VIS_MAX_RESOLUTION. */
-void vc_accuracy_buffer_size(uint32_t edge_area_w, uint32_t edge_area_h, uint32_t display_w, uint32_t display_h,
+/* The buffer of the display's aspect ratio with about pixels_w * pixels_h pixels: what a game
+ * budgeting 512x512 rays for a 1920x1080 display traces (683x384), since a buffer's aspect
+ * W/H sets its horizontal field of view and a square buffer would see a narrower view than a
+ * wide display. Height = round(sqrt(pixels / aspect)), width = round(height * aspect); each
+ * at least 1 and at most VIS_MAX_RESOLUTION. */
+void vc_accuracy_buffer_size(uint32_t pixels_w, uint32_t pixels_h, uint32_t display_w, uint32_t display_h,
                              uint32_t *out_w, uint32_t *out_h);
 
 /* 1 when the box [lo, hi] (world units) may meet the view frustum of `camera` on a buffer of

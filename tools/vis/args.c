@@ -112,7 +112,7 @@ static int p_camera(const char *cmd, const char *opt, const char *value, int lis
     return CLI_EXIT_OK;
 }
 
-static int p_res(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+static int parse_wxh(const char *cmd, const char *opt, const char *value, uint32_t *out_w, uint32_t *out_h)
 {
     const char *x = strchr(value, 'x');
     char w[32];
@@ -125,9 +125,34 @@ static int p_res(const char *cmd, const char *opt, const char *value, int list, 
     if (parse_u64(w, 1, VIS_MAX_RESOLUTION, &wv) != 0 || parse_u64(x + 1, 1, VIS_MAX_RESOLUTION, &hv) != 0)
         return cli_usage_error(cmd, "%s '%s': width and height must be whole numbers from 1 to %u", opt, value,
                                VIS_MAX_RESOLUTION);
-    a->width = (uint32_t)wv;
-    a->height = (uint32_t)hv;
+    *out_w = (uint32_t)wv;
+    *out_h = (uint32_t)hv;
     return CLI_EXIT_OK;
+}
+
+static int p_res(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    return parse_wxh(cmd, opt, value, &a->width, &a->height);
+}
+
+static int p_truth_res(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    return parse_wxh(cmd, opt, value, &a->truth_width, &a->truth_height);
+}
+
+static int p_supersample(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    return parse_u32_opt(cmd, opt, value, 1, 4, &a->supersample);
+}
+
+static int p_leaf_depth(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    return parse_u32_opt(cmd, opt, value, 1, 64, &a->leaf_depth);
+}
+
+static int p_max_res(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    return parse_u32_opt(cmd, opt, value, 64, VIS_MAX_RESOLUTION, &a->max_res);
 }
 
 static int p_method(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
@@ -304,7 +329,7 @@ static const opt_spec options[] = {
     {"--backend", OPT_BACKEND, "auto|cpu|opencl", "backend (default auto)", p_backend},
     {"--threads", OPT_THREADS, "N|all", "CPU backend threads (default all cores)", p_threads},
     {"--repeat", OPT_REPEAT, "N", "passes to time; the median is reported", p_repeat},
-    {"--frames", OPT_FRAMES, "N", "passes per view (default 20)", p_frames},
+    {"--frames", OPT_FRAMES, "N", "bench: passes per view (20); accuracy: views of the path (all)", p_frames},
     {"--edits", OPT_EDITS, "K", "random single-voxel edits to time (default 1000)", p_edits},
     {"--seed", OPT_SEED, "N", "seed of the random edits (default 1)", p_seed},
     {"--kd-depth", OPT_KD_DEPTH, "N", "fixed kd-tree depth (default: a leaf per chunk)", p_kd_depth},
@@ -312,8 +337,12 @@ static const opt_spec options[] = {
     {"--dump-depth", OPT_DUMP_DEPTH, "FILE", "write W*H little-endian float32 depths (+inf: no hit)", p_dump_depth},
     {"--dump-list", OPT_DUMP_LIST, "FILE", "write the draw list, 'ID PIXELS' per line", p_dump_list},
     {"--png", OPT_PNG, "FILE", "write the ID buffer as a picture", p_png},
-    {"--out", OPT_OUT, "FILE", "output file (.obj or .vox)", p_out},
+    {"--out", OPT_OUT, "PATH", "output: export's .obj or .vox file, accuracy's directory", p_out},
     {"--compare", OPT_COMPARE, "embree", "also trace the same rays with Embree", p_compare},
+    {"--truth-res", OPT_TRUTH_RES, "WxH", "display the truth is traced at (default 1920x1080)", p_truth_res},
+    {"--supersample", OPT_SUPERSAMPLE, "S", "truth samples per pixel side: 2 = 2x2 (default 1)", p_supersample},
+    {"--max-res", OPT_MAX_RES, "N", "largest ray-pass rung: N*N rays (default 2048)", p_max_res},
+    {"--leaf-depth", OPT_LEAF_DEPTH, "N", "kd depth for leaf IDs (default: 8 chunks per leaf)", p_leaf_depth},
     {"--json", OPT_JSON, NULL, "one JSON object on stdout", p_json},
 };
 
@@ -366,6 +395,10 @@ static void set_defaults(const cli_command *cmd, cli_args *a)
     a->frames = 20;
     a->edits = 1000;
     a->seed = 1;
+    a->truth_width = 1920;
+    a->truth_height = 1080;
+    a->supersample = 1;
+    a->max_res = 2048;
 }
 
 int cli_args_parse(const cli_command *cmd, int argc, char **argv, cli_args *out)

@@ -37,7 +37,11 @@ enum {
     OPT_EDITS = 1u << 16,
     OPT_SEED = 1u << 17,
     OPT_COMPARE = 1u << 18,
-    OPT_KD_DEPTH = 1u << 19
+    OPT_KD_DEPTH = 1u << 19,
+    OPT_TRUTH_RES = 1u << 20,
+    OPT_SUPERSAMPLE = 1u << 21,
+    OPT_MAX_RES = 1u << 22,
+    OPT_LEAF_DEPTH = 1u << 23
 };
 
 typedef enum cli_method { CLI_METHOD_RAY = 0, CLI_METHOD_ZBUF } cli_method;
@@ -61,6 +65,10 @@ typedef struct cli_args {
     uint32_t edits;                 /* default 1000                                      */
     uint64_t seed;                  /* default 1                                         */
     uint32_t kd_depth;              /* default 0 (libvis chooses)                        */
+    uint32_t truth_width, truth_height; /* accuracy: the display, default 1920 x 1080    */
+    uint32_t supersample;           /* accuracy: truth samples per pixel side, default 1 */
+    uint32_t max_res;               /* accuracy: largest ray-pass rung, default 2048     */
+    uint32_t leaf_depth;            /* accuracy: kd depth of the leaf-ID scene (0: auto) */
     const char *dump_ids, *dump_depth, *dump_list, *png, *out;
     int compare_embree;
     int json;

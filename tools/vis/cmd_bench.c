@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "bench.h"
+#include "bench_zbuf.h"
 #include "cli.h"
 #include "commands.h"
 #include "json.h"
@@ -308,6 +309,8 @@ static void print_json(const bench *b)
 
 int cmd_bench(const cli_args *a)
 {
+    if (a->method == CLI_METHOD_ZBUF)
+        return bench_zbuf(a);
     if (a->compare_embree && !embree_compare_available())
         return cli_usage_error(CMD, "--compare embree is not available in this build (Embree 3 was not found)");
     bench *b = calloc(1, sizeof *b);

@@ -9,6 +9,7 @@ int cmd_info(const cli_args *args);
 int cmd_export(const cli_args *args);
 int cmd_run(const cli_args *args);
 int cmd_bench(const cli_args *args);
+int cmd_accuracy(const cli_args *args);
 
 extern const cli_command cli_commands[];
 extern const size_t cli_command_count;

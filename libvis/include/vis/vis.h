@@ -192,6 +192,10 @@ VIS_API vis_status vis_scene_set_object(vis_scene *scene, uint32_t id, const vis
 /* VIS_ERROR_NOT_FOUND if there is no such object. */
 VIS_API vis_status vis_scene_remove_object(vis_scene *scene, uint32_t id);
 
+/* Deepest short stack a pass may ask for (vis_trace_desc.short_stack), and the highest level
+ * above the leaves that carries ropes. */
+#define VIS_MAX_SHORT_STACK 16u
+
 typedef struct vis_scene_info {
     double origin[3];
     float size[3];
@@ -210,9 +214,10 @@ typedef struct vis_scene_info {
                                box + six neighbour links of every node up to
                                VIS_MAX_SHORT_STACK levels above the leaves, and a 4-byte
                                node-to-rope index                                           */
-    uint64_t rope_bytes_used[17]; /* of those, the rope nodes a method walks: [0] ropes (one
-                               per leaf), [N] ropes-shortstack with N (one per node N levels
-                               above the leaves; Chang & Ihm 2010, Table 4)                  */
+    uint64_t rope_bytes_used[VIS_MAX_SHORT_STACK + 1]; /* of those, the rope nodes a method
+                               walks: [0] ropes (one per leaf), [N] ropes-shortstack with N
+                               (one per node N levels above the leaves; Chang & Ihm 2010,
+                               Table 4)                                                      */
 } vis_scene_info;
 
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
@@ -261,8 +266,6 @@ typedef enum vis_traversal {
     VIS_TRAVERSAL_ROPES_SHORTSTACK = 6 /* ropes on the nodes short_stack levels above the
                                      leaves, a short stack below them (Chang & Ihm 2010)     */
 } vis_traversal;
-
-#define VIS_MAX_SHORT_STACK 16u
 
 typedef struct vis_trace_desc {
     uint32_t width, height;    /* default 512 x 512; each at most VIS_MAX_RESOLUTION           */

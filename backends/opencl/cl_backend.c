@@ -1,0 +1,371 @@
+/* cl_backend.c — the OpenCL backend's vtable: create, sync, trace one view or a batch.
+ *
+ * One context and one in-order queue with profiling on the chosen device (cl_device.c); the
+ * program is built at creation (cl_program.c), so a device that cannot build the kernels
+ * fails here and AUTO falls back to the CPU. Each pass is one kernel launch over the pixels
+ * in 8x8 work-groups, then a readback of the IDs (and depths when asked for). The kernel's
+ * own time comes from its event (CL_PROFILING_COMMAND_START/END). */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "opencl/cl_internal.h"
+
+/* Output buffers hold at most this many pixels per launch (256 MiB of IDs); larger batches
+ * run as several launches. */
+#define MAX_PIXELS_PER_LAUNCH ((size_t)1 << 26)
+#define TILE 8u
+
+const char *vis_cl_error_name(cl_int e)
+{
+    switch (e) {
+    case CL_SUCCESS: return "CL_SUCCESS";
+    case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
+    case CL_DEVICE_NOT_AVAILABLE: return "CL_DEVICE_NOT_AVAILABLE";
+    case CL_COMPILER_NOT_AVAILABLE: return "CL_COMPILER_NOT_AVAILABLE";
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
+    case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
+    case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
+    case CL_PROFILING_INFO_NOT_AVAILABLE: return "CL_PROFILING_INFO_NOT_AVAILABLE";
+    case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
+    case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
+    case CL_INVALID_DEVICE: return "CL_INVALID_DEVICE";
+    case CL_INVALID_CONTEXT: return "CL_INVALID_CONTEXT";
+    case CL_INVALID_COMMAND_QUEUE: return "CL_INVALID_COMMAND_QUEUE";
+    case CL_INVALID_MEM_OBJECT: return "CL_INVALID_MEM_OBJECT";
+    case CL_INVALID_BUILD_OPTIONS: return "CL_INVALID_BUILD_OPTIONS";
+    case CL_INVALID_PROGRAM_EXECUTABLE: return "CL_INVALID_PROGRAM_EXECUTABLE";
+    case CL_INVALID_KERNEL_NAME: return "CL_INVALID_KERNEL_NAME";
+    case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
+    case CL_INVALID_ARG_INDEX: return "CL_INVALID_ARG_INDEX";
+    case CL_INVALID_ARG_VALUE: return "CL_INVALID_ARG_VALUE";
+    case CL_INVALID_ARG_SIZE: return "CL_INVALID_ARG_SIZE";
+    case CL_INVALID_WORK_DIMENSION: return "CL_INVALID_WORK_DIMENSION";
+    case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
+    case CL_INVALID_WORK_ITEM_SIZE: return "CL_INVALID_WORK_ITEM_SIZE";
+    case CL_INVALID_GLOBAL_WORK_SIZE: return "CL_INVALID_GLOBAL_WORK_SIZE";
+    case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
+    case CL_INVALID_EVENT: return "CL_INVALID_EVENT";
+    case CL_INVALID_OPERATION: return "CL_INVALID_OPERATION";
+    case CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST: return "CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST";
+    case CL_PLATFORM_NOT_FOUND_KHR: return "CL_PLATFORM_NOT_FOUND_KHR";
+    default: return "OpenCL error";
+    }
+}
+
+int vis_cl_status(cl_int e)
+{
+    if (e == CL_MEM_OBJECT_ALLOCATION_FAILURE || e == CL_OUT_OF_RESOURCES || e == CL_OUT_OF_HOST_MEMORY ||
+        e == CL_INVALID_BUFFER_SIZE)
+        return VIS_CL_OUT_OF_MEMORY;
+    return VIS_CL_BACKEND;
+}
+
+int vis_cl_fail(cl_int e, const char *what, char *err, size_t err_size)
+{
+    int st = vis_cl_status(e);
+    snprintf(err, err_size, "%s: %s (%d)%s", what, vis_cl_error_name(e), (int)e,
+             st == VIS_CL_OUT_OF_MEMORY ? ": out of device memory" : "");
+    return st;
+}
+
+void vis_cl_log(const vis_cl_backend *b, int level, const char *fmt, ...)
+{
+    if (!b->log)
+        return;
+    char buf[2048];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    b->log(level, buf, b->log_user);
+}
+
+/* ---- vtable --------------------------------------------------------------------------- */
+
+static void cl_destroy(void *impl)
+{
+    vis_cl_backend *b = impl;
+    if (!b)
+        return;
+    if (b->queue)
+        clFinish(b->queue);
+    vis_cl_programs_release(b);
+    if (b->ids)
+        clReleaseMemObject(b->ids);
+    if (b->depth)
+        clReleaseMemObject(b->depth);
+    if (b->setups)
+        clReleaseMemObject(b->setups);
+    if (b->dummy)
+        clReleaseMemObject(b->dummy);
+    if (b->queue)
+        clReleaseCommandQueue(b->queue);
+    if (b->context)
+        clReleaseContext(b->context);
+    free(b);
+}
+
+static int cl_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
+                         char *err, size_t err_size)
+{
+    return vis_cl_scene_sync(impl, (vis_cl_scene **)scene_data, view, changes, err, err_size);
+}
+
+static void cl_scene_release(void *impl, void *scene_data)
+{
+    vis_cl_backend *b = impl;
+    if (b->queue)
+        clFinish(b->queue);
+    vis_cl_scene_release(scene_data);
+}
+
+static uint64_t cl_last_upload_bytes(void *impl, void *scene_data)
+{
+    (void)impl;
+    const vis_cl_scene *sc = scene_data;
+    return sc ? sc->last_upload_bytes : 0;
+}
+
+static double cl_last_kernel_ms(void *impl) { return ((const vis_cl_backend *)impl)->last_kernel_ms; }
+
+/* Grows a device buffer to `need` elements of `elem` bytes (never per frame once large). */
+static int ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t need, size_t elem, cl_mem_flags flags,
+                         const char *what, char *err, size_t err_size)
+{
+    if (*mem && *cap >= need)
+        return VIS_CL_OK;
+    if ((cl_ulong)need * elem > b->caps.max_alloc) {
+        snprintf(err, err_size, "%s of %zu bytes exceed the device's largest allocation (%llu bytes)", what,
+                 need * elem, (unsigned long long)b->caps.max_alloc);
+        return VIS_CL_OUT_OF_MEMORY;
+    }
+    if (*mem)
+        clReleaseMemObject(*mem);
+    *mem = NULL;
+    *cap = 0;
+    cl_int e = CL_SUCCESS;
+    cl_mem m = clCreateBuffer(b->context, flags, need * elem, NULL, &e);
+    if (e != CL_SUCCESS) {
+        char w[96];
+        snprintf(w, sizeof w, "clCreateBuffer (%s, %zu bytes)", what, need * elem);
+        return vis_cl_fail(e, w, err, err_size);
+    }
+    *mem = m;
+    *cap = need;
+    return VIS_CL_OK;
+}
+
+static int set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
+{
+    const cl_mem *m[] = {&sc->nodes.mem,   &sc->leaves.mem,        &sc->buckets.mem,
+                         &sc->quads.mem,   &sc->tris.mem,          &sc->objects.mem,
+                         &sc->object_leaves.mem, &sc->ropes.mem,   &sc->rope_index.mem};
+    for (cl_uint i = 0; i < sizeof m / sizeof m[0]; ++i) {
+        cl_int e = clSetKernelArg(k, first + i, sizeof(cl_mem), m[i]);
+        if (e != CL_SUCCESS)
+            return (int)e;
+    }
+    return CL_SUCCESS;
+}
+
+/* Launches `k` over width x height x views in 8x8 tiles and reads the outputs back into
+ * ids/depth (views * width * height each). Adds the kernel's device time to last_kernel_ms. */
+static int launch(vis_cl_backend *b, cl_kernel k, uint32_t width, uint32_t height, uint32_t views, uint32_t *ids,
+                  float *depth, char *err, size_t err_size)
+{
+    size_t tx = b->tile[0], ty = b->tile[1];
+    size_t global[3], local[3] = {tx, ty, 1};
+    int tiled = b->caps.max_wg >= tx * ty && b->caps.max_item[0] >= tx && b->caps.max_item[1] >= ty;
+    global[0] = tiled ? (width + tx - 1) / tx * tx : width;
+    global[1] = tiled ? (height + ty - 1) / ty * ty : height;
+    global[2] = views;
+    cl_event ev = NULL;
+    cl_int e = clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, tiled ? local : NULL, 0, NULL, &ev);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clEnqueueNDRangeKernel", err, err_size);
+    size_t n = (size_t)width * height * views;
+    e = clEnqueueReadBuffer(b->queue, b->ids, CL_FALSE, 0, n * sizeof(uint32_t), ids, 0, NULL, NULL);
+    if (e == CL_SUCCESS && depth)
+        e = clEnqueueReadBuffer(b->queue, b->depth, CL_FALSE, 0, n * sizeof(float), depth, 0, NULL, NULL);
+    cl_int f = clFinish(b->queue);
+    if (e == CL_SUCCESS)
+        e = f;
+    if (e != CL_SUCCESS) {
+        clReleaseEvent(ev);
+        return vis_cl_fail(e, "ray pass", err, err_size);
+    }
+    cl_ulong t0 = 0, t1 = 0;
+    if (clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL) == CL_SUCCESS &&
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL) == CL_SUCCESS && t1 >= t0)
+        b->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+    clReleaseEvent(ev);
+    return VIS_CL_OK;
+}
+
+static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, char *err, size_t err_size)
+{
+    int st = ensure_buffer(b, &b->ids, &b->out_cap, pixels, sizeof(uint32_t), CL_MEM_WRITE_ONLY, "ID buffer", err,
+                           err_size);
+    if (st == VIS_CL_OK && want_depth)
+        st = ensure_buffer(b, &b->depth, &b->depth_cap, pixels, sizeof(float), CL_MEM_WRITE_ONLY, "depth buffer",
+                           err, err_size);
+    return st;
+}
+
+static int cl_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+                    uint32_t *ids, float *depth, char *err, size_t err_size)
+{
+    (void)view;
+    vis_cl_backend *b = impl;
+    const vis_cl_scene *sc = scene_data;
+    b->last_kernel_ms = 0.0;
+    vis_cl_program *p = NULL;
+    int st = vis_cl_program_get(b, "", &p, err, err_size);
+    if (st != VIS_CL_OK)
+        return st;
+    size_t pixels = (size_t)setup->width * setup->height;
+    if ((st = prepare_outputs(b, pixels, depth != NULL, err, err_size)) != VIS_CL_OK)
+        return st;
+    cl_uint write_depth = depth != NULL;
+    cl_mem depth_mem = depth ? b->depth : b->dummy; /* never written when write_depth = 0 */
+    cl_int e = clSetKernelArg(p->trace, 0, sizeof *setup, setup);
+    if (e == CL_SUCCESS)
+        e = set_scene_args(p->trace, sc, 1);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->trace, 10, sizeof(cl_mem), &b->ids);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->trace, 11, sizeof(cl_mem), &depth_mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->trace, 12, sizeof write_depth, &write_depth);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clSetKernelArg", err, err_size);
+    return launch(b, p->trace, setup->width, setup->height, 1, ids, depth, err, err_size);
+}
+
+static int cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
+                          uint32_t count, uint32_t *ids, float *depth, char *err, size_t err_size)
+{
+    (void)view;
+    vis_cl_backend *b = impl;
+    const vis_cl_scene *sc = scene_data;
+    b->last_kernel_ms = 0.0;
+    if (count == 0)
+        return VIS_CL_OK;
+    vis_cl_program *p = NULL;
+    int st = vis_cl_program_get(b, "", &p, err, err_size);
+    if (st != VIS_CL_OK)
+        return st;
+    uint32_t W = setups[0].width, H = setups[0].height;
+    size_t pixels = (size_t)W * H;
+    size_t limit = MAX_PIXELS_PER_LAUNCH;
+    if (b->caps.max_alloc / sizeof(uint32_t) < limit)
+        limit = (size_t)(b->caps.max_alloc / sizeof(uint32_t));
+    size_t per = limit / pixels;
+    if (per == 0)
+        per = 1; /* one view larger than the limit: ensure_buffer says whether it fits */
+    if (per > count)
+        per = count;
+    if ((st = prepare_outputs(b, per * pixels, depth != NULL, err, err_size)) != VIS_CL_OK)
+        return st;
+    if ((st = ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
+                            "camera buffer", err, err_size)) != VIS_CL_OK)
+        return st;
+    cl_uint write_depth = depth != NULL;
+    cl_mem depth_mem = depth ? b->depth : b->dummy;
+    cl_int e = clSetKernelArg(p->batch, 0, sizeof(cl_mem), &b->setups);
+    if (e == CL_SUCCESS)
+        e = set_scene_args(p->batch, sc, 1);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->batch, 10, sizeof(cl_mem), &b->ids);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->batch, 11, sizeof(cl_mem), &depth_mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->batch, 12, sizeof write_depth, &write_depth);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clSetKernelArg", err, err_size);
+    for (uint32_t first = 0; first < count; first += (uint32_t)per) {
+        uint32_t n = count - first < per ? count - first : (uint32_t)per;
+        e = clEnqueueWriteBuffer(b->queue, b->setups, CL_FALSE, 0, (size_t)n * sizeof *setups, setups + first, 0,
+                                 NULL, NULL);
+        if (e != CL_SUCCESS)
+            return vis_cl_fail(e, "clEnqueueWriteBuffer (cameras)", err, err_size);
+        st = launch(b, p->batch, W, H, n, ids + (size_t)first * pixels, depth ? depth + (size_t)first * pixels : NULL,
+                    err, err_size);
+        if (st != VIS_CL_OK)
+            return st;
+    }
+    return VIS_CL_OK;
+}
+
+static const vis_backend_ops cl_ops = {
+    .name = "opencl",
+    .destroy = cl_destroy,
+    .scene_sync = cl_scene_sync,
+    .scene_release = cl_scene_release,
+    .trace = cl_trace,
+    .last_upload_bytes = cl_last_upload_bytes,
+    .trace_batch = cl_trace_batch,
+    .last_kernel_ms = cl_last_kernel_ms,
+};
+
+int vis_opencl_backend_create(const char *selector, vis_backend *out, char *device_name, size_t name_size,
+                              int *is_gpu, vis_backend_log_fn log, void *log_user, char *err, size_t err_size)
+{
+    vis_cl_backend *b = calloc(1, sizeof *b);
+    if (!b) {
+        snprintf(err, err_size, "out of host memory");
+        return VIS_CL_OUT_OF_MEMORY;
+    }
+    b->log = log;
+    b->log_user = log_user;
+    int st = vis_cl_device_pick(selector, &b->platform, &b->device, &b->caps, err, err_size);
+    if (st != VIS_CL_OK) {
+        free(b);
+        return st;
+    }
+    cl_int e = CL_SUCCESS;
+    cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)b->platform, 0};
+    b->context = clCreateContext(props, 1, &b->device, NULL, NULL, &e);
+    if (e == CL_SUCCESS)
+        b->queue = clCreateCommandQueue(b->context, b->device, CL_QUEUE_PROFILING_ENABLE, &e);
+    if (e != CL_SUCCESS) {
+        st = vis_cl_fail(e, b->context ? "clCreateCommandQueue" : "clCreateContext", err, err_size);
+        cl_destroy(b);
+        return st;
+    }
+    b->dummy = clCreateBuffer(b->context, CL_MEM_READ_WRITE, 16, NULL, &e);
+    if (e != CL_SUCCESS) {
+        st = vis_cl_fail(e, "clCreateBuffer", err, err_size);
+        cl_destroy(b);
+        return st;
+    }
+    /* Work-group shape: square 8x8 tiles unless $VIS_OPENCL_TILE=WxH says otherwise (a
+     * tuning knob; docs/opencl.md). Results never depend on it. */
+    b->tile[0] = b->tile[1] = TILE;
+    const char *tile = getenv("VIS_OPENCL_TILE");
+    unsigned tw = 0, th = 0;
+    if (tile && sscanf(tile, "%ux%u", &tw, &th) == 2 && tw >= 1 && th >= 1 && tw <= 1024 && th <= 1024) {
+        b->tile[0] = tw;
+        b->tile[1] = th;
+    }
+    vis_cl_program *p = NULL;
+    st = vis_cl_program_get(b, "", &p, err, err_size);
+    if (st != VIS_CL_OK) {
+        cl_destroy(b);
+        return st;
+    }
+    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu",
+               b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
+               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1]);
+    if (!b->caps.fp64)
+        vis_cl_log(b, 2,
+                   "opencl: '%s' has no cl_khr_fp64: rays that graze a triangle edge exactly may differ from the CPU",
+                   b->caps.name);
+    snprintf(device_name, name_size, "%s", b->caps.name);
+    *is_gpu = b->caps.is_gpu;
+    out->ops = &cl_ops;
+    out->impl = b;
+    return VIS_CL_OK;
+}

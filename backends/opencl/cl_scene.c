@@ -1,0 +1,296 @@
+/* cl_scene.c — the device copy of a scene, and the partial uploads that keep it current.
+ *
+ * The scene is the flat arrays of trace_core.h, copied once (the first sync writes every
+ * array whole). After that, libvis reports what edits touched (backend.h, vis_scene_changes)
+ * and only those bytes travel, one clEnqueueWriteBuffer per range:
+ *  - a changed leaf: its 64-byte header, its bucket table (E0+E1+E2+4 entries), its bucketed
+ *    and loose quads, and its triangles — only the used part of each slot;
+ *  - a changed object: its 16-byte slot;
+ *  - the object_leaves range [lo, hi) that edits rewrote.
+ * The tree (nodes, ropes) never changes after creation and is sent once.
+ *
+ * Pools grow on the host (a leaf that outgrows its slot moves to the end of the quad pool;
+ * new objects take new slots). When an array's used count passes its device buffer's
+ * capacity, a larger buffer (1.5x + 4096 elements of headroom) replaces it: the part already
+ * on the device is copied across on the device (clEnqueueCopyBuffer, no host transfer), then
+ * the changed ranges are written as usual. Still no tree rebuild, and no full re-upload.
+ *
+ * Writes are non-blocking and the sync ends with clFinish: the host arrays they read from stay
+ * untouched until the sync returns (calls on a context are serialised), and may change right
+ * after it. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "opencl/cl_internal.h"
+
+#define HEADROOM_MIN 4096u
+
+typedef struct upload_state {
+    vis_cl_backend *b;
+    uint64_t bytes;
+    char *err;
+    size_t err_size;
+} upload_state;
+
+static void array_release(vis_cl_array *a)
+{
+    if (a->mem)
+        clReleaseMemObject(a->mem);
+    memset(a, 0, sizeof *a);
+}
+
+/* A buffer of `cap` elements. Zero-length arrays get one element: kernels need a valid
+ * buffer for every parameter even where the scene has none (no ropes yet, no triangles). */
+static int array_alloc(upload_state *u, vis_cl_array *a, size_t cap, const char *what)
+{
+    if (cap == 0)
+        cap = 1;
+    size_t bytes = cap * a->elem;
+    if ((cl_ulong)bytes > u->b->caps.max_alloc) {
+        snprintf(u->err, u->err_size,
+                 "device '%s' cannot hold the scene's %s: %zu bytes exceed its largest allocation (%llu bytes)",
+                 u->b->caps.name, what, bytes, (unsigned long long)u->b->caps.max_alloc);
+        return VIS_CL_OUT_OF_MEMORY;
+    }
+    cl_int e = CL_SUCCESS;
+    cl_mem m = clCreateBuffer(u->b->context, CL_MEM_READ_ONLY, bytes, NULL, &e);
+    if (e != CL_SUCCESS) {
+        char w[96];
+        snprintf(w, sizeof w, "clCreateBuffer (%s, %zu bytes)", what, bytes);
+        return vis_cl_fail(e, w, u->err, u->err_size);
+    }
+    a->mem = m;
+    a->cap = cap;
+    return VIS_CL_OK;
+}
+
+static int write_range(upload_state *u, vis_cl_array *a, const void *host, size_t first, size_t count,
+                       const char *what)
+{
+    if (count == 0)
+        return VIS_CL_OK;
+    if (first + count > a->cap) {
+        snprintf(u->err, u->err_size, "internal: %s range [%zu, %zu) beyond the device buffer (%zu)", what, first,
+                 first + count, a->cap);
+        return VIS_CL_BACKEND;
+    }
+    size_t off = first * a->elem, bytes = count * a->elem;
+    cl_int e = clEnqueueWriteBuffer(u->b->queue, a->mem, CL_FALSE, off, bytes, (const char *)host + off, 0, NULL,
+                                    NULL);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clEnqueueWriteBuffer", u->err, u->err_size);
+    u->bytes += bytes;
+    return VIS_CL_OK;
+}
+
+/* Whole array: (re)allocated with headroom when too small, then written [0, count). */
+static int upload_all(upload_state *u, vis_cl_array *a, const void *host, size_t count, size_t headroom,
+                      const char *what)
+{
+    if (!a->mem || a->cap < count) {
+        vis_cl_array fresh = {NULL, 0, 0, a->elem};
+        int st = array_alloc(u, &fresh, count + headroom, what);
+        if (st != VIS_CL_OK)
+            return st;
+        array_release(a);
+        *a = fresh;
+    }
+    int st = host ? write_range(u, a, host, 0, count, what) : VIS_CL_OK;
+    if (st == VIS_CL_OK)
+        a->valid = host ? count : 0;
+    return st;
+}
+
+/* Makes room for `count` elements, keeping the `valid` prefix already on the device. */
+static int ensure(upload_state *u, vis_cl_array *a, size_t count, vis_cl_scene *sc, const char *what)
+{
+    if (count <= a->cap)
+        return VIS_CL_OK;
+    size_t cap = count + count / 2 + HEADROOM_MIN;
+    vis_cl_array fresh = {NULL, 0, 0, a->elem};
+    int st = array_alloc(u, &fresh, cap, what);
+    if (st != VIS_CL_OK) {
+        /* Headroom is a convenience: retry with the exact size before giving up. */
+        st = array_alloc(u, &fresh, count, what);
+        if (st != VIS_CL_OK)
+            return st;
+    }
+    if (a->valid) {
+        cl_int e = clEnqueueCopyBuffer(u->b->queue, a->mem, fresh.mem, 0, 0, a->valid * a->elem, 0, NULL, NULL);
+        if (e != CL_SUCCESS) {
+            array_release(&fresh);
+            return vis_cl_fail(e, "clEnqueueCopyBuffer", u->err, u->err_size);
+        }
+    }
+    fresh.valid = a->valid;
+    vis_cl_log(u->b, 0, "opencl: scene %s buffer grew from %zu to %zu elements", what, a->cap, fresh.cap);
+    /* The old buffer is released after the copy: OpenCL keeps it alive until queued
+     * commands that use it are done. */
+    array_release(a);
+    *a = fresh;
+    ++sc->reallocations;
+    return VIS_CL_OK;
+}
+
+static uint32_t bucket_entries(const vis_flat_leaf *lf)
+{
+    if (lf->dims_z == 0xFFFFFFFFu)
+        return 0; /* leaf too large for buckets: every quad is loose */
+    return (lf->dims_xy & 0xFFFFu) + (lf->dims_xy >> 16) + lf->dims_z + 4u;
+}
+
+static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v, uint32_t li)
+{
+    if (li >= v->leaf_count) {
+        snprintf(u->err, u->err_size, "internal: changed leaf %u of %u", li, v->leaf_count);
+        return VIS_CL_BACKEND;
+    }
+    const vis_flat_leaf *lf = &v->leaves[li];
+    int st = write_range(u, &sc->leaves, v->leaves, li, 1, "leaf");
+    uint32_t nb = bucket_entries(lf);
+    if (st == VIS_CL_OK && nb && lf->bucket_offset < v->bucket_count && lf->bucket_offset + nb <= v->bucket_count)
+        st = write_range(u, &sc->buckets, v->buckets, lf->bucket_offset, nb, "bucket table");
+    if (st != VIS_CL_OK)
+        return st;
+    /* Bucketed quads then loose ones: one range when they are adjacent (they are, by layout). */
+    size_t q0 = lf->quad_offset, q1 = (size_t)lf->quad_offset + lf->quad_count;
+    size_t l0 = lf->loose_offset, l1 = (size_t)lf->loose_offset + lf->loose_count;
+    if (lf->quad_count && lf->loose_count && q1 == l0) {
+        st = write_range(u, &sc->quads, v->quads, q0, l1 - q0, "quads");
+    } else {
+        if (lf->quad_count)
+            st = write_range(u, &sc->quads, v->quads, q0, q1 - q0, "quads");
+        if (st == VIS_CL_OK && lf->loose_count)
+            st = write_range(u, &sc->quads, v->quads, l0, l1 - l0, "quads");
+    }
+    if (st == VIS_CL_OK && lf->tri_count)
+        st = write_range(u, &sc->tris, v->tris, lf->tri_offset, lf->tri_count, "triangles");
+    return st;
+}
+
+static int sync_full(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v)
+{
+    /* Pools get headroom so that the first edits that grow them need no reallocation. */
+    size_t hq = v->quad_count / 4 + HEADROOM_MIN, ht = v->tri_count / 4 + HEADROOM_MIN;
+    size_t ho = v->object_count / 4 + HEADROOM_MIN, hb = v->bucket_count / 4 + HEADROOM_MIN;
+    int st = upload_all(u, &sc->nodes, v->nodes, v->node_count, 0, "nodes");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->leaves, v->leaves, v->leaf_count, 0, "leaves");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->buckets, v->buckets, v->bucket_count, hb, "bucket tables");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->quads, v->quads, v->quad_count, hq, "quads");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->tris, v->tris, v->tri_count, ht, "triangles");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->objects, v->objects, v->object_count, ho, "objects");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->object_leaves, v->object_leaves, v->object_leaf_count, ho, "object leaf lists");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->ropes, v->ropes, v->ropes ? v->rope_count : 0, 0, "ropes");
+    if (st == VIS_CL_OK)
+        st = upload_all(u, &sc->rope_index, v->rope_index, v->rope_index ? v->node_count : 0, 0, "rope index");
+    return st;
+}
+
+static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v, const vis_scene_changes *ch)
+{
+    /* The tree is fixed: a different node or leaf count, or ropes built since the last sync,
+     * mean the backend's copy is of another tree; send everything again. */
+    if (v->node_count != sc->nodes.valid || v->leaf_count != sc->leaves.valid)
+        return sync_full(u, sc, v);
+    /* Ropes are built with the tree and never change; if they appeared since the last sync
+     * (built on first use), they are sent once, whole. */
+    int st = VIS_CL_OK;
+    size_t ropes = v->ropes ? v->rope_count : 0, rope_index = v->rope_index ? v->node_count : 0;
+    if (ropes != sc->ropes.valid || rope_index != sc->rope_index.valid) {
+        st = upload_all(u, &sc->ropes, v->ropes, ropes, 0, "ropes");
+        if (st == VIS_CL_OK)
+            st = upload_all(u, &sc->rope_index, v->rope_index, rope_index, 0, "rope index");
+    }
+    if (st == VIS_CL_OK)
+        st = ensure(u, &sc->buckets, v->bucket_count, sc, "bucket tables");
+    if (st == VIS_CL_OK)
+        st = ensure(u, &sc->quads, v->quad_count, sc, "quads");
+    if (st == VIS_CL_OK)
+        st = ensure(u, &sc->tris, v->tri_count, sc, "triangles");
+    if (st == VIS_CL_OK)
+        st = ensure(u, &sc->objects, v->object_count, sc, "objects");
+    if (st == VIS_CL_OK)
+        st = ensure(u, &sc->object_leaves, v->object_leaf_count, sc, "object leaf lists");
+    for (uint32_t i = 0; i < ch->leaf_count && st == VIS_CL_OK; ++i)
+        st = upload_leaf(u, sc, v, ch->leaves[i]);
+    for (uint32_t i = 0; i < ch->object_count && st == VIS_CL_OK; ++i) {
+        if (ch->objects[i] >= v->object_count) {
+            snprintf(u->err, u->err_size, "internal: changed object slot %u of %u", ch->objects[i], v->object_count);
+            return VIS_CL_BACKEND;
+        }
+        st = write_range(u, &sc->objects, v->objects, ch->objects[i], 1, "objects");
+    }
+    if (st == VIS_CL_OK && ch->object_leaf_hi > ch->object_leaf_lo) {
+        uint32_t hi = ch->object_leaf_hi < v->object_leaf_count ? ch->object_leaf_hi : v->object_leaf_count;
+        if (hi > ch->object_leaf_lo)
+            st = write_range(u, &sc->object_leaves, v->object_leaves, ch->object_leaf_lo, hi - ch->object_leaf_lo,
+                             "object leaf lists");
+    }
+    if (st == VIS_CL_OK) {
+        /* Everything below the used counts now mirrors the host. */
+        sc->buckets.valid = v->bucket_count;
+        sc->quads.valid = v->quad_count;
+        sc->tris.valid = v->tri_count;
+        sc->objects.valid = v->object_count;
+        sc->object_leaves.valid = v->object_leaf_count;
+    }
+    return st;
+}
+
+int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_view *view,
+                      const vis_scene_changes *changes, char *err, size_t err_size)
+{
+    vis_cl_scene *sc = *scene;
+    int fresh = 0;
+    if (!sc) {
+        sc = calloc(1, sizeof *sc);
+        if (!sc) {
+            snprintf(err, err_size, "out of host memory for a scene");
+            return VIS_CL_OUT_OF_MEMORY;
+        }
+        sc->nodes.elem = sizeof(vis_kd_node);
+        sc->leaves.elem = sizeof(vis_flat_leaf);
+        sc->buckets.elem = sizeof(uint32_t);
+        sc->quads.elem = sizeof(vis_flat_quad);
+        sc->tris.elem = sizeof(vis_flat_tri);
+        sc->objects.elem = sizeof(vis_flat_object);
+        sc->object_leaves.elem = sizeof(uint32_t);
+        sc->ropes.elem = sizeof(vis_rope_node);
+        sc->rope_index.elem = sizeof(uint32_t);
+        fresh = 1;
+    }
+    upload_state u = {b, 0, err, err_size};
+    int st = fresh || changes->full ? sync_full(&u, sc, view) : sync_partial(&u, sc, view, changes);
+    cl_int e = clFinish(b->queue);
+    if (st == VIS_CL_OK && e != CL_SUCCESS)
+        st = vis_cl_fail(e, "clFinish (scene upload)", err, err_size);
+    if (st != VIS_CL_OK) {
+        /* A half-updated copy must not be traced: drop it; the next sync starts afresh. */
+        vis_cl_scene_release(sc);
+        *scene = NULL;
+        return st;
+    }
+    sc->last_upload_bytes = u.bytes;
+    sc->total_upload_bytes += u.bytes;
+    *scene = sc;
+    return VIS_CL_OK;
+}
+
+void vis_cl_scene_release(vis_cl_scene *sc)
+{
+    if (!sc)
+        return;
+    vis_cl_array *arrays[] = {&sc->nodes,   &sc->leaves,        &sc->buckets, &sc->quads,     &sc->tris,
+                              &sc->objects, &sc->object_leaves, &sc->ropes,   &sc->rope_index};
+    for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
+        array_release(arrays[i]);
+    free(sc);
+}

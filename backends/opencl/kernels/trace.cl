@@ -1,0 +1,66 @@
+/* trace.cl — the ray pass on an OpenCL device: one work-item per pixel, in 8x8 work-groups
+ * (square tiles, Chang & Ihm 2010), each calling vis_trace_pixel() from trace_core.h, which
+ * is compiled in front of this file, so the device runs the CPU's code operation for
+ * operation. The host launches a grid rounded up to whole tiles; items past the edge return.
+ *
+ * The host passes the sizes of the shared structs (-DVIS_CL_*_SIZE); a mismatch with this
+ * compiler's layout stops the build here rather than tracing misread scene data. */
+#include "../../common/trace_core.h"
+
+#if defined(VIS_CL_SETUP_SIZE)
+typedef char vis_cl_check_setup[sizeof(vis_ray_setup) == VIS_CL_SETUP_SIZE ? 1 : -1];
+typedef char vis_cl_check_node[sizeof(vis_kd_node) == VIS_CL_NODE_SIZE ? 1 : -1];
+typedef char vis_cl_check_leaf[sizeof(vis_flat_leaf) == VIS_CL_LEAF_SIZE ? 1 : -1];
+typedef char vis_cl_check_quad[sizeof(vis_flat_quad) == VIS_CL_QUAD_SIZE ? 1 : -1];
+typedef char vis_cl_check_tri[sizeof(vis_flat_tri) == VIS_CL_TRI_SIZE ? 1 : -1];
+typedef char vis_cl_check_object[sizeof(vis_flat_object) == VIS_CL_OBJECT_SIZE ? 1 : -1];
+typedef char vis_cl_check_rope[sizeof(vis_rope_node) == VIS_CL_ROPE_SIZE ? 1 : -1];
+#endif
+
+/* The scene arrays as kernel parameters: VIS_SCENE_PARAMS with `restrict`, which tells the
+ * compiler that nothing writes them during the pass (NVIDIA then loads them through the
+ * read-only data cache). Must name the same arrays, in the same order, as VIS_SCENE_ARGS;
+ * a mismatch fails the build. */
+#define VIS_CL_SCENE_PARAMS                                                                  \
+    const __global vis_kd_node *restrict nodes, const __global vis_flat_leaf *restrict leaves, \
+        const __global uint *restrict buckets, const __global vis_flat_quad *restrict quads,  \
+        const __global vis_flat_tri *restrict tris, const __global vis_flat_object *restrict objects, \
+        const __global uint *restrict object_leaves, const __global vis_rope_node *restrict ropes, \
+        const __global uint *restrict rope_index
+
+/* One view. The setup comes by value (the host's struct, byte for byte). write_depth = 0
+ * when the caller asked for no depth buffer. */
+__kernel void vis_trace_kernel(const vis_ray_setup setup, VIS_CL_SCENE_PARAMS, __global uint *restrict ids,
+                               __global float *restrict depth, const uint write_depth)
+{
+    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1);
+    vis_ray_setup s = setup;
+    if (x >= s.width || y >= s.height)
+        return;
+    uint id;
+    float t;
+    vis_trace_pixel(&s, x, y, VIS_SCENE_ARGS, &id, &t);
+    size_t i = (size_t)y * s.width + x;
+    ids[i] = id;
+    if (write_depth)
+        depth[i] = t;
+}
+
+/* Many views of one size: the third grid dimension is the view; view v writes at
+ * v * width * height. setups[v] is view v's setup. */
+__kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setups, VIS_CL_SCENE_PARAMS,
+                                     __global uint *restrict ids, __global float *restrict depth,
+                                     const uint write_depth)
+{
+    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
+    vis_ray_setup s = setups[v];
+    if (x >= s.width || y >= s.height)
+        return;
+    uint id;
+    float t;
+    vis_trace_pixel(&s, x, y, VIS_SCENE_ARGS, &id, &t);
+    size_t i = ((size_t)v * s.height + y) * s.width + x;
+    ids[i] = id;
+    if (write_depth)
+        depth[i] = t;
+}

@@ -1,0 +1,671 @@
+/*
+ * test_accuracy.c — `vis accuracy` and the arithmetic behind it (tools/common/accuracy.c):
+ * missed / overdraw / area on hand-made draw lists and against a per-ID brute force on random
+ * ones; averages over a path; display-shaped buffers; the frustum test. Then the properties
+ * the study relies on, on a small generated city: the truth compared with itself is perfect,
+ * leaf IDs never miss more than object IDs at the same resolution, and the z-buffer culler
+ * never misses an object the ray pass at its resolution sees. Last, one small `vis accuracy`
+ * run of the built binary: the CSV's columns and rows, the JSON, and a missing gnuplot; and
+ * `vis bench --method zbuf`, the culler's timing along the camera path.
+ */
+#define _POSIX_C_SOURCE 200809L
+
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "accuracy.h"
+#include "camera_path.h"
+#include "test_support.h"
+#include "vis/vis.h"
+#include "voxelworld/vw.h"
+#include "world_scene.h"
+
+#define VIS_EXE VIS_BINARY_DIR "/tools/vis"
+#define CITY "gen:city:size=96x48x96:seed=2"
+
+static char tmp_dir[256];
+
+/* ---- the arithmetic on hand-made lists ---------------------------------------------------- */
+
+static void test_compare_by_hand(void **state)
+{
+    (void)state;
+    /* Truth: 1 (10 samples), 3 (5), 5 (1), 7 (listed with 0 samples: not visible). */
+    vis_draw_entry truth[] = {{1, 10}, {3, 5}, {5, 1}, {7, 0}};
+    /* Drawn: 1 and 5 (hits), 2, 7 and 9 (not visible: overdraw); 3 is missed. */
+    vis_draw_entry drawn[] = {{1, 0}, {2, 0}, {5, 3}, {7, 0}, {9, 0}};
+    uint32_t tris[12] = {0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22};
+    /* In view: 1..9 except 4; 10 and 11 are in view and in neither list (hidden, culled). */
+    uint8_t in_view[12] = {0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 1, 1};
+    vc_accuracy_objects objects = {tris, in_view, 12};
+    vc_accuracy r;
+    assert_int_equal(vc_accuracy_compare(truth, 4, 100, drawn, 5, &objects, &r), 0);
+    assert_int_equal(r.truth_visible, 3);
+    assert_int_equal(r.drawn, 5);
+    assert_int_equal(r.missed, 1);
+    assert_true(fabs(r.missed_area - 0.05) < 1e-15);
+    assert_int_equal(r.overdraw, 3);
+    assert_int_equal(r.overdraw_triangles, 4 + 14 + 18);
+    /* Hidden (in view, not visible): 2, 6, 7, 8, 9, 10, 11; culled: 6, 8, 10, 11. */
+    assert_int_equal(r.hidden, 7);
+    assert_int_equal(r.hidden_culled, 4);
+
+    /* Without the tables: no triangles, nothing hidden. */
+    assert_int_equal(vc_accuracy_compare(truth, 4, 100, drawn, 5, NULL, &r), 0);
+    assert_int_equal(r.missed, 1);
+    assert_int_equal(r.overdraw, 3);
+    assert_int_equal(r.overdraw_triangles, 0);
+    assert_int_equal(r.hidden, 0);
+
+    /* Nothing drawn: everything visible is missed, the whole truth area. */
+    assert_int_equal(vc_accuracy_compare(truth, 4, 16, NULL, 0, NULL, &r), 0);
+    assert_int_equal(r.missed, 3);
+    assert_true(fabs(r.missed_area - 1.0) < 1e-15);
+    assert_int_equal(r.overdraw, 0);
+
+    /* Nothing visible: everything drawn is overdraw. */
+    assert_int_equal(vc_accuracy_compare(NULL, 0, 100, drawn, 5, &objects, &r), 0);
+    assert_int_equal(r.truth_visible, 0);
+    assert_int_equal(r.missed, 0);
+    assert_true(r.missed_area == 0.0);
+    assert_int_equal(r.overdraw, 5);
+    assert_int_equal(r.overdraw_triangles, 2 + 4 + 10 + 14 + 18);
+
+    /* IDs beyond the tables count no triangles and are never in view. */
+    vis_draw_entry far_ids[] = {{40, 0}};
+    assert_int_equal(vc_accuracy_compare(NULL, 0, 100, far_ids, 1, &objects, &r), 0);
+    assert_int_equal(r.overdraw, 1);
+    assert_int_equal(r.overdraw_triangles, 0);
+
+    /* Unsorted or repeated IDs, or samples = 0 with a missed object: refused, out untouched. */
+    vis_draw_entry unsorted[] = {{3, 1}, {2, 1}};
+    vis_draw_entry repeated[] = {{2, 1}, {2, 1}};
+    memset(&r, 0xAB, sizeof r);
+    vc_accuracy before = r;
+    assert_int_equal(vc_accuracy_compare(unsorted, 2, 10, drawn, 5, NULL, &r), -1);
+    assert_int_equal(vc_accuracy_compare(truth, 4, 10, repeated, 2, NULL, &r), -1);
+    assert_int_equal(vc_accuracy_compare(truth, 4, 0, drawn, 5, NULL, &r), -1);
+    assert_memory_equal(&r, &before, sizeof r);
+}
+
+/* Random lists against the obvious per-ID count. */
+static void test_compare_random(void **state)
+{
+    (void)state;
+    enum { IDS = 200 };
+    uint64_t rng = 11;
+    int rounds = vt_small() ? 200 : 2000;
+    for (int round = 0; round < rounds; ++round) {
+        vis_draw_entry truth[IDS], drawn[IDS];
+        uint32_t pixels[IDS], tris[IDS];
+        uint8_t in_t[IDS], in_d[IDS], view[IDS];
+        size_t tn = 0, dn = 0;
+        uint64_t samples = 0;
+        uint32_t pt = (uint32_t)(vt_rand(&rng) % 100), pd = (uint32_t)(vt_rand(&rng) % 100);
+        for (uint32_t id = 0; id < IDS; ++id) {
+            in_t[id] = id > 0 && vt_rand(&rng) % 100 < pt;
+            in_d[id] = id > 0 && vt_rand(&rng) % 100 < pd;
+            pixels[id] = in_t[id] ? (uint32_t)(vt_rand(&rng) % 50) : 0; /* some listed with 0 */
+            tris[id] = (uint32_t)(vt_rand(&rng) % 1000);
+            view[id] = vt_rand(&rng) % 4 != 0;
+            if (in_t[id])
+                truth[tn++] = (vis_draw_entry){id, pixels[id]};
+            if (in_d[id])
+                drawn[dn++] = (vis_draw_entry){id, 0};
+            samples += pixels[id];
+        }
+        samples += vt_rand(&rng) % 1000 + 1; /* background */
+        vc_accuracy_objects obj = {tris, view, IDS};
+        vc_accuracy r;
+        assert_int_equal(vc_accuracy_compare(truth, tn, samples, drawn, dn, &obj, &r), 0);
+        uint32_t vis = 0, missed = 0, over = 0, hidden = 0, culled = 0;
+        uint64_t missed_px = 0, over_tris = 0;
+        for (uint32_t id = 0; id < IDS; ++id) {
+            int visible = in_t[id] && pixels[id] > 0;
+            vis += visible;
+            if (visible && !in_d[id]) {
+                ++missed;
+                missed_px += pixels[id];
+            }
+            if (!visible && in_d[id]) {
+                ++over;
+                over_tris += tris[id];
+            }
+            if (!visible && view[id]) {
+                ++hidden;
+                culled += !in_d[id];
+            }
+        }
+        assert_int_equal(r.truth_visible, vis);
+        assert_int_equal(r.drawn, dn);
+        assert_int_equal(r.missed, missed);
+        assert_true(fabs(r.missed_area - (double)missed_px / (double)samples) < 1e-12);
+        assert_int_equal(r.overdraw, over);
+        assert_int_equal(r.overdraw_triangles, over_tris);
+        assert_int_equal(r.hidden, hidden);
+        assert_int_equal(r.hidden_culled, culled);
+    }
+}
+
+static void test_summarize(void **state)
+{
+    (void)state;
+    vc_accuracy f[3];
+    memset(f, 0, sizeof f);
+    f[0] = (vc_accuracy){10, 12, 1, 0.01, 3, 30, 4, 1};
+    f[1] = (vc_accuracy){20, 18, 3, 0.04, 1, 10, 6, 6};
+    f[2] = (vc_accuracy){30, 30, 2, 0.01, 2, 20, 0, 0};
+    vc_accuracy_summary s;
+    vc_accuracy_summarize(f, 3, &s);
+    assert_int_equal(s.frames, 3);
+    assert_true(fabs(s.truth_visible - 20.0) < 1e-12);
+    assert_true(fabs(s.drawn - 20.0) < 1e-12);
+    assert_true(fabs(s.missed - 2.0) < 1e-12);
+    assert_true(fabs(s.missed_area - 0.02) < 1e-12);
+    assert_true(s.missed_area_max == 0.04);
+    assert_true(fabs(s.overdraw - 2.0) < 1e-12);
+    assert_true(fabs(s.overdraw_triangles - 20.0) < 1e-12);
+    assert_true(fabs(s.hidden - 10.0 / 3.0) < 1e-12);
+    /* Pooled: (1 + 6 + 0) / (4 + 6 + 0), not the mean of 1/4, 6/6 and (undefined). */
+    assert_true(fabs(s.occluded_culled - 0.7) < 1e-12);
+
+    vc_accuracy_summarize(NULL, 0, &s);
+    assert_int_equal(s.frames, 0);
+    assert_true(s.missed == 0.0 && s.missed_area == 0.0 && s.occluded_culled == 1.0);
+}
+
+static void test_buffer_size(void **state)
+{
+    (void)state;
+    uint32_t w, h;
+    vc_accuracy_buffer_size(512, 512, 1920, 1080, &w, &h);
+    assert_int_equal(w, 683);
+    assert_int_equal(h, 384);
+    vc_accuracy_buffer_size(64, 64, 1920, 1080, &w, &h);
+    assert_int_equal(w, 85);
+    assert_int_equal(h, 48);
+    vc_accuracy_buffer_size(2048, 2048, 1920, 1080, &w, &h);
+    assert_int_equal(w, 2731);
+    assert_int_equal(h, 1536);
+    vc_accuracy_buffer_size(256, 128, 1920, 1080, &w, &h); /* 32768 pixels */
+    assert_int_equal(h, 136);
+    assert_int_equal(w, 242);
+    vc_accuracy_buffer_size(512, 512, 800, 800, &w, &h); /* a square display: as asked */
+    assert_int_equal(w, 512);
+    assert_int_equal(h, 512);
+    vc_accuracy_buffer_size(1, 1, 16384, 1, &w, &h); /* never below 1 per side */
+    assert_int_equal(h, 1);
+    assert_int_equal(w, 16384);
+    vc_accuracy_buffer_size(16384, 16384, 16384, 1, &w, &h); /* never above the maximum */
+    assert_int_equal(w, VIS_MAX_RESOLUTION);
+    assert_true(h >= 1 && h <= VIS_MAX_RESOLUTION);
+}
+
+static void test_box_in_view(void **state)
+{
+    (void)state;
+    vis_camera c = {{0, 0, 0}, {0, 0, -10}, 60, 0, 0}; /* looking down -z */
+    double lo[3], hi[3];
+#define BOX(x0, y0, z0, x1, y1, z1) (lo[0] = x0, lo[1] = y0, lo[2] = z0, hi[0] = x1, hi[1] = y1, hi[2] = z1)
+    BOX(-1, -1, -11, 1, 1, -9);
+    assert_true(vc_box_in_view(&c, 100, 100, lo, hi));
+    BOX(-1, -1, 9, 1, 1, 11); /* behind */
+    assert_false(vc_box_in_view(&c, 100, 100, lo, hi));
+    BOX(-1, 20, -11, 1, 22, -9); /* above: 63 degrees up */
+    assert_false(vc_box_in_view(&c, 100, 100, lo, hi));
+    /* 40 degrees to the right: outside a square view (half-angle 30), inside a 16:9 one
+     * (half-angle atan(tan 30 * 16/9) = 45.8). */
+    double x = 10.0 * tan(40.0 * 3.14159265358979 / 180.0);
+    BOX(x - 0.1, -0.1, -10.1, x + 0.1, 0.1, -9.9);
+    assert_false(vc_box_in_view(&c, 100, 100, lo, hi));
+    assert_true(vc_box_in_view(&c, 1920, 1080, lo, hi));
+    /* A box around the eye, one crossing the near plane, one beyond far. */
+    BOX(-1, -1, -1, 1, 1, 1);
+    assert_true(vc_box_in_view(&c, 100, 100, lo, hi));
+    c.far_dist = 5.0;
+    BOX(-1, -1, -11, 1, 1, -9);
+    assert_false(vc_box_in_view(&c, 100, 100, lo, hi));
+    /* Straight down (forward parallel to Y: (0,0,-1) stands in for up). */
+    vis_camera down = {{5, 100, 5}, {5, 0, 5}, 60, 0, 0};
+    BOX(0, 0, 0, 10, 1, 10);
+    assert_true(vc_box_in_view(&down, 64, 64, lo, hi));
+    BOX(200, 0, 0, 210, 1, 10);
+    assert_false(vc_box_in_view(&down, 64, 64, lo, hi));
+#undef BOX
+}
+
+/* ---- properties on a small city ----------------------------------------------------------- */
+
+typedef struct city {
+    vw_world *world;
+    vis_context *ctx;
+    world_scene *ws;       /* a leaf per chunk                                               */
+    world_scene *coarse;   /* three levels shallower: a leaf holds 8 chunks                  */
+    vc_view views[VC_MAX_VIEWS + 6];
+    size_t nviews;
+    size_t cap;
+    uint32_t *ids;
+    vis_draw_entry *a, *b;
+} city;
+
+static void city_open(city *c)
+{
+    memset(c, 0, sizeof *c);
+    vw_error err;
+    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, &c->world, &err), VW_OK);
+    vis_context_desc d;
+    memset(&d, 0, sizeof d);
+    d.backend = VIS_BACKEND_CPU;
+    d.threads = 2;
+    assert_int_equal(vis_context_create(&d, &c->ctx), VIS_OK);
+    assert_int_equal(world_scene_create(c->ctx, c->world, NULL, &c->ws, NULL, &err), 0);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(world_scene_scene(c->ws), &info), VIS_OK);
+    assert_true(info.kd_depth > 3);
+    world_scene_options o;
+    memset(&o, 0, sizeof o);
+    o.kd_depth = info.kd_depth - 3;
+    assert_int_equal(world_scene_create(c->ctx, c->world, &o, &c->coarse, NULL, &err), 0);
+    /* The camera path, and street-level cameras looking along and across the streets. */
+    c->nviews = vc_camera_path(c->world, c->views, VC_MAX_VIEWS);
+    uint64_t rng = 5;
+    for (int i = 0; i < 6; ++i) {
+        vc_view *v = &c->views[c->nviews++];
+        memset(v, 0, sizeof *v);
+        double x = 4 + vt_rand_unit(&rng) * 88, z = 4 + vt_rand_unit(&rng) * 88;
+        double a = vt_rand_unit(&rng) * 6.283185307179586;
+        v->camera.eye[0] = x;
+        v->camera.eye[1] = 2.5 + 10 * vt_rand_unit(&rng);
+        v->camera.eye[2] = z;
+        v->camera.target[0] = x + 50 * cos(a);
+        v->camera.target[1] = v->camera.eye[1] - 1;
+        v->camera.target[2] = z + 50 * sin(a);
+        v->camera.fovy_deg = 60;
+        snprintf(v->name, sizeof v->name, "street-%d", i);
+    }
+    c->cap = vis_drawlist_bound(world_scene_scene(c->ws));
+    c->ids = malloc((size_t)512 * 512 * sizeof *c->ids);
+    c->a = malloc(c->cap * sizeof *c->a);
+    c->b = malloc(c->cap * sizeof *c->b);
+    assert_non_null(c->ids);
+    assert_non_null(c->a);
+    assert_non_null(c->b);
+}
+
+static void city_close(city *c)
+{
+    free(c->ids);
+    free(c->a);
+    free(c->b);
+    world_scene_destroy(c->coarse);
+    world_scene_destroy(c->ws);
+    vis_context_destroy(c->ctx);
+    vw_world_destroy(c->world);
+}
+
+/* The ray pass's draw list on `ws` into `out`. */
+static size_t ray_list(city *c, world_scene *ws, const vis_camera *cam, uint32_t w, uint32_t h, vis_id_mode mode,
+                       vis_draw_entry *out)
+{
+    vis_trace_desc d;
+    memset(&d, 0, sizeof d);
+    d.width = w;
+    d.height = h;
+    d.ids = mode;
+    assert_int_equal(vis_trace(c->ctx, world_scene_scene(ws), cam, &d, c->ids, NULL), VIS_OK);
+    size_t n = 0;
+    assert_int_equal(vis_drawlist_build(c->ctx, world_scene_scene(ws), c->ids, w, h, mode, out, c->cap, &n), VIS_OK);
+    return n;
+}
+
+static void test_truth_against_itself(void **state)
+{
+    (void)state;
+    city c;
+    city_open(&c);
+    static const uint32_t res[][2] = {{64, 36}, {160, 90}, {320, 180}};
+    size_t seen = 0;
+    for (size_t v = 0; v < c.nviews; ++v) {
+        for (size_t k = 0; k < 3; ++k) {
+            uint32_t w = res[k][0], h = res[k][1];
+            size_t n = ray_list(&c, c.ws, &c.views[v].camera, w, h, VIS_IDS_OBJECT, c.a);
+            vc_accuracy r;
+            assert_int_equal(vc_accuracy_compare(c.a, n, (uint64_t)w * h, c.a, n, NULL, &r), 0);
+            assert_int_equal(r.truth_visible, n);
+            assert_int_equal(r.drawn, n);
+            assert_int_equal(r.missed, 0);
+            assert_true(r.missed_area == 0.0);
+            assert_int_equal(r.overdraw, 0);
+            seen += n;
+        }
+    }
+    assert_true(seen > 0);
+    city_close(&c);
+}
+
+/* Leaf IDs expand the hit leaf to all its objects, so they draw a superset of what object
+ * IDs draw at the same resolution: never more missed, never more missed area. */
+static void test_leaf_never_misses_more(void **state)
+{
+    (void)state;
+    city c;
+    city_open(&c);
+    static const uint32_t res[][2] = {{16, 9}, {64, 36}, {171, 96}};
+    int leaf_helped = 0, leaf_overdrew = 0;
+    for (size_t v = 0; v < c.nviews; ++v) {
+        const vis_camera *cam = &c.views[v].camera;
+        /* The truth at 480x270. */
+        size_t tn = ray_list(&c, c.ws, cam, 480, 270, VIS_IDS_OBJECT, c.a);
+        vis_draw_entry *truth = malloc((tn ? tn : 1) * sizeof *truth);
+        assert_non_null(truth);
+        memcpy(truth, c.a, tn * sizeof *truth);
+        for (size_t k = 0; k < 3; ++k) {
+            uint32_t w = res[k][0], h = res[k][1];
+            size_t on = ray_list(&c, c.ws, cam, w, h, VIS_IDS_OBJECT, c.a);
+            size_t ln = ray_list(&c, c.coarse, cam, w, h, VIS_IDS_LEAF, c.b);
+            vc_accuracy ro, rl, sup;
+            assert_int_equal(vc_accuracy_compare(truth, tn, 480 * 270, c.a, on, NULL, &ro), 0);
+            assert_int_equal(vc_accuracy_compare(truth, tn, 480 * 270, c.b, ln, NULL, &rl), 0);
+            assert_true(rl.missed <= ro.missed);
+            assert_true(rl.missed_area <= ro.missed_area);
+            /* Superset: with the object list as the truth, the leaf list misses nothing. */
+            assert_int_equal(vc_accuracy_compare(c.a, on, (uint64_t)w * h, c.b, ln, NULL, &sup), 0);
+            assert_int_equal(sup.missed, 0);
+            leaf_helped |= rl.missed < ro.missed;
+            leaf_overdrew |= rl.overdraw > ro.overdraw;
+        }
+        free(truth);
+    }
+    /* The property is not vacuous on this city: leaves did catch something, and cost something. */
+    assert_true(leaf_helped);
+    assert_true(leaf_overdrew);
+    city_close(&c);
+}
+
+/* The culler is conservative at its own resolution: every object the ray pass sees at the
+ * culler's buffer size (the same pixel centres) is in the culler's list. */
+static void test_zbuf_conservative(void **state)
+{
+    (void)state;
+    city c;
+    city_open(&c);
+    vis_zcull *zc = NULL;
+    assert_int_equal(vis_zcull_create(c.ctx, &zc), VIS_OK);
+    static const uint32_t res[][2] = {{242, 136}, {256, 128}, {512, 512}, {85, 48}};
+    int culled_something = 0;
+    for (size_t v = 0; v < c.nviews; ++v) {
+        const vis_camera *cam = &c.views[v].camera;
+        for (size_t k = 0; k < 4; ++k) {
+            uint32_t w = res[k][0], h = res[k][1];
+            size_t rn = ray_list(&c, c.ws, cam, w, h, VIS_IDS_OBJECT, c.a);
+            vis_zcull_desc zd;
+            vis_zcull_desc_defaults(&zd);
+            zd.width = w;
+            zd.height = h;
+            size_t zn = 0;
+            vis_zcull_stats zs;
+            assert_int_equal(vis_zcull_run(zc, world_scene_scene(c.ws), cam, &zd, c.b, c.cap, &zn, &zs), VIS_OK);
+            vc_accuracy r;
+            assert_int_equal(vc_accuracy_compare(c.a, rn, (uint64_t)w * h, c.b, zn, NULL, &r), 0);
+            if (r.missed)
+                print_message("%s at %ux%u: the culler missed %u of the %zu objects the ray pass sees\n",
+                              c.views[v].name, w, h, r.missed, rn);
+            assert_int_equal(r.missed, 0);
+            culled_something |= zs.in_view > zn;
+        }
+    }
+    assert_true(culled_something); /* it does occlusion culling, not just frustum culling */
+    vis_zcull_destroy(zc);
+    city_close(&c);
+}
+
+/* ---- the binary ----------------------------------------------------------------------------- */
+
+typedef struct run_result {
+    int code;
+    char *out, *err;
+} run_result;
+
+static char *slurp(const char *path)
+{
+    size_t n = 0;
+    char *data = vt_read_file(path, &n);
+    char *s = malloc(n + 1);
+    assert_non_null(s);
+    if (data)
+        memcpy(s, data, n);
+    s[n] = '\0';
+    free(data);
+    return s;
+}
+
+static run_result run_vis(const char *env, const char *fmt, ...)
+{
+    char args[2048], cmd[4096], out_path[512], err_path[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(args, sizeof args, fmt, ap);
+    va_end(ap);
+    snprintf(out_path, sizeof out_path, "%s/stdout.txt", tmp_dir);
+    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
+    snprintf(cmd, sizeof cmd, "%s '%s' %s >'%s' 2>'%s'", env ? env : "", VIS_EXE, args, out_path, err_path);
+    int status = system(cmd);
+    run_result r;
+    r.code = status != -1 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out_path);
+    r.err = slurp(err_path);
+    return r;
+}
+
+#define assert_exit(r, expected)                                                                  \
+    do {                                                                                          \
+        if ((r).code != (expected))                                                               \
+            print_message("exit %d (expected %d); stderr: %s\n", (r).code, (expected), (r).err);   \
+        assert_int_equal((r).code, (expected));                                                   \
+    } while (0)
+
+static void run_free(run_result *r)
+{
+    free(r->out);
+    free(r->err);
+}
+
+/* The index of `name` among the comma-separated fields of `header`, or -1. */
+static int column(const char *header, const char *name)
+{
+    int i = 0;
+    size_t len = strlen(name);
+    for (const char *p = header;; ++i) {
+        const char *end = strpbrk(p, ",\n");
+        size_t n = end ? (size_t)(end - p) : strlen(p);
+        if (n == len && strncmp(p, name, len) == 0)
+            return i;
+        if (!end || *end == '\n')
+            return -1;
+        p = end + 1;
+    }
+}
+
+/* Field `i` of a CSV line (no quoting in this file). */
+static void field(const char *line, int i, char *out, size_t size)
+{
+    const char *p = line;
+    for (int k = 0; k < i; ++k) {
+        p = strchr(p, ',');
+        assert_non_null(p);
+        ++p;
+    }
+    size_t n = strcspn(p, ",\n");
+    assert_true(n < size);
+    memcpy(out, p, n);
+    out[n] = '\0';
+}
+
+static void test_binary_run(void **state)
+{
+    (void)state;
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/run1", tmp_dir);
+    /* Ladder 64², 128² for both ray modes, the culler at 256x128: 5 rows. */
+    run_result r = run_vis(NULL,
+                           "accuracy --scene %s --truth-res 192x108 --max-res 128 --frames 2 --repeat 1 "
+                           "--backend cpu --threads 2 --out '%s'",
+                           CITY, dir);
+    assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "ray-object"));
+    assert_non_null(strstr(r.out, "zbuf"));
+    run_free(&r);
+
+    char path[600];
+    snprintf(path, sizeof path, "%s/accuracy.csv", dir);
+    char *csv = slurp(path);
+    static const char *const required[] = {"method",   "width",    "height",             "time_ms",
+                                           "drawn",    "missed",   "missed_area",        "overdraw",
+                                           "overdraw_triangles", "occluded_culled", NULL};
+    for (const char *const *k = required; *k; ++k) {
+        if (column(csv, *k) < 0)
+            print_message("accuracy.csv lacks column %s: %s\n", *k, csv);
+        assert_true(column(csv, *k) >= 0);
+    }
+    int lines = 0;
+    for (const char *p = csv; *p; ++p)
+        lines += *p == '\n';
+    assert_int_equal(lines, 1 + 5);
+    /* The rows: methods and buffer sizes of the display's aspect. */
+    static const char *const expect[][3] = {{"ray-object", "85", "48"},  {"ray-object", "171", "96"},
+                                            {"ray-leaf", "85", "48"},    {"ray-leaf", "171", "96"},
+                                            {"zbuf", "242", "136"}};
+    int cm = column(csv, "method"), cw = column(csv, "width"), ch = column(csv, "height");
+    int cmiss = column(csv, "missed"), carea = column(csv, "missed_area"), cocc = column(csv, "occluded_culled");
+    const char *line = strchr(csv, '\n') + 1;
+    for (int i = 0; i < 5; ++i) {
+        char v[64];
+        field(line, cm, v, sizeof v);
+        assert_string_equal(v, expect[i][0]);
+        field(line, cw, v, sizeof v);
+        assert_string_equal(v, expect[i][1]);
+        field(line, ch, v, sizeof v);
+        assert_string_equal(v, expect[i][2]);
+        field(line, cmiss, v, sizeof v);
+        assert_true(atof(v) >= 0.0);
+        field(line, carea, v, sizeof v);
+        assert_true(atof(v) >= 0.0 && atof(v) <= 1.0);
+        field(line, cocc, v, sizeof v);
+        assert_true(atof(v) >= 0.0 && atof(v) <= 1.0);
+        line = strchr(line, '\n') + 1;
+    }
+    free(csv);
+    /* The script is always written; the picture when gnuplot is there. */
+    struct stat sb;
+    snprintf(path, sizeof path, "%s/accuracy.gp", dir);
+    assert_int_equal(stat(path, &sb), 0);
+    if (system("command -v gnuplot >/dev/null 2>&1") == 0) {
+        snprintf(path, sizeof path, "%s/accuracy.png", dir);
+        assert_int_equal(stat(path, &sb), 0);
+        assert_true(sb.st_size > 1000);
+    }
+
+    /* --json, 2x2 supersampling, and no gnuplot: still the CSV, exit 0, one JSON object. */
+    snprintf(dir, sizeof dir, "%s/run2", tmp_dir);
+    r = run_vis("VIS_GNUPLOT=/nonexistent/gnuplot",
+                "accuracy --scene %s --truth-res 96x54 --supersample 2 --max-res 64 --frames 1 --repeat 1 "
+                "--backend cpu --out '%s' --json",
+                CITY, dir);
+    assert_exit(r, 0);
+    assert_int_equal(r.out[0], '{');
+    assert_non_null(strstr(r.out, "\"command\": \"accuracy\""));
+    assert_non_null(strstr(r.out, "\"supersample\": 2"));
+    assert_non_null(strstr(r.out, "\"samples\": 20736")); /* 192 x 108 */
+    assert_non_null(strstr(r.out, "\"png\": null"));
+    assert_non_null(strstr(r.err, "gnuplot"));
+    run_free(&r);
+    snprintf(path, sizeof path, "%s/accuracy.csv", dir);
+    assert_int_equal(stat(path, &sb), 0);
+    snprintf(path, sizeof path, "%s/accuracy.png", dir);
+    assert_int_not_equal(stat(path, &sb), 0);
+
+    /* Bad arguments: exit 2. */
+    r = run_vis(NULL, "accuracy --scene %s --truth-res 9000x100 --supersample 2", CITY);
+    assert_exit(r, 2);
+    run_free(&r);
+    r = run_vis(NULL, "accuracy --scene %s --supersample 5", CITY);
+    assert_exit(r, 2);
+    run_free(&r);
+    r = run_vis(NULL, "accuracy --scene %s --max-res 32", CITY);
+    assert_exit(r, 2);
+    run_free(&r);
+}
+
+/* `vis bench --method zbuf`: the culler along the camera path, at 512x512 and 256x128. */
+static void test_bench_zbuf(void **state)
+{
+    (void)state;
+    run_result r = run_vis(NULL, "bench --method zbuf --scene %s --frames 2 --json", CITY);
+    assert_exit(r, 0);
+    assert_int_equal(r.out[0], '{');
+    assert_non_null(strstr(r.out, "\"method\": \"zbuf\""));
+    static const char *const keys[] = {"\"raster_ms\":", "\"test_ms\":", "\"triangles\":", "\"visible\":",
+                                       "\"in_view\":", "\"time_ms\":", NULL};
+    for (const char *const *k = keys; *k; ++k) {
+        int n = 0;
+        for (const char *p = strstr(r.out, *k); p; p = strstr(p + 1, *k))
+            ++n;
+        assert_int_equal(n, 2 * VC_MAX_VIEWS); /* every view at both sizes */
+    }
+    assert_non_null(strstr(r.out, "\"width\": 256, \"height\": 128"));
+    assert_non_null(strstr(r.out, "\"width\": 512, \"height\": 512"));
+    run_free(&r);
+    r = run_vis(NULL, "bench --method zbuf --scene %s --frames 1 --res 64x32", CITY);
+    assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "64x32"));
+    assert_null(strstr(r.out, "512x512"));
+    run_free(&r);
+    r = run_vis(NULL, "bench --method zbuf --compare embree --scene %s", CITY);
+    assert_exit(r, 2);
+    run_free(&r);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(tmp_dir, sizeof tmp_dir, "/tmp/vis_test_accuracy_XXXXXX");
+    if (!mkdtemp(tmp_dir))
+        return -1;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmp_dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_compare_by_hand),
+        cmocka_unit_test(test_compare_random),
+        cmocka_unit_test(test_summarize),
+        cmocka_unit_test(test_buffer_size),
+        cmocka_unit_test(test_box_in_view),
+        cmocka_unit_test(test_truth_against_itself),
+        cmocka_unit_test(test_leaf_never_misses_more),
+        cmocka_unit_test(test_zbuf_conservative),
+        cmocka_unit_test(test_binary_run),
+        cmocka_unit_test(test_bench_zbuf),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

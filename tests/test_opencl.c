@@ -1,0 +1,890 @@
+/* test_opencl.c — the OpenCL backend against the CPU backend, bit for bit.
+ *
+ * The CPU backend is the reference (test_trace.c checks it against an independent brute
+ * force); here every ID and depth buffer the OpenCL backend writes must equal the CPU's byte
+ * for byte: random worlds x random cameras (object and leaf IDs, every traversal the enum
+ * has), the same after bursts of random edits (which exercises the partial uploads and the
+ * growth of device buffers), the hard cases of DESIGN.md, batches, a generated terrain with
+ * voxel edits, device selection errors and the AUTO reason.
+ *
+ * Without an OpenCL device (or in a build without the backend) every test prints a SKIP
+ * line saying why and is skipped. $VIS_OPENCL_DEVICE picks the device, as for the library. */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "camera_path.h"
+#include "test_support.h"
+#include "vis/vis.h"
+#include "voxelworld/vw.h"
+#include "world_scene.h"
+
+/* ---- contexts ------------------------------------------------------------------------- */
+
+static char g_log[2048];
+
+static int g_grew; /* "buffer grew" messages: the reallocation path ran */
+
+static void capture_log(vis_log_level level, const char *message, void *user)
+{
+    (void)user;
+    if (strstr(message, "buffer grew"))
+        ++g_grew;
+    if (level >= VIS_LOG_WARNING)
+        snprintf(g_log, sizeof g_log, "%s", message);
+}
+
+static vis_context *make_ctx(vis_backend_kind kind, const char *device, vis_status *out_status)
+{
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.backend = kind;
+    cd.threads = 2;
+    cd.opencl_device = device;
+    cd.log = capture_log;
+    g_log[0] = '\0';
+    vis_context *ctx = NULL;
+    vis_status st = vis_context_create(&cd, &ctx);
+    if (out_status)
+        *out_status = st;
+    return st == VIS_OK ? ctx : NULL;
+}
+
+/* The OpenCL context every test uses, or NULL (after one SKIP line) when there is none. */
+static vis_context *cl_ctx_or_skip(void)
+{
+    static int tried = 0;
+    static char why[2048];
+    vis_status st;
+    vis_context *ctx = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+    if (!ctx && !tried) {
+        snprintf(why, sizeof why, "%s (%.1900s)", vis_status_string(st), g_log);
+        printf("SKIP: no usable OpenCL device: %s\n", why);
+    }
+    tried = 1;
+    if (ctx && !getenv("VIS_TEST_QUIET_DEVICE")) {
+        static int said = 0;
+        vis_backend_info bi;
+        vis_context_backend(ctx, &bi);
+        if (!said++)
+            printf("OpenCL device: %s (%s)\n", bi.device, bi.is_gpu ? "GPU" : "not a GPU");
+    }
+    return ctx;
+}
+
+#define REQUIRE_OPENCL(var)                                                                  \
+    vis_context *var = cl_ctx_or_skip();                                                     \
+    if (!var) {                                                                              \
+        skip();                                                                              \
+        return;                                                                              \
+    }
+
+static vis_trace_desc desc_make(uint32_t w, uint32_t h, vis_id_mode ids, vis_traversal traversal)
+{
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = w;
+    td.height = h;
+    td.ids = ids;
+    td.traversal = traversal;
+    return td;
+}
+
+/* Number of traversal methods the enum has now: the CPU accepts 0..n-1. */
+static uint32_t traversal_count(vis_context *cpu, vis_scene *scene)
+{
+    vis_camera cam = {{1, 1, 1}, {2, 2, 2}, 60, 0, 0};
+    uint32_t id;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < 64; ++t) {
+        vis_trace_desc td = desc_make(1, 1, VIS_IDS_OBJECT, (vis_traversal)t);
+        if (vis_trace(cpu, scene, &cam, &td, &id, NULL) != VIS_OK)
+            break;
+        n = t + 1;
+    }
+    return n;
+}
+
+/* ---- test worlds (as test_trace.c builds them) ---------------------------------------- */
+
+typedef struct tobj {
+    uint32_t id;
+    vis_quad *quads;
+    uint32_t nq;
+    vis_triangle *tris;
+    uint32_t nt;
+} tobj;
+
+typedef struct tworld {
+    tobj *objs;
+    uint32_t n, cap;
+    float size[3];
+} tworld;
+
+static tobj *add_obj(tworld *w, uint32_t id)
+{
+    if (w->n == w->cap) {
+        w->cap = w->cap ? w->cap * 2 : 64;
+        w->objs = realloc(w->objs, w->cap * sizeof *w->objs);
+    }
+    tobj *o = &w->objs[w->n++];
+    memset(o, 0, sizeof *o);
+    o->id = id;
+    return o;
+}
+
+static void obj_quad(tobj *o, uint32_t axis, float plane, float u0, float v0, float u1, float v1)
+{
+    o->quads = realloc(o->quads, (o->nq + 1) * sizeof *o->quads);
+    vis_quad q = {axis, 0, plane, u0, v0, u1, v1};
+    o->quads[o->nq++] = q;
+}
+
+static void obj_tri(tobj *o, const float a[3], const float b[3], const float c[3])
+{
+    o->tris = realloc(o->tris, (o->nt + 1) * sizeof *o->tris);
+    vis_triangle t;
+    memset(&t, 0, sizeof t);
+    memcpy(t.v[0], a, 12);
+    memcpy(t.v[1], b, 12);
+    memcpy(t.v[2], c, 12);
+    o->tris[o->nt++] = t;
+}
+
+static void obj_box(tobj *o, const float lo[3], const float hi[3])
+{
+    for (uint32_t a = 0; a < 3; ++a) {
+        uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
+        obj_quad(o, a, lo[a], lo[u], lo[v], hi[u], hi[v]);
+        obj_quad(o, a, hi[a], lo[u], lo[v], hi[u], hi[v]);
+    }
+}
+
+static void obj_clear(tobj *o)
+{
+    free(o->quads);
+    free(o->tris);
+    o->quads = NULL;
+    o->tris = NULL;
+    o->nq = o->nt = 0;
+}
+
+static void free_world(tworld *w)
+{
+    for (uint32_t i = 0; i < w->n; ++i)
+        obj_clear(&w->objs[i]);
+    free(w->objs);
+    memset(w, 0, sizeof *w);
+}
+
+static void set_obj(vis_scene *s, const tobj *o)
+{
+    vis_mesh m = {o->quads, o->nq, o->tris, o->nt};
+    assert_int_equal(vis_scene_set_object(s, o->id, &m), VIS_OK);
+}
+
+static vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth)
+{
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    memcpy(d.size, w->size, sizeof d.size);
+    if (origin)
+        memcpy(d.origin, origin, sizeof d.origin);
+    d.kd_depth = kd_depth;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    for (uint32_t i = 0; i < w->n; ++i)
+        set_obj(s, &w->objs[i]);
+    return s;
+}
+
+/* Random boxes inside chunk c (a chunk object). */
+static void chunk_boxes(tobj *o, uint64_t *rng, const int c[3])
+{
+    int boxes = 1 + (int)(vt_rand(rng) % 6);
+    for (int b = 0; b < boxes; ++b) {
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            int l = (int)(vt_rand(rng) % 16), e = 1 + (int)(vt_rand(rng) % 8);
+            if (l + e > 16)
+                e = 16 - l;
+            lo[a] = (float)(c[a] * 16 + l);
+            hi[a] = lo[a] + (float)e;
+        }
+        obj_box(o, lo, hi);
+    }
+    if (vt_rand_unit(rng) < 0.3) /* a face exactly on the chunk boundary */
+        obj_quad(o, 0, (float)(c[0] * 16), (float)(c[1] * 16), (float)(c[2] * 16), (float)(c[1] * 16 + 16),
+                 (float)(c[2] * 16 + 16));
+}
+
+/* An entity: two triangles sharing an edge and an off-grid quad, across chunk borders. */
+static void entity(tobj *o, uint64_t *rng, const float size[3])
+{
+    float p[3];
+    for (int a = 0; a < 3; ++a)
+        p[a] = (float)(vt_rand_unit(rng) * (size[a] - 6.0) + 0.5);
+    float a0[3] = {p[0], p[1], p[2]}, a1[3] = {p[0] + 5.3f, p[1] + 0.7f, p[2]};
+    float a2[3] = {p[0], p[1] + 4.1f, p[2] + 5.2f}, a3[3] = {p[0] + 5.3f, p[1] + 4.1f, p[2] + 5.2f};
+    obj_tri(o, a0, a1, a2);
+    obj_tri(o, a1, a3, a2);
+    obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
+}
+
+static void random_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = 16.0f * nx;
+    w->size[1] = 16.0f * ny;
+    w->size[2] = 16.0f * nz;
+    for (int cz = 0; cz < nz; ++cz)
+        for (int cy = 0; cy < ny; ++cy)
+            for (int cx = 0; cx < nx; ++cx) {
+                if (vt_rand_unit(rng) < 0.3)
+                    continue;
+                int c[3] = {cx, cy, cz};
+                chunk_boxes(add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz))), rng, c);
+            }
+    /* Identical boxes in two objects: the lowest ID must win on both backends. */
+    for (int i = 0; i < 4; ++i) {
+        float lo[3] = {(float)(vt_rand(rng) % (uint64_t)(16 * nx - 4)), (float)(vt_rand(rng) % (uint64_t)(16 * ny - 4)),
+                       (float)(vt_rand(rng) % (uint64_t)(16 * nz - 4))};
+        float hi[3] = {lo[0] + 3, lo[1] + 3, lo[2] + 3};
+        obj_box(add_obj(w, 100001 + 2 * i), lo, hi);
+        obj_box(add_obj(w, 100000 + 2 * i), lo, hi);
+    }
+    for (int i = 0; i < 4; ++i)
+        entity(add_obj(w, 200000 + i), rng, w->size);
+}
+
+static void random_camera(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
+{
+    memset(cam, 0, sizeof *cam);
+    for (int a = 0; a < 3; ++a) {
+        double e = vt_rand_unit(rng) * (size[a] * 1.6) - size[a] * 0.3;
+        if (vt_rand_unit(rng) < 0.3)
+            e = floor(e / 16.0) * 16.0; /* on a split plane or a chunk corner */
+        cam->eye[a] = origin[a] + e;
+        cam->target[a] = origin[a] + vt_rand_unit(rng) * size[a];
+    }
+    if (vt_rand_unit(rng) < 0.2) /* along an axis */
+        for (int a = 0; a < 3; ++a)
+            if (a != 1)
+                cam->target[a] = cam->eye[a];
+    cam->fovy_deg = 20.0 + vt_rand_unit(rng) * 100.0;
+}
+
+/* ---- comparison ----------------------------------------------------------------------- */
+
+typedef struct pair {
+    vis_context *cpu, *cl;
+    vis_scene *cpu_scene, *cl_scene;
+    uint32_t short_stack; /* for the short-stack traversals; 0 = the default */
+} pair;
+
+static void compare_buffers(const uint32_t *ia, const float *da, const uint32_t *ib, const float *db, size_t n,
+                            uint32_t W, const char *what, uint32_t mode, uint32_t trav)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (ia[i] != ib[i] || memcmp(&da[i], &db[i], 4) != 0)
+            fail_msg("%s (ids %u, traversal %u): pixel (%zu,%zu): cpu id %u t %.9g (%08x), opencl id %u t %.9g (%08x)",
+                     what, mode, trav, i % W, i / W, ia[i], (double)da[i], *(const uint32_t *)&da[i], ib[i],
+                     (double)db[i], *(const uint32_t *)&db[i]);
+}
+
+/* Which traversals compare_view runs. The brute force (no tree) costs ~20x a tree
+ * traversal, so the bulk test runs it on every 8th camera only. */
+enum { ALL_TRAVERSALS = 0, TREE_TRAVERSALS = 1 };
+
+/* One view on both backends, every ID mode and traversal; returns the hit pixels. */
+static uint32_t compare_view_sel(const pair *p, const vis_camera *cam, uint32_t W, uint32_t H, uint32_t traversals,
+                                 int which, const char *what)
+{
+    size_t n = (size_t)W * H;
+    uint32_t *ia = malloc(n * 4), *ib = malloc(n * 4);
+    float *da = malloc(n * 4), *db = malloc(n * 4);
+    uint32_t hits = 0;
+    for (uint32_t mode = 0; mode < 2; ++mode)
+        for (uint32_t t = 0; t < traversals; ++t) {
+            if (which == TREE_TRAVERSALS && t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE)
+                continue;
+            vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, (vis_traversal)t);
+            if (p->short_stack)
+                td.short_stack = p->short_stack;
+            memset(ib, 0xAB, n * 4);
+            memset(db, 0xAB, n * 4);
+            if (vis_trace(p->cpu, p->cpu_scene, cam, &td, ia, da) != VIS_OK)
+                fail_msg("%s: cpu: %s", what, vis_context_last_error(p->cpu));
+            if (vis_trace(p->cl, p->cl_scene, cam, &td, ib, db) != VIS_OK)
+                fail_msg("%s: opencl: %s", what, vis_context_last_error(p->cl));
+            compare_buffers(ia, da, ib, db, n, W, what, mode, t);
+            if (mode == 0 && t == 0)
+                for (size_t i = 0; i < n; ++i)
+                    hits += ia[i] != 0;
+        }
+    free(ia), free(ib), free(da), free(db);
+    return hits;
+}
+
+static uint32_t compare_view(const pair *p, const vis_camera *cam, uint32_t W, uint32_t H, uint32_t traversals,
+                             const char *what)
+{
+    return compare_view_sel(p, cam, W, H, traversals, ALL_TRAVERSALS, what);
+}
+
+static void pair_make(pair *p, vis_context *cl, const tworld *w, const double origin[3], uint32_t depth)
+{
+    memset(p, 0, sizeof *p);
+    p->cl = cl;
+    p->cpu = make_ctx(VIS_BACKEND_CPU, NULL, NULL);
+    assert_non_null(p->cpu);
+    p->cpu_scene = make_scene(p->cpu, w, origin, depth);
+    p->cl_scene = make_scene(p->cl, w, origin, depth);
+}
+
+static void pair_free(pair *p)
+{
+    vis_scene_destroy(p->cpu_scene);
+    vis_scene_destroy(p->cl_scene);
+    vis_context_destroy(p->cpu);
+    p->cpu = NULL;
+}
+
+/* Applies one random edit to the test world and to both scenes: replace a chunk object,
+ * remove an object, move an entity, or add a new one. */
+static void random_edit(pair *p, tworld *w, uint64_t *rng, int nx, int ny)
+{
+    uint32_t k = (uint32_t)(vt_rand(rng) % w->n);
+    tobj *o = &w->objs[k];
+    double r = vt_rand_unit(rng);
+    if (r < 0.3 && o->nq + o->nt > 0) { /* remove */
+        assert_int_equal(vis_scene_remove_object(p->cpu_scene, o->id), VIS_OK);
+        assert_int_equal(vis_scene_remove_object(p->cl_scene, o->id), VIS_OK);
+        obj_clear(o);
+        return;
+    }
+    if (r < 0.8 && o->id < 100000) { /* remesh (or re-add) a chunk object */
+        uint32_t ci = o->id - 1;
+        int c[3] = {(int)(ci % (uint32_t)nx), (int)(ci / (uint32_t)nx % (uint32_t)ny), (int)(ci / (uint32_t)(nx * ny))};
+        obj_clear(o);
+        chunk_boxes(o, rng, c);
+    } else if (r < 0.9) { /* a new entity */
+        o = add_obj(w, 300000 + (uint32_t)(vt_rand(rng) % 100000));
+        for (uint32_t i = 0; i + 1 < w->n; ++i)
+            if (w->objs[i].id == o->id) { /* ID taken: edit that one instead */
+                --w->n;
+                o = &w->objs[i];
+                break;
+            }
+        obj_clear(o);
+        entity(o, rng, w->size);
+    } else { /* move whatever it is as an entity */
+        obj_clear(o);
+        entity(o, rng, w->size);
+    }
+    set_obj(p->cpu_scene, o);
+    set_obj(p->cl_scene, o);
+}
+
+/* ---- tests ---------------------------------------------------------------------------- */
+
+static void test_bad_selector_not_found(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    vis_context_destroy(cl);
+    vis_status st;
+    assert_null(make_ctx(VIS_BACKEND_OPENCL, "no-such-device-xyzzy", &st));
+    assert_int_equal(st, VIS_ERROR_NOT_FOUND);
+    if (!strstr(g_log, "no-such-device-xyzzy"))
+        fail_msg("message does not name the selector: %s", g_log);
+    assert_null(make_ctx(VIS_BACKEND_OPENCL, "999", &st));
+    assert_int_equal(st, VIS_ERROR_NOT_FOUND);
+    /* Index 0 always exists when a device does; "gpu" finds a GPU when the default is one. */
+    vis_context *c0 = make_ctx(VIS_BACKEND_OPENCL, "0", &st);
+    assert_int_equal(st, VIS_OK);
+    vis_context_destroy(c0);
+    vis_context *d = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+    vis_backend_info di;
+    assert_int_equal(vis_context_backend(d, &di), VIS_OK);
+    vis_context_destroy(d);
+    if (di.is_gpu) {
+        vis_context *g = make_ctx(VIS_BACKEND_OPENCL, "GPU", &st);
+        assert_int_equal(st, VIS_OK);
+        vis_context_destroy(g);
+    }
+    /* AUTO with a bad $VIS_OPENCL_DEVICE falls back to the CPU and says why. */
+    const char *old = getenv("VIS_OPENCL_DEVICE");
+    char saved[256] = "";
+    if (old)
+        snprintf(saved, sizeof saved, "%s", old);
+    setenv("VIS_OPENCL_DEVICE", "no-such-device-xyzzy", 1);
+    vis_context *a = make_ctx(VIS_BACKEND_AUTO, NULL, &st);
+    if (old)
+        setenv("VIS_OPENCL_DEVICE", saved, 1);
+    else
+        unsetenv("VIS_OPENCL_DEVICE");
+    assert_non_null(a);
+    vis_backend_info bi;
+    assert_int_equal(vis_context_backend(a, &bi), VIS_OK);
+    assert_int_equal(bi.kind, VIS_BACKEND_CPU);
+    if (!strstr(bi.reason, "auto") || !strstr(bi.reason, "no-such-device-xyzzy"))
+        fail_msg("AUTO fallback reason: '%s'", bi.reason);
+    vis_context_destroy(a);
+}
+
+static void test_auto_reports_reason(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(VIS_BACKEND_AUTO, NULL, NULL);
+    assert_non_null(ctx);
+    vis_backend_info bi;
+    assert_int_equal(vis_context_backend(ctx, &bi), VIS_OK);
+    printf("AUTO: %s (%s): %s\n", bi.name, bi.device, bi.reason);
+    assert_true(strncmp(bi.reason, "auto:", 5) == 0);
+    if (bi.kind == VIS_BACKEND_OPENCL) {
+        assert_non_null(strstr(bi.reason, bi.device));
+        assert_non_null(strstr(bi.reason, bi.is_gpu ? "GPU" : "device"));
+    } else {
+        assert_int_equal(bi.kind, VIS_BACKEND_CPU);
+    }
+    vis_context_destroy(ctx);
+}
+
+/* The bulk: random worlds x random cameras, then a burst of edits and the same again. */
+static void test_random_worlds_bit_identical(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    uint64_t rng = 20240611;
+    /* 1,000 cameras in the normal build: 8 worlds x (63 before + 62 after the edits). */
+    int worlds = vt_small() ? 3 : 8;
+    int cams = vt_small() ? 12 : 63;
+    uint64_t cameras = 0, pixels_hit = 0;
+    for (int wi = 0; wi < worlds; ++wi) {
+        int nx = 3 + wi % 2, ny = 2, nz = 3;
+        tworld w;
+        random_world(&w, &rng, nx, ny, nz);
+        uint32_t depth = wi % 4 == 3 ? 2 : 0; /* also shallow trees: multi-chunk leaves */
+        const double zero[3] = {0, 0, 0}, far_o[3] = {1048576.0, -512.0, -1048576.0};
+        const double *origin = wi % 4 == 2 ? far_o : zero;
+        pair p;
+        pair_make(&p, cl, &w, origin, depth);
+        uint32_t trav = traversal_count(p.cpu, p.cpu_scene);
+        assert_true(trav >= 2);
+        if (wi == 0)
+            printf("%u traversal methods, object and leaf IDs\n", trav);
+        char what[96];
+        for (int ci = 0; ci < cams; ++ci) {
+            vis_camera cam;
+            random_camera(&cam, &rng, w.size, origin);
+            snprintf(what, sizeof what, "world %d camera %d", wi, ci);
+            p.short_stack = 1u + (uint32_t)ci % 8u;
+            pixels_hit += compare_view_sel(&p, &cam, 32, 24, trav, ci % 8 ? TREE_TRAVERSALS : ALL_TRAVERSALS, what);
+            ++cameras;
+        }
+        /* The first trace sent the whole scene; a burst of edits sends only what changed. */
+        vis_timing tm;
+        vis_camera cam0;
+        random_camera(&cam0, &rng, w.size, origin);
+        uint64_t full = 0;
+        {
+            vis_scene *fresh = make_scene(cl, &w, origin, depth);
+            uint32_t id;
+            vis_trace_desc td = desc_make(1, 1, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+            assert_int_equal(vis_trace(cl, fresh, &cam0, &td, &id, NULL), VIS_OK);
+            assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
+            full = tm.upload_bytes;
+            uint64_t b = 0;
+            assert_int_equal(vis_scene_last_upload_bytes(fresh, &b), VIS_OK);
+            assert_true(b == full && full > 0);
+            vis_scene_destroy(fresh);
+        }
+        int edits = vt_small() ? 10 : 40;
+        for (int e = 0; e < edits; ++e)
+            random_edit(&p, &w, &rng, nx, ny);
+        for (int ci = 0; ci < cams - (vt_small() ? 0 : 1); ++ci) {
+            vis_camera cam;
+            random_camera(&cam, &rng, w.size, origin);
+            snprintf(what, sizeof what, "world %d camera %d after %d edits", wi, ci, edits);
+            p.short_stack = 1u + (uint32_t)ci % 8u;
+            compare_view_sel(&p, &cam, 32, 24, trav, ci % 8 ? TREE_TRAVERSALS : ALL_TRAVERSALS, what);
+            ++cameras;
+        }
+        /* One more edit: a single chunk object. Its upload is a small part of the scene. */
+        random_edit(&p, &w, &rng, nx, ny);
+        uint32_t id;
+        vis_trace_desc td = desc_make(1, 1, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+        assert_int_equal(vis_trace(cl, p.cl_scene, &cam0, &td, &id, NULL), VIS_OK);
+        assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
+        if (!(tm.upload_bytes > 0 && tm.upload_bytes * 4 < full))
+            fail_msg("world %d: one edit uploaded %llu bytes, the whole scene is %llu", wi,
+                     (unsigned long long)tm.upload_bytes, (unsigned long long)full);
+        /* Tracing again without edits uploads nothing. */
+        assert_int_equal(vis_trace(cl, p.cl_scene, &cam0, &td, &id, NULL), VIS_OK);
+        assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
+        assert_int_equal(tm.upload_bytes, 0);
+        pair_free(&p);
+        free_world(&w);
+    }
+    printf("%llu cameras compared bit for bit (%llu hit pixels in object/stack mode)\n",
+           (unsigned long long)cameras, (unsigned long long)pixels_hit);
+    vis_context_destroy(cl);
+}
+
+/* The exact bytes of one chunk edit: the leaf header (64), its bucket table (16+16+16+4
+ * entries of 4 bytes), its quads (24 bytes each), the object slot (16) and its one leaf
+ * index (4) — nothing else. */
+static void test_edit_uploads_only_changed_bytes(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    uint64_t rng = 555;
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = 64, w.size[1] = 32, w.size[2] = 64;
+    for (int cz = 0; cz < 4; ++cz)
+        for (int cx = 0; cx < 4; ++cx) { /* chunk objects only: each alone in its leaf */
+            int c[3] = {cx, 0, cz};
+            chunk_boxes(add_obj(&w, 1u + (uint32_t)(cx + 4 * 2 * cz)), &rng, c);
+        }
+    pair p;
+    pair_make(&p, cl, &w, NULL, 0);
+    vis_camera cam = {{-10, 40, -10}, {32, 8, 32}, 70, 0, 0};
+    compare_view(&p, &cam, 48, 40, 1, "before the edit");
+    /* Replace chunk (1, 0, 1) with a known mesh: it lies alone in its leaf. */
+    tobj *o = NULL;
+    uint32_t cid = 1u + (1 + 4 * (0 + 2 * 1));
+    for (uint32_t i = 0; i < w.n; ++i)
+        if (w.objs[i].id == cid)
+            o = &w.objs[i];
+    if (!o)
+        o = add_obj(&w, cid);
+    obj_clear(o);
+    float lo[3] = {17, 1, 18}, hi[3] = {25, 9, 30};
+    obj_box(o, lo, hi);
+    float lo2[3] = {20, 9, 20}, hi2[3] = {22, 12, 22};
+    obj_box(o, lo2, hi2);
+    set_obj(p.cpu_scene, o);
+    set_obj(p.cl_scene, o);
+    uint32_t ids[48 * 40];
+    vis_trace_desc td = desc_make(48, 40, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+    assert_int_equal(vis_trace(cl, p.cl_scene, &cam, &td, ids, NULL), VIS_OK);
+    vis_timing tm;
+    assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
+    uint64_t expect = 64 + 52 * 4 + (uint64_t)o->nq * 24 + 16 + 4;
+    if (tm.upload_bytes != expect)
+        fail_msg("one chunk edit (%u quads) uploaded %llu bytes, expected %llu", o->nq,
+                 (unsigned long long)tm.upload_bytes, (unsigned long long)expect);
+    uint64_t b = 0;
+    assert_int_equal(vis_scene_last_upload_bytes(p.cl_scene, &b), VIS_OK);
+    assert_int_equal(b, expect);
+    printf("one chunk edit: %llu bytes uploaded (%u quads)\n", (unsigned long long)b, o->nq);
+    compare_view(&p, &cam, 48, 40, 1, "after the edit");
+    /* The CPU backend uploads nothing. */
+    assert_int_equal(vis_scene_last_upload_bytes(p.cpu_scene, &b), VIS_OK);
+    assert_int_equal(b, 0);
+    pair_free(&p);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
+/* Pools that grow past the device buffers (big new objects, leaves that outgrow their
+ * slots) take the reallocation path; the result must still match. */
+static void test_pool_growth_reallocates(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    uint64_t rng = 9090;
+    tworld w;
+    random_world(&w, &rng, 3, 2, 3);
+    pair p;
+    pair_make(&p, cl, &w, NULL, 0);
+    uint32_t trav = traversal_count(p.cpu, p.cpu_scene);
+    vis_camera cam = {{-8, 30, -8}, {24, 8, 24}, 80, 0, 0};
+    compare_view(&p, &cam, 40, 32, trav, "before growth");
+    /* A many-triangle object all over the scene, and a many-quad one. */
+    tobj *t = add_obj(&w, 400000), *q = add_obj(&w, 400001);
+    int n = vt_small() ? 3000 : 12000;
+    for (int i = 0; i < n; ++i) {
+        float a[3], b[3], c[3];
+        for (int k = 0; k < 3; ++k) {
+            a[k] = (float)(vt_rand_unit(&rng) * (w.size[k] - 2.0) + 1.0);
+            b[k] = a[k] + (float)(vt_rand_unit(&rng) - 0.5);
+            c[k] = a[k] + (float)(vt_rand_unit(&rng) - 0.5);
+        }
+        obj_tri(t, a, b, c);
+        uint32_t ax = (uint32_t)(vt_rand(&rng) % 3), u = (ax + 1) % 3, v = (ax + 2) % 3;
+        float pl = (float)(vt_rand(&rng) % (uint64_t)w.size[ax]);
+        float u0 = (float)(vt_rand(&rng) % (uint64_t)(w.size[u] - 1)), v0 = (float)(vt_rand(&rng) % (uint64_t)(w.size[v] - 1));
+        obj_quad(q, ax, pl, u0, v0, u0 + 1, v0 + 1);
+    }
+    set_obj(p.cpu_scene, t);
+    set_obj(p.cl_scene, t);
+    set_obj(p.cpu_scene, q);
+    set_obj(p.cl_scene, q);
+    int grew = g_grew;
+    compare_view(&p, &cam, 12, 10, trav, "after growth"); /* brute force included, small */
+    if (g_grew == grew)
+        fail_msg("no device buffer grew: the reallocation path was not exercised");
+    for (int i = 0; i < 6; ++i) {
+        vis_camera c;
+        const double zero[3] = {0, 0, 0};
+        random_camera(&c, &rng, w.size, zero);
+        compare_view_sel(&p, &c, 40, 32, trav, TREE_TRAVERSALS, "after growth");
+    }
+    /* And shrink again: remove them. */
+    assert_int_equal(vis_scene_remove_object(p.cpu_scene, 400000), VIS_OK);
+    assert_int_equal(vis_scene_remove_object(p.cl_scene, 400000), VIS_OK);
+    compare_view(&p, &cam, 40, 32, trav, "after removal");
+    pair_free(&p);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
+/* The hard cases of test_trace.c (DESIGN.md "Numerics") on OpenCL. */
+static void test_hard_cases(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = w.size[1] = w.size[2] = 32.0f;
+    float flo[3] = {0, 0, 0}, fhi[3] = {32, 1, 32};
+    obj_box(add_obj(&w, 1), flo, fhi);
+    float lo[3] = {16, 1, 4}, hi[3] = {17, 12, 28}; /* wall on the split plane x = 16 */
+    obj_box(add_obj(&w, 2), lo, hi);
+    float lo2[3] = {4, 1, 16}, hi2[3] = {16, 12, 17};
+    obj_box(add_obj(&w, 3), lo2, hi2);
+    /* ties: the same quad in two objects */
+    obj_quad(add_obj(&w, 9), 2, 24.0f, 20, 2, 30, 10);
+    obj_quad(add_obj(&w, 7), 2, 24.0f, 20, 2, 30, 10);
+    pair p;
+    pair_make(&p, cl, &w, NULL, 0);
+    uint32_t trav = traversal_count(p.cpu, p.cpu_scene);
+    const double eyes[][6] = {
+        {16, 6, 0, 16, 6, 32},     {16, 16, 16, 16, 0, 16}, {16, 16, 16, 16, 32, 16}, {0, 6, 16, 32, 6, 16},
+        {31, 6, 16, 0, 6, 16},     {0, 1, 0, 32, 1, 32},    {16, 12, 0, 16, 12, 32},  {17, 12, 17, 0, 0, 0},
+        {8, 30, 8, 16.5, 1, 16.5}, {25, 6, 0.5, 25, 6, 30}, {16.5, 16.5, 16.5, 30, 20, 10},
+    };
+    for (size_t i = 0; i < sizeof eyes / sizeof eyes[0]; ++i) {
+        vis_camera cam;
+        memset(&cam, 0, sizeof cam);
+        memcpy(cam.eye, eyes[i], 24);
+        memcpy(cam.target, eyes[i] + 3, 24);
+        compare_view(&p, &cam, 33, 33, trav, "hard case (33x33)");
+        compare_view(&p, &cam, 32, 32, trav, "hard case (32x32)");
+        compare_view(&p, &cam, 7, 5, trav, "hard case (7x5)");
+    }
+    /* Inside a closed room of 1-voxel walls, aiming at corners. */
+    tworld room;
+    memset(&room, 0, sizeof room);
+    room.size[0] = room.size[1] = room.size[2] = 48.0f;
+    float L = 10, Hh = 30;
+    float walls[6][6] = {{L, L, L, Hh, L + 1, Hh},     {L, Hh - 1, L, Hh, Hh, Hh}, {L, L, L, L + 1, Hh, Hh},
+                         {Hh - 1, L, L, Hh, Hh, Hh},   {L, L, L, Hh, Hh, L + 1},   {L, L, Hh - 1, Hh, Hh, Hh}};
+    for (int i = 0; i < 6; ++i)
+        obj_box(add_obj(&room, 1 + i), walls[i], walls[i] + 3);
+    pair r;
+    pair_make(&r, cl, &room, NULL, 0);
+    uint64_t rng = 99;
+    for (int i = 0; i < 12; ++i) {
+        vis_camera cam;
+        memset(&cam, 0, sizeof cam);
+        for (int a = 0; a < 3; ++a) {
+            cam.eye[a] = L + 1 + vt_rand_unit(&rng) * (Hh - L - 2);
+            if (i % 4 == 0)
+                cam.eye[a] = floor(cam.eye[a]);
+            cam.target[a] = L + vt_rand_unit(&rng) * (Hh - L);
+        }
+        if (i % 3 == 0)
+            cam.target[0] = L + 1, cam.target[1] = Hh - 1, cam.target[2] = L + 1;
+        cam.fovy_deg = 90;
+        compare_view(&r, &cam, 41, 37, trav, "inside the room");
+    }
+    pair_free(&r);
+    pair_free(&p);
+    free_world(&room);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
+/* vis_trace_batch: each view equals vis_trace of its camera, with and without depth; a bad
+ * camera anywhere rejects the batch before any work. */
+static void test_batch(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    uint64_t rng = 31337;
+    tworld w;
+    random_world(&w, &rng, 3, 2, 3);
+    pair p;
+    pair_make(&p, cl, &w, NULL, 0);
+    enum { N = 37, W = 24, H = 20 };
+    vis_camera cams[N];
+    const double zero[3] = {0, 0, 0};
+    for (int i = 0; i < N; ++i)
+        random_camera(&cams[i], &rng, w.size, zero);
+    size_t px = (size_t)W * H;
+    uint32_t *ref_ids = malloc(N * px * 4), *ids = malloc(N * px * 4), *cpu_ids = malloc(N * px * 4);
+    float *ref_depth = malloc(N * px * 4), *depth = malloc(N * px * 4), *cpu_depth = malloc(N * px * 4);
+    for (uint32_t mode = 0; mode < 2; ++mode) {
+        vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, VIS_TRAVERSAL_STACK);
+        for (int i = 0; i < N; ++i)
+            assert_int_equal(vis_trace(p.cpu, p.cpu_scene, &cams[i], &td, ref_ids + i * px, ref_depth + i * px),
+                             VIS_OK);
+        if (vis_trace_batch(p.cl, p.cl_scene, cams, N, &td, ids, depth) != VIS_OK)
+            fail_msg("batch: %s", vis_context_last_error(p.cl));
+        compare_buffers(ref_ids, ref_depth, ids, depth, N * px, W, "opencl batch", mode, 0);
+        vis_timing tm;
+        assert_int_equal(vis_context_last_timing(p.cl, &tm), VIS_OK);
+        assert_int_equal(tm.views, N);
+        assert_int_equal(tm.rays, N * px);
+        assert_true(tm.kernel_ms > 0.0 && tm.total_ms > 0.0);
+        memset(ids, 0, N * px * 4);
+        assert_int_equal(vis_trace_batch(p.cl, p.cl_scene, cams, N, &td, ids, NULL), VIS_OK);
+        assert_memory_equal(ids, ref_ids, N * px * 4);
+        assert_int_equal(vis_trace_batch(p.cpu, p.cpu_scene, cams, N, &td, cpu_ids, cpu_depth), VIS_OK);
+        compare_buffers(ref_ids, ref_depth, cpu_ids, cpu_depth, N * px, W, "cpu batch", mode, 0);
+        assert_int_equal(vis_context_last_timing(p.cpu, &tm), VIS_OK);
+        assert_int_equal(tm.views, N);
+        assert_int_equal(tm.upload_bytes, 0);
+    }
+    /* A bad camera (index 20): rejected, nothing written, the message names it. */
+    vis_camera bad[N];
+    memcpy(bad, cams, sizeof bad);
+    bad[20].fovy_deg = 200;
+    memset(ids, 0x5A, N * px * 4);
+    vis_trace_desc td = desc_make(W, H, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+    assert_int_equal(vis_trace_batch(p.cl, p.cl_scene, bad, N, &td, ids, depth), VIS_ERROR_INVALID_ARGUMENT);
+    assert_non_null(strstr(vis_context_last_error(p.cl), "camera 20"));
+    for (size_t i = 0; i < N * px; ++i)
+        assert_int_equal(ids[i], 0x5A5A5A5Au);
+    assert_int_equal(vis_trace_batch(p.cl, p.cl_scene, cams, 0, &td, ids, depth), VIS_OK);
+    free(ref_ids), free(ids), free(cpu_ids), free(ref_depth), free(depth), free(cpu_depth);
+    pair_free(&p);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
+/* Bad input is rejected before any work on OpenCL too, buffers untouched; timing exists. */
+static void test_errors_and_timing(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    vis_timing tm;
+    assert_int_equal(vis_context_last_timing(cl, &tm), VIS_ERROR_NOT_FOUND);
+    uint64_t rng = 1;
+    tworld w;
+    random_world(&w, &rng, 2, 2, 2);
+    vis_scene *s = make_scene(cl, &w, NULL, 0);
+    uint32_t ids[64];
+    float depth[64];
+    for (int i = 0; i < 64; ++i)
+        ids[i] = 0xABCDABCD, depth[i] = -7.0f;
+    vis_camera c = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
+    c.eye[0] = NAN;
+    vis_trace_desc td = desc_make(8, 8, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+    assert_int_equal(vis_trace(cl, s, &c, &td, ids, depth), VIS_ERROR_INVALID_ARGUMENT);
+    for (int i = 0; i < 64; ++i)
+        assert_true(ids[i] == 0xABCDABCD && depth[i] == -7.0f);
+    c.eye[0] = 1;
+    assert_int_equal(vis_trace(cl, s, &c, &td, ids, depth), VIS_OK);
+    assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
+    assert_int_equal(tm.views, 1);
+    assert_int_equal(tm.rays, 64);
+    assert_true(tm.kernel_ms > 0.0 && tm.total_ms >= tm.kernel_ms * 0.5);
+    assert_true(tm.upload_bytes > 0); /* the first trace sent the scene */
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
+/* A generated terrain (greedy chunk meshes, the real workload) with voxel edits: two copies
+ * of the same world, one scene per backend, the same edits applied to both. */
+static void test_terrain_with_voxel_edits(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    vw_world *wa = NULL, *wb = NULL;
+    vw_error err;
+    const char *spec = vt_small() ? "gen:terrain:size=96x64x96:seed=7" : "gen:terrain:size=192x96x192:seed=7";
+    if (vw_world_from_spec(spec, NULL, NULL, &wa, &err) != VW_OK || vw_world_from_spec(spec, NULL, NULL, &wb, &err) != VW_OK)
+        fail_msg("%s: %s", spec, err.message);
+    vis_context *cpu = make_ctx(VIS_BACKEND_CPU, NULL, NULL);
+    world_scene *sa = NULL, *sb = NULL;
+    assert_int_equal(world_scene_create(cpu, wa, NULL, &sa, NULL, &err), 0);
+    assert_int_equal(world_scene_create(cl, wb, NULL, &sb, NULL, &err), 0);
+    pair p = {cpu, cl, world_scene_scene(sa), world_scene_scene(sb), 0};
+    uint32_t trav = traversal_count(cpu, p.cpu_scene);
+    vc_view views[VC_MAX_VIEWS];
+    size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
+    assert_true(nv > 0);
+    /* The brute force tests every quad of the world per ray: one small view only. */
+    compare_view(&p, &views[0].camera, 16, 16, trav, views[0].name);
+    for (size_t i = 0; i < nv; ++i)
+        compare_view_sel(&p, &views[i].camera, 64, 64, trav, TREE_TRAVERSALS, views[i].name);
+    vw_world_info info;
+    vw_world_get_info(wa, &info);
+    uint64_t rng = 4711;
+    int rounds = vt_small() ? 2 : 5;
+    uint64_t one_edit_bytes = 0;
+    for (int r = 0; r < rounds; ++r) {
+        int edits = r == 0 ? 1 : 16;
+        for (int e = 0; e < edits; ++e) {
+            int64_t x = info.origin[0] + (int64_t)(vt_rand(&rng) % (uint64_t)info.size[0]);
+            int64_t z = info.origin[2] + (int64_t)(vt_rand(&rng) % (uint64_t)info.size[2]);
+            int64_t y = vc_surface_height(wa, x, z) - (int64_t)(vt_rand(&rng) % 2);
+            vw_voxel v = (vw_voxel)(vt_rand(&rng) % 2 ? 0 : 3);
+            assert_int_equal(vw_world_set(wa, x, y, z, v), VW_OK);
+            assert_int_equal(vw_world_set(wb, x, y, z, v), VW_OK);
+        }
+        assert_int_equal(world_scene_update(sa, NULL, &err), 0);
+        assert_int_equal(world_scene_update(sb, NULL, &err), 0);
+        for (size_t i = 0; i < nv; ++i) {
+            compare_view_sel(&p, &views[i].camera, 64, 64, trav, TREE_TRAVERSALS, views[i].name);
+            if (i == 0 && r == 0) {
+                vis_timing tm;
+                assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
+                /* compare_view traced the CPU first, then OpenCL: the last OpenCL call is the
+                 * last of its passes, which sent nothing; the bytes are the scene's. */
+                assert_int_equal(vis_scene_last_upload_bytes(p.cl_scene, &one_edit_bytes), VIS_OK);
+            }
+        }
+    }
+    vis_scene_info si;
+    vis_scene_get_info(p.cl_scene, &si);
+    printf("terrain %s: %u objects, one voxel edit uploaded %llu bytes\n", spec, si.objects,
+           (unsigned long long)one_edit_bytes);
+    assert_true(one_edit_bytes > 0 && one_edit_bytes < 65536);
+    world_scene_destroy(sa);
+    world_scene_destroy(sb);
+    vis_context_destroy(cpu);
+    vw_world_destroy(wa);
+    vw_world_destroy(wb);
+    vis_context_destroy(cl);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_auto_reports_reason),
+        cmocka_unit_test(test_bad_selector_not_found),
+        cmocka_unit_test(test_errors_and_timing),
+        cmocka_unit_test(test_hard_cases),
+        cmocka_unit_test(test_batch),
+        cmocka_unit_test(test_edit_uploads_only_changed_bytes),
+        cmocka_unit_test(test_pool_growth_reallocates),
+        cmocka_unit_test(test_terrain_with_voxel_edits),
+        cmocka_unit_test(test_random_worlds_bit_identical),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
