@@ -914,7 +914,7 @@ VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uin
                 exit_inside |= c_out != 0.0f && c_out != s->size[a];
             }
         }
-        if (degenerate || !(e >= b)) {
+        if (degenerate || !(e > b)) {
             vis_traverse_restart_range(r, s->root, b, t1, n, 0, VIS_SCENE_ARGS, h);
             return;
         }
@@ -971,7 +971,10 @@ VIS_INLINE uint32_t vis_hit_leaf_id(const vis_ray *r, const vis_hit *h, VIS_SCEN
 #define VIS_TRAVERSAL_ID_ROPES 5u
 #define VIS_TRAVERSAL_ID_ROPES_SHORTSTACK 6u
 
-/* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write. */
+/* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write.
+ * A kernel built for one method only may define VIS_TRAVERSAL_ONLY to its VIS_TRAVERSAL_ID_*
+ * (e.g. -DVIS_TRAVERSAL_ONLY=5u): the switch is then a constant and the other methods, with
+ * their private stacks, compile away (s->traversal is ignored). */
 VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, VIS_SCENE_PARAMS,
                                 uint32_t *out_id, float *out_depth)
 {
@@ -981,7 +984,11 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
     h.t = VIS_INF;
     h.object = VIS_NO_OBJECT;
     h.id = 0u;
+#ifdef VIS_TRAVERSAL_ONLY
+    uint32_t method = VIS_TRAVERSAL_ONLY;
+#else
     uint32_t method = s->traversal;
+#endif
     if (method == VIS_TRAVERSAL_ID_STACK)
         vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
     else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)

@@ -66,16 +66,29 @@ int acc_write_csv(const char *path, const acc_row *rows, size_t n, char *err, si
 /* ---- the plot -------------------------------------------------------------------------- */
 
 typedef struct method_style {
-    const char *method, *title, *colour, *label_offset;
+    const char *method, *title, *colour;
     int point;
 } method_style;
 
-/* Labels of the three curves go to different sides so that close curves stay readable. */
 static const method_style styles[] = {
-    {"ray-object", "ray pass, object IDs", "#1f5fbf", "char 0.6,0.9", 7},
-    {"ray-leaf", "ray pass, leaf IDs", "#e07000", "char 0.6,-0.9", 5},
-    {"zbuf", "z-buffer culler", "#2a9d3a", "char -3.2,0.4", 9},
+    {"ray-object", "ray pass, object IDs", "#1f5fbf", 7},
+    {"ray-leaf", "ray pass, leaf IDs", "#e07000", 5},
+    {"zbuf", "z-buffer culler", "#2a9d3a", 9},
 };
+
+/* Where the k-th point label of a curve goes, so that close curves and close points stay
+ * readable: object IDs above their points, leaf IDs below, the culler's (whose points sit
+ * close together) left, below and above in turn. */
+static const char *label_place(size_t m, size_t k)
+{
+    if (m == 0)
+        return "center offset char 0,1";
+    if (m == 1)
+        return "center offset char 0,-1";
+    static const char *const zbuf[] = {"right offset char -0.8,0", "center offset char 0,-1.2",
+                                       "center offset char 0,1.2"};
+    return zbuf[k % 3];
+}
 
 /* 10^(floor(log10(smallest positive value)) - 1): where zeros are drawn on a log axis. */
 static double zero_floor(const double *v, size_t n, double fallback)
@@ -100,7 +113,7 @@ static void gp_quote(FILE *f, const char *s)
     fputc('\'', f);
 }
 
-static int write_script(const char *script, const char *png, const char *title, const acc_row *rows, size_t n,
+static int write_script(const char *script, const char *title, const acc_row *rows, size_t n,
                         char *err, size_t err_size)
 {
     double *area = malloc((n ? n : 1) * sizeof *area), *over = malloc((n ? n : 1) * sizeof *over);
@@ -122,10 +135,9 @@ static int write_script(const char *script, const char *png, const char *title, 
         set_err(err, err_size, "cannot open %s for writing: %s", script, strerror(errno));
         return -1;
     }
-    fprintf(f, "# Written by `vis accuracy`; run `gnuplot accuracy.gp` to redraw accuracy.png.\n");
-    fprintf(f, "set encoding utf8\nset terminal pngcairo size 1400,600 font 'sans,11' noenhanced\nset output ");
-    gp_quote(f, png);
-    fputc('\n', f);
+    fprintf(f, "# Written by `vis accuracy`; `gnuplot accuracy.gp` in this directory redraws accuracy.png.\n");
+    fprintf(f, "set encoding utf8\nset terminal pngcairo size 1400,600 font 'sans,11' noenhanced\n"
+               "set output 'accuracy.png'\n");
     /* One datablock per method: time, missed area (%), overdraw (objects), label; zeros are
      * moved to the axis floor, which is labelled 0. */
     for (size_t m = 0; m < sizeof styles / sizeof styles[0]; ++m) {
@@ -148,13 +160,26 @@ static int write_script(const char *script, const char *png, const char *title, 
                "set offsets graph 0.08, graph 0.12, graph 0.1, graph 0.05\n");
     for (int panel = 0; panel < 2; ++panel) {
         double floor_v = panel == 0 ? area_floor : over_floor;
+        const double *val = panel == 0 ? area : over;
         int col = panel == 0 ? 2 : 3;
         fprintf(f, "set ylabel '%s'\n",
                 panel == 0 ? "missed area: % of the display that pops in (mean per frame; log)"
                            : "overdraw: objects drawn but not visible (mean per frame; log)");
         fprintf(f, "set title '%s'\n",
                 panel == 0 ? "cost vs popping (lower left is better)" : "cost vs overdraw (lower left is better)");
-        fprintf(f, "set yrange [%.6g:*]\nset ytics autofreq\nset ytics add ('0' %.6g)\n", floor_v * 0.5, floor_v);
+        fprintf(f, "set yrange [%.6g:*]\nset ytics autofreq\nset ytics add ('0' %.6g)\nunset label\n",
+                floor_v * 0.5, floor_v);
+        for (size_t m = 0; m < sizeof styles / sizeof styles[0]; ++m) {
+            size_t k = 0;
+            for (size_t i = 0; i < n; ++i) {
+                if (strcmp(rows[i].method, styles[m].method) != 0)
+                    continue;
+                char label[32];
+                budget_label(&rows[i], label, sizeof label);
+                fprintf(f, "set label \"%s\" at first %.6g, first %.6g %s font ',9' tc rgb '%s' front\n", label,
+                        rows[i].time_ms, val[i] > 0.0 ? val[i] : floor_v, label_place(m, k++), styles[m].colour);
+            }
+        }
         fprintf(f, "plot ");
         int first = 1;
         for (size_t m = 0; m < sizeof styles / sizeof styles[0]; ++m) {
@@ -163,10 +188,8 @@ static int write_script(const char *script, const char *png, const char *title, 
                 present |= strcmp(rows[i].method, styles[m].method) == 0;
             if (!present)
                 continue;
-            fprintf(f, "%s$m%zu using 1:%d with linespoints lw 2 pt %d ps 1.3 lc rgb '%s' title '%s', \\\n"
-                       "     $m%zu using 1:%d:4 with labels offset %s font ',9' tc rgb '%s' notitle",
-                    first ? "" : ", \\\n     ", m, col, styles[m].point, styles[m].colour, styles[m].title, m, col,
-                    styles[m].label_offset, styles[m].colour);
+            fprintf(f, "%s$m%zu using 1:%d with linespoints lw 2 pt %d ps 1.3 lc rgb '%s' title '%s'",
+                    first ? "" : ", \\\n     ", m, col, styles[m].point, styles[m].colour, styles[m].title);
             first = 0;
         }
         if (first)
@@ -191,7 +214,7 @@ int acc_plot(const char *dir, const char *title, const acc_row *rows, size_t n, 
     char script[4096], png[4096];
     snprintf(script, sizeof script, "%s/accuracy.gp", dir);
     snprintf(png, sizeof png, "%s/accuracy.png", dir);
-    if (write_script(script, png, title, rows, n, err, err_size) != 0)
+    if (write_script(script, title, rows, n, err, err_size) != 0)
         return -1;
     const char *prog = getenv("VIS_GNUPLOT");
     if (!prog || !prog[0])
@@ -204,7 +227,18 @@ int acc_plot(const char *dir, const char *title, const acc_row *rows, size_t n, 
         return -1;
     }
     posix_spawn_file_actions_adddup2(&fa, 2, 1);
-    char *argv[] = {(char *)prog, script, NULL};
+    /* Run in DIR (gnuplot's `cd`), so that the script's relative output name works there. */
+    char cd[4200];
+    size_t k = 0;
+    k += (size_t)snprintf(cd, sizeof cd, "cd '");
+    for (const char *p = dir; *p && k + 4 < sizeof cd; ++p) {
+        if (*p == '\'')
+            cd[k++] = '\'';
+        cd[k++] = *p;
+    }
+    cd[k++] = '\'';
+    cd[k] = '\0';
+    char *argv[] = {(char *)prog, "-e", cd, "accuracy.gp", NULL};
     pid_t pid;
     int rc = posix_spawnp(&pid, prog, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);

@@ -17,6 +17,7 @@
 
 typedef struct zb_view {
     const char *name;
+    vis_camera camera;
     uint32_t width, height;
     double time_ms, min_ms, max_ms, raster_ms, test_ms;
     vis_zcull_stats last; /* triangles, occluders, in view, kept: the same in every run */
@@ -70,6 +71,9 @@ static void print_json(const cli_args *a, const cli_scene *s, const vis_scene_in
     for (size_t i = 0; i < n; ++i) {
         json_object_begin(&w, NULL);
         json_string(&w, "name", v[i].name);
+        char cam[256];
+        cli_camera_format(&v[i].camera, cam, sizeof cam);
+        json_string(&w, "camera", cam); /* as --camera takes it */
         json_uint(&w, "width", v[i].width);
         json_uint(&w, "height", v[i].height);
         json_number(&w, "time_ms", v[i].time_ms);
@@ -145,6 +149,7 @@ int bench_zbuf(const cli_args *a)
         for (size_t v = 0; v < nviews; ++v) {
             zb_view *o = &out[n];
             o->name = views[v].name;
+            o->camera = views[v].camera;
             rc = run_view(zc, &s, &views[v].camera, res[r][0], res[r][1], a->frames, list, cap, t, t + a->frames,
                           t + 2 * (size_t)a->frames, o);
             if (rc != CLI_EXIT_OK)
