@@ -580,6 +580,39 @@ static void test_bench_json(void **state)
     run_free(&r);
 }
 
+static size_t count_str(const char *s, const char *what)
+{
+    size_t n = 0;
+    for (const char *p = strstr(s, what); p; p = strstr(p + 1, what))
+        ++n;
+    return n;
+}
+
+/* --traversal all: Table 3 (a row per method) and Table 4 (ropes, ropes-shortstack:1..4, 8). */
+static void test_bench_traversal_all(void **state)
+{
+    (void)state;
+    run_result r = run_vis("bench --scene %s --res 32x32 --traversal all --backend cpu --frames 1 --json", SMALL);
+    assert_exit(r, 0);
+    assert_one_object(r.out);
+    static const char *const keys[] = {"traversal_table", "rope_memory", "method", "mrays_per_s", "bytes", NULL};
+    assert_keys(r.out, keys);
+    const char *table = strstr(r.out, "\"traversal_table\"");
+    const char *ropes = strstr(r.out, "\"rope_memory\"");
+    assert_non_null(table);
+    assert_non_null(ropes);
+    assert_true(table < ropes);
+    assert_int_equal(count_str(r.out, "\"method\""), 9 + 6);     /* 9 methods, 6 rope rows */
+    assert_int_equal(count_str(ropes, "\"short_stack\""), 6);
+    assert_int_equal(count_str(table, "\"backend\": \"cpu\""), 9);
+    assert_non_null(strstr(table, "\"method\": \"ropes-shortstack:4\""));
+    run_free(&r);
+    /* only bench takes it */
+    r = run_vis("cull --scene %s --res 32x32 --traversal all", SMALL);
+    assert_exit(r, 2);
+    run_free(&r);
+}
+
 static void test_run(void **state)
 {
     (void)state;
@@ -736,6 +769,7 @@ int main(void)
         cmocka_unit_test(test_export),
         cmocka_unit_test(test_real_files),
         cmocka_unit_test(test_bench_json),
+        cmocka_unit_test(test_bench_traversal_all),
         cmocka_unit_test(test_run),
         cmocka_unit_test(test_bridge_quads),
         cmocka_unit_test(test_bridge_edits),

@@ -22,6 +22,7 @@
 #include <cmocka.h>
 
 #include "camera_path.h"
+#include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
 #include "voxelworld/vw.h"
@@ -115,96 +116,6 @@ static uint32_t traversal_count(vis_context *cpu, vis_scene *scene)
 
 /* ---- test worlds (as test_trace.c builds them) ---------------------------------------- */
 
-typedef struct tobj {
-    uint32_t id;
-    vis_quad *quads;
-    uint32_t nq;
-    vis_triangle *tris;
-    uint32_t nt;
-} tobj;
-
-typedef struct tworld {
-    tobj *objs;
-    uint32_t n, cap;
-    float size[3];
-} tworld;
-
-static tobj *add_obj(tworld *w, uint32_t id)
-{
-    if (w->n == w->cap) {
-        w->cap = w->cap ? w->cap * 2 : 64;
-        w->objs = realloc(w->objs, w->cap * sizeof *w->objs);
-    }
-    tobj *o = &w->objs[w->n++];
-    memset(o, 0, sizeof *o);
-    o->id = id;
-    return o;
-}
-
-static void obj_quad(tobj *o, uint32_t axis, float plane, float u0, float v0, float u1, float v1)
-{
-    o->quads = realloc(o->quads, (o->nq + 1) * sizeof *o->quads);
-    vis_quad q = {axis, 0, plane, u0, v0, u1, v1};
-    o->quads[o->nq++] = q;
-}
-
-static void obj_tri(tobj *o, const float a[3], const float b[3], const float c[3])
-{
-    o->tris = realloc(o->tris, (o->nt + 1) * sizeof *o->tris);
-    vis_triangle t;
-    memset(&t, 0, sizeof t);
-    memcpy(t.v[0], a, 12);
-    memcpy(t.v[1], b, 12);
-    memcpy(t.v[2], c, 12);
-    o->tris[o->nt++] = t;
-}
-
-static void obj_box(tobj *o, const float lo[3], const float hi[3])
-{
-    for (uint32_t a = 0; a < 3; ++a) {
-        uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
-        obj_quad(o, a, lo[a], lo[u], lo[v], hi[u], hi[v]);
-        obj_quad(o, a, hi[a], lo[u], lo[v], hi[u], hi[v]);
-    }
-}
-
-static void obj_clear(tobj *o)
-{
-    free(o->quads);
-    free(o->tris);
-    o->quads = NULL;
-    o->tris = NULL;
-    o->nq = o->nt = 0;
-}
-
-static void free_world(tworld *w)
-{
-    for (uint32_t i = 0; i < w->n; ++i)
-        obj_clear(&w->objs[i]);
-    free(w->objs);
-    memset(w, 0, sizeof *w);
-}
-
-static void set_obj(vis_scene *s, const tobj *o)
-{
-    vis_mesh m = {o->quads, o->nq, o->tris, o->nt};
-    assert_int_equal(vis_scene_set_object(s, o->id, &m), VIS_OK);
-}
-
-static vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth)
-{
-    vis_scene_desc d;
-    vis_scene_desc_defaults(&d);
-    memcpy(d.size, w->size, sizeof d.size);
-    if (origin)
-        memcpy(d.origin, origin, sizeof d.origin);
-    d.kd_depth = kd_depth;
-    vis_scene *s = NULL;
-    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
-    for (uint32_t i = 0; i < w->n; ++i)
-        set_obj(s, &w->objs[i]);
-    return s;
-}
 
 /* Random boxes inside chunk c (a chunk object). */
 static void chunk_boxes(tobj *o, uint64_t *rng, const int c[3])

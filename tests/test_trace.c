@@ -16,93 +16,12 @@
 
 #include "common/trace_core.h"
 #include "camera.h"
+#include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
 
 /* ---- a test world: objects kept by the test for the oracle ---------------------------- */
 
-typedef struct tobj {
-    uint32_t id;
-    vis_quad *quads;
-    uint32_t nq;
-    vis_triangle *tris;
-    uint32_t nt;
-} tobj;
-
-typedef struct tworld {
-    tobj *objs;
-    uint32_t n, cap;
-    float size[3];
-} tworld;
-
-static tobj *add_obj(tworld *w, uint32_t id)
-{
-    if (w->n == w->cap) {
-        w->cap = w->cap ? w->cap * 2 : 64;
-        w->objs = realloc(w->objs, w->cap * sizeof *w->objs);
-    }
-    tobj *o = &w->objs[w->n++];
-    memset(o, 0, sizeof *o);
-    o->id = id;
-    return o;
-}
-
-static void obj_quad(tobj *o, uint32_t axis, float plane, float u0, float v0, float u1, float v1, uint32_t flags)
-{
-    o->quads = realloc(o->quads, (o->nq + 1) * sizeof *o->quads);
-    vis_quad q = {axis, flags, plane, u0, v0, u1, v1};
-    o->quads[o->nq++] = q;
-}
-
-static void obj_tri(tobj *o, const float a[3], const float b[3], const float c[3])
-{
-    o->tris = realloc(o->tris, (o->nt + 1) * sizeof *o->tris);
-    vis_triangle t;
-    memset(&t, 0, sizeof t);
-    memcpy(t.v[0], a, 12);
-    memcpy(t.v[1], b, 12);
-    memcpy(t.v[2], c, 12);
-    o->tris[o->nt++] = t;
-}
-
-/* The six faces of a voxel box [lo, hi] (integers). */
-static void obj_box(tobj *o, const float lo[3], const float hi[3])
-{
-    for (uint32_t a = 0; a < 3; ++a) {
-        uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
-        obj_quad(o, a, lo[a], lo[u], lo[v], hi[u], hi[v], 0);
-        obj_quad(o, a, hi[a], lo[u], lo[v], hi[u], hi[v], 0);
-    }
-}
-
-static void free_world(tworld *w)
-{
-    for (uint32_t i = 0; i < w->n; ++i) {
-        free(w->objs[i].quads);
-        free(w->objs[i].tris);
-    }
-    free(w->objs);
-    memset(w, 0, sizeof *w);
-}
-
-static vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth)
-{
-    vis_scene_desc d;
-    vis_scene_desc_defaults(&d);
-    memcpy(d.size, w->size, sizeof d.size);
-    if (origin)
-        memcpy(d.origin, origin, sizeof d.origin);
-    d.kd_depth = kd_depth;
-    vis_scene *s = NULL;
-    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
-    for (uint32_t i = 0; i < w->n; ++i) {
-        vis_mesh m = {w->objs[i].quads, w->objs[i].nq, w->objs[i].tris, w->objs[i].nt};
-        vis_status st = vis_scene_set_object(s, w->objs[i].id, &m);
-        if (st != VIS_OK)
-            fail_msg("set_object %u: %s", w->objs[i].id, vis_context_last_error(ctx));
-    }
-    return s;
-}
 
 /* ---- the oracle ----------------------------------------------------------------------- */
 
@@ -221,7 +140,7 @@ static void random_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
                 /* a face exactly on the chunk boundary */
                 if (vt_rand_unit(rng) < 0.3)
                     obj_quad(o, 0, (float)(cx * 16), (float)(cy * 16), (float)(cz * 16), (float)(cy * 16 + 16),
-                             (float)(cz * 16 + 16), 0);
+                             (float)(cz * 16 + 16));
             }
     /* Overlapping objects on identical quads: the lowest ID must win. */
     uint32_t base = 100000;
@@ -242,7 +161,7 @@ static void random_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
         obj_tri(o, a0, a1, a2);
         float a3[3] = {p[0] + 5.3f, p[1] + 4.1f, p[2] + 5.2f};
         obj_tri(o, a1, a3, a2); /* shares an edge with the first */
-        obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f, 0);
+        obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
     }
 }
 
@@ -395,8 +314,8 @@ static void test_ties_go_to_lowest_id(void **state)
     memset(&w, 0, sizeof w);
     w.size[0] = w.size[1] = w.size[2] = 32.0f;
     /* Same quad in two objects, inserted high ID first, in different cells of the tree. */
-    obj_quad(add_obj(&w, 9), 2, 16.0f, 4, 4, 28, 28, 0);
-    obj_quad(add_obj(&w, 7), 2, 16.0f, 4, 4, 28, 28, 0);
+    obj_quad(add_obj(&w, 9), 2, 16.0f, 4, 4, 28, 28);
+    obj_quad(add_obj(&w, 7), 2, 16.0f, 4, 4, 28, 28);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_camera cam = {{16, 16, 0.5}, {16, 16, 30}, 40, 0, 0};
     uint32_t ids[16 * 16];

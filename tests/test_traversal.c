@@ -24,6 +24,7 @@
 #include "common/trace_core.h"
 #include "camera.h"
 #include "scene.h"
+#include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
 
@@ -55,97 +56,6 @@ static const method methods[] = {
 
 /* ---- a test world: objects kept by the test for the oracle ------------------------------ */
 
-typedef struct tobj {
-    uint32_t id;
-    vis_quad *quads;
-    uint32_t nq;
-    vis_triangle *tris;
-    uint32_t nt;
-} tobj;
-
-typedef struct tworld {
-    tobj *objs;
-    uint32_t n, cap;
-    float size[3];
-} tworld;
-
-static tobj *add_obj(tworld *w, uint32_t id)
-{
-    if (w->n == w->cap) {
-        w->cap = w->cap ? w->cap * 2 : 64;
-        w->objs = realloc(w->objs, w->cap * sizeof *w->objs);
-    }
-    tobj *o = &w->objs[w->n++];
-    memset(o, 0, sizeof *o);
-    o->id = id;
-    return o;
-}
-
-static void obj_quad(tobj *o, uint32_t axis, float plane, float u0, float v0, float u1, float v1)
-{
-    o->quads = realloc(o->quads, (o->nq + 1) * sizeof *o->quads);
-    vis_quad q = {axis, 0, plane, u0, v0, u1, v1};
-    o->quads[o->nq++] = q;
-}
-
-static void obj_tri(tobj *o, const float a[3], const float b[3], const float c[3])
-{
-    o->tris = realloc(o->tris, (o->nt + 1) * sizeof *o->tris);
-    vis_triangle t;
-    memset(&t, 0, sizeof t);
-    memcpy(t.v[0], a, 12);
-    memcpy(t.v[1], b, 12);
-    memcpy(t.v[2], c, 12);
-    o->tris[o->nt++] = t;
-}
-
-static void obj_box(tobj *o, const float lo[3], const float hi[3])
-{
-    for (uint32_t a = 0; a < 3; ++a) {
-        uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
-        obj_quad(o, a, lo[a], lo[u], lo[v], hi[u], hi[v]);
-        obj_quad(o, a, hi[a], lo[u], lo[v], hi[u], hi[v]);
-    }
-}
-
-static void free_obj(tobj *o)
-{
-    free(o->quads);
-    free(o->tris);
-    o->quads = NULL;
-    o->tris = NULL;
-    o->nq = o->nt = 0;
-}
-
-static void free_world(tworld *w)
-{
-    for (uint32_t i = 0; i < w->n; ++i)
-        free_obj(&w->objs[i]);
-    free(w->objs);
-    memset(w, 0, sizeof *w);
-}
-
-static void set_obj(vis_scene *s, const tobj *o)
-{
-    vis_mesh m = {o->quads, o->nq, o->tris, o->nt};
-    if (vis_scene_set_object(s, o->id, &m) != VIS_OK)
-        fail_msg("set_object %u failed", o->id);
-}
-
-static vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth)
-{
-    vis_scene_desc d;
-    vis_scene_desc_defaults(&d);
-    memcpy(d.size, w->size, sizeof d.size);
-    if (origin)
-        memcpy(d.origin, origin, sizeof d.origin);
-    d.kd_depth = kd_depth;
-    vis_scene *s = NULL;
-    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
-    for (uint32_t i = 0; i < w->n; ++i)
-        set_obj(s, &w->objs[i]);
-    return s;
-}
 
 /* Chunk objects of voxel boxes (some with a face exactly on the chunk boundary), pairs of
  * identical boxes under two IDs (ties), and entities of triangles and off-grid quads that
@@ -426,7 +336,7 @@ static void test_edits_between_passes(void **state)
         for (int k = 0; k < 3 && w.n > 1; ++k) {
             uint32_t i = (uint32_t)(vt_rand(&rng) % w.n);
             assert_int_equal(vis_scene_remove_object(scene, w.objs[i].id), VIS_OK);
-            free_obj(&w.objs[i]);
+            obj_clear(&w.objs[i]);
             w.objs[i] = w.objs[--w.n];
         }
         for (int k = 0; k < 3 && w.n > 0; ++k) {
@@ -436,7 +346,7 @@ static void test_edits_between_passes(void **state)
                 lo[a] = (float)(vt_rand(&rng) % (uint64_t)(w.size[a] - 8));
                 hi[a] = lo[a] + 1.0f + (float)(vt_rand(&rng) % 7);
             }
-            free_obj(o);
+            obj_clear(o);
             obj_box(o, lo, hi);
             set_obj(scene, o);
         }

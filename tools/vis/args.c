@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "names.h"
+#include "bench_traversal.h" /* CLI_TRAVERSAL_ALL */
 
 typedef int (*opt_parse_fn)(const char *cmd, const char *opt, const char *value, int list, cli_args *a);
 
@@ -186,6 +187,10 @@ static int p_ids(const char *cmd, const char *opt, const char *value, int list, 
 static int p_traversal(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
 {
     int v;
+    if (strcmp(value, "all") == 0 && strcmp(cmd, "bench") == 0) { /* bench_traversal.c: Tables 3, 4 */
+        a->traversal = CLI_TRAVERSAL_ALL;
+        return CLI_EXIT_OK;
+    }
     int rc = p_named(cmd, opt, value, &vc_traversals, &v);
     a->traversal = (vis_traversal)v;
     return rc;
@@ -325,7 +330,7 @@ static const opt_spec options[] = {
     {"--res", OPT_RES, "WxH", "ID buffer size (default 512x512)", p_res},
     {"--method", OPT_METHOD, "ray|zbuf", "ray pass (default) or the software z-buffer culler", p_method},
     {"--ids", OPT_IDS, "object|leaf", "object IDs (default) or kd-leaf IDs", p_ids},
-    {"--traversal", OPT_TRAVERSAL, "NAME", "kd-tree traversal: stack (default), bruteforce", p_traversal},
+    {"--traversal", OPT_TRAVERSAL, "NAME", "kd-tree traversal: stack (default), bruteforce, restart, pushdown, shortstack[:N], ropes, ropes-shortstack[:N]; bench: all", p_traversal},
     {"--backend", OPT_BACKEND, "auto|cpu|opencl", "backend (default auto)", p_backend},
     {"--threads", OPT_THREADS, "N|all", "CPU backend threads (default all cores)", p_threads},
     {"--repeat", OPT_REPEAT, "N", "passes to time; the median is reported", p_repeat},

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "bench.h"
+#include "bench_traversal.h"
 #include "bench_zbuf.h"
 #include "cli.h"
 #include "commands.h"
@@ -331,7 +332,8 @@ int cmd_bench(const cli_args *a)
     cli_progress_init(&progress, a->json ? CLI_PROGRESS_AUTO : CLI_PROGRESS_ALWAYS);
     if (!a->json) {
         printf("libvis %s bench: %s, %ux%u, %u frames per view, traversal %s, %s IDs\n", vis_version(), a->scene,
-               a->width, a->height, a->frames, vc_name_of(&vc_traversals, (int)a->traversal),
+               a->width, a->height, a->frames,
+               a->traversal == CLI_TRAVERSAL_ALL ? "all" : vc_name_of(&vc_traversals, (int)a->traversal),
                vc_name_of(&vc_id_modes, (int)a->ids));
         fflush(stdout);
     }
@@ -339,6 +341,10 @@ int cmd_bench(const cli_args *a)
     if (rc != CLI_EXIT_OK)
         goto out;
     b->nviews = vc_camera_path(b->world.world, b->views, VC_MAX_VIEWS);
+    if (a->traversal == CLI_TRAVERSAL_ALL) { /* Tables 3 and 4 alone: no edits, no Embree */
+        rc = bench_traversal_all(b, &progress);
+        goto out;
+    }
     b->results = calloc(b->nviews * (sizeof b->configs / sizeof b->configs[0]), sizeof *b->results);
     if (!b->results) {
         rc = cli_fail(CMD, "out of memory");

@@ -1,0 +1,38 @@
+/* scene_builder.h — test worlds of quads and triangles kept by the test itself, so that an
+ * oracle can trace exactly what was handed to the scene. Shared by the trace, traversal and
+ * OpenCL tests. */
+#ifndef VIS_TEST_SCENE_BUILDER_H
+#define VIS_TEST_SCENE_BUILDER_H
+
+#include <stdint.h>
+
+#include "vis/vis.h"
+
+typedef struct tobj {
+    uint32_t id;
+    vis_quad *quads;
+    uint32_t nq;
+    vis_triangle *tris;
+    uint32_t nt;
+} tobj;
+
+typedef struct tworld {
+    tobj *objs;
+    uint32_t n, cap;
+    float size[3];
+} tworld;
+
+tobj *add_obj(tworld *w, uint32_t id);
+void obj_quad(tobj *o, uint32_t axis, float plane, float u0, float v0, float u1, float v1);
+void obj_tri(tobj *o, const float a[3], const float b[3], const float c[3]);
+/* The six faces of the box [lo, hi]. */
+void obj_box(tobj *o, const float lo[3], const float hi[3]);
+/* Frees the object's primitives and leaves it empty (its ID stays). */
+void obj_clear(tobj *o);
+void free_world(tworld *w);
+/* vis_scene_set_object with the object's mesh; fails the test on error. */
+void set_obj(vis_scene *s, const tobj *o);
+/* A scene over [0, w->size] (origin may be NULL) holding every object; fails the test on error. */
+vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth);
+
+#endif
