@@ -29,7 +29,7 @@
 typedef uint uint32_t;
 typedef int int32_t;
 #  define VIS_GLOBAL __global
-#  define VIS_INLINE inline
+#  define VIS_INLINE static inline
 #  define VIS_INF INFINITY
 #  define VIS_FLOORF floor
 #  define VIS_CEILF ceil

@@ -5,6 +5,7 @@
  * fails here and AUTO falls back to the CPU. Each pass is one kernel launch over the pixels
  * in 8x8 work-groups, then a readback of the IDs (and depths when asked for). The kernel's
  * own time comes from its event (CL_PROFILING_COMMAND_START/END). */
+#include <stdint.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -214,6 +215,18 @@ static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, cha
     return st;
 }
 
+/* The program for one traversal method: built with -DVIS_TRAVERSAL_ONLY=<id>u, so the kernel
+ * holds that method alone (trace_core.h, vis_trace_pixel) and none of the others' private
+ * stacks. Seven methods and at most VIS_CL_MAX_PROGRAMS option sets; ids above the table
+ * (none today) get the generic program that switches on setup->traversal. */
+static const char *traversal_options(uint32_t traversal)
+{
+    static const char *const opts[] = {"-DVIS_TRAVERSAL_ONLY=0u", "-DVIS_TRAVERSAL_ONLY=1u", "-DVIS_TRAVERSAL_ONLY=2u",
+                                        "-DVIS_TRAVERSAL_ONLY=3u", "-DVIS_TRAVERSAL_ONLY=4u", "-DVIS_TRAVERSAL_ONLY=5u",
+                                        "-DVIS_TRAVERSAL_ONLY=6u"};
+    return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
+}
+
 static int cl_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                     uint32_t *ids, float *depth, char *err, size_t err_size)
 {
@@ -222,7 +235,7 @@ static int cl_trace(void *impl, void *scene_data, const vis_scene_view *view, co
     const vis_cl_scene *sc = scene_data;
     b->last_kernel_ms = 0.0;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, "", &p, err, err_size);
+    int st = vis_cl_program_get(b, traversal_options(setup->traversal), &p, err, err_size);
     if (st != VIS_CL_OK)
         return st;
     size_t pixels = (size_t)setup->width * setup->height;
@@ -253,8 +266,12 @@ static int cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *vi
     b->last_kernel_ms = 0.0;
     if (count == 0)
         return VIS_CL_OK;
+    uint32_t traversal = setups[0].traversal; /* one program when every camera shares it */
+    for (uint32_t i = 1; i < count; ++i)
+        if (setups[i].traversal != traversal)
+            traversal = UINT32_MAX;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, "", &p, err, err_size);
+    int st = vis_cl_program_get(b, traversal_options(traversal), &p, err, err_size);
     if (st != VIS_CL_OK)
         return st;
     uint32_t W = setups[0].width, H = setups[0].height;
@@ -350,8 +367,8 @@ int vis_opencl_backend_create(const char *selector, vis_backend *out, char *devi
         b->tile[0] = tw;
         b->tile[1] = th;
     }
-    vis_cl_program *p = NULL;
-    st = vis_cl_program_get(b, "", &p, err, err_size);
+    vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
+    st = vis_cl_program_get(b, traversal_options(0u), &p, err, err_size);
     if (st != VIS_CL_OK) {
         cl_destroy(b);
         return st;

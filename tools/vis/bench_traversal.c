@@ -69,8 +69,10 @@ static int run_config(bench *b, cli_scene *s, trav_config *tc)
             fflush(stdout);
         }
     }
-    if (!a->json)
+    if (!a->json) {
         printf("\n");
+        fflush(stdout);
+    }
     return CLI_EXIT_OK;
 }
 
