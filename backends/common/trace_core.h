@@ -439,6 +439,14 @@ VIS_INLINE int vis_clip_scene(const vis_ray *r, const float *size, float *t0, fl
     return 1;
 }
 
+/* The child a ray meets first: the side of the split plane its origin lies on; an origin on
+ * the plane moves into the side its direction points to (the lower child for d < 0). The
+ * same rule in every traversal keeps their leaf orders identical. */
+VIS_INLINE uint32_t vis_near_child(float o, float d, float split, uint32_t first)
+{
+    return o < split || (o == split && d < 0.0f) ? first : first + 1u;
+}
+
 #define VIS_STACK_SIZE 64
 #define VIS_STACK_SAME_INTERVAL 0x80000000u
 
@@ -470,14 +478,8 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
             uint32_t first = info >> 2;
             float split = nodes[node].split;
             float o = r->o[a], d = r->d[a];
-            uint32_t near_child, far_child;
-            if (o < split || (o == split && d < 0.0f)) {
-                near_child = first;
-                far_child = first + 1u;
-            } else {
-                near_child = first + 1u;
-                far_child = first;
-            }
+            uint32_t near_child = vis_near_child(o, d, split, first);
+            uint32_t far_child = near_child == first ? first + 1u : first;
             if (d == 0.0f) {
                 if (o == split && sp < VIS_STACK_SIZE) {
                     /* Lying in the split plane: both children span the same interval. The
@@ -626,14 +628,8 @@ VIS_INLINE void vis_traverse_restart_range(const vis_ray *r, uint32_t root, floa
             uint32_t first = info >> 2;
             float split = nodes[node].split;
             float o = r->o[a], d = r->d[a];
-            uint32_t near_child, far_child;
-            if (o < split || (o == split && d < 0.0f)) {
-                near_child = first;
-                far_child = first + 1u;
-            } else {
-                near_child = first + 1u;
-                far_child = first;
-            }
+            uint32_t near_child = vis_near_child(o, d, split, first);
+            uint32_t far_child = near_child == first ? first + 1u : first;
             /* The stack method's decisions, verbatim. */
             int both = 0, in_plane = 0;
             float t_split = 0.0f;
@@ -758,14 +754,8 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
             uint32_t first = info >> 2;
             float split = nodes[node].split;
             float o = r->o[a], d = r->d[a];
-            uint32_t near_child, far_child;
-            if (o < split || (o == split && d < 0.0f)) {
-                near_child = first;
-                far_child = first + 1u;
-            } else {
-                near_child = first + 1u;
-                far_child = first;
-            }
+            uint32_t near_child = vis_near_child(o, d, split, first);
+            uint32_t far_child = near_child == first ? first + 1u : first;
             if (d == 0.0f) {
                 if (o == split && sp < (int)VIS_SHORT_STACK_MAX) {
                     stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
