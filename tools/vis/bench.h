@@ -41,6 +41,9 @@ typedef struct edit_result {
     double chunks_per_edit;
     int embree;                                /* the Embree columns below are filled */
     double embree_median_ms, embree_p99_ms;
+    int upload;                                /* an OpenCL copy mirrored the edits      */
+    char upload_device[128];
+    double upload_median_bytes, upload_max_bytes, scene_bytes;
 } edit_result;
 
 typedef struct bench {

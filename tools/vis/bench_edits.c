@@ -35,25 +35,102 @@ static uint64_t splitmix64(uint64_t *s)
 
 /* The Embree side of one edit: remesh the touched chunks (untimed, as for us the remesh is
  * shared work), then replace their geometries and recommit (timed). */
+/* The touched chunk's mesh as libvis quads (empty when the chunk emptied). Returns the
+ * quad count, or (size_t)-1 when the conversion buffer cannot grow. */
+static size_t chunk_quads(bench *b, uint32_t chunk, vw_mesh *mesh, vis_quad **quads, size_t *cap)
+{
+    mesh->count = 0;
+    if (!vw_world_chunk_empty(b->world.world, chunk) && vw_mesh_chunk(b->world.world, chunk, mesh) != VW_OK)
+        mesh->count = 0;
+    if (mesh->count > *cap) {
+        vis_quad *q = realloc(*quads, mesh->count * 2 * sizeof *q);
+        if (!q)
+            return (size_t)-1;
+        *quads = q;
+        *cap = mesh->count * 2;
+    }
+    world_scene_convert_quads(mesh->quads, mesh->count, *quads);
+    return mesh->count;
+}
+
 static double embree_edit(bench *b, const touched *t, vw_mesh *mesh, vis_quad **quads, size_t *cap)
 {
     double ms = 0.0;
     for (size_t i = 0; i < t->count; ++i) {
-        mesh->count = 0;
-        if (!vw_world_chunk_empty(b->world.world, t->chunks[i]) &&
-            vw_mesh_chunk(b->world.world, t->chunks[i], mesh) != VW_OK)
-            mesh->count = 0;
-        if (mesh->count > *cap) {
-            vis_quad *q = realloc(*quads, mesh->count * 2 * sizeof *q);
-            if (!q)
-                return ms;
-            *quads = q;
-            *cap = mesh->count * 2;
-        }
-        world_scene_convert_quads(mesh->quads, mesh->count, *quads);
-        ms += embree_compare_replace(b->ec, t->ids[i], *quads, mesh->count);
+        size_t n = chunk_quads(b, t->chunks[i], mesh, quads, cap);
+        if (n == (size_t)-1)
+            return ms;
+        ms += embree_compare_replace(b->ec, t->ids[i], *quads, n);
     }
     return ms + embree_compare_commit(b->ec);
+}
+
+/* An OpenCL copy of the scene that mirrors every edit, to measure what one edit sends to the
+ * device: the changed leaves and objects only (docs/opencl.md). Absent without a device. */
+typedef struct upload_mirror {
+    vis_context *ctx;
+    world_scene *ws;
+    char device[128];
+} upload_mirror;
+
+static void mirror_open(bench *b, upload_mirror *m)
+{
+    memset(m, 0, sizeof *m);
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.backend = VIS_BACKEND_OPENCL;
+    if (vis_context_create(&cd, &m->ctx) != VIS_OK) {
+        m->ctx = NULL;
+        return;
+    }
+    vis_backend_info bi;
+    vis_context_backend(m->ctx, &bi);
+    snprintf(m->device, sizeof m->device, "%s", bi.device);
+    world_scene_options o;
+    memset(&o, 0, sizeof o);
+    o.kd_depth = b->a->kd_depth;
+    vw_error err;
+    if (world_scene_create(m->ctx, b->world.world, &o, &m->ws, NULL, &err) != 0) {
+        vis_context_destroy(m->ctx);
+        m->ctx = NULL;
+    }
+}
+
+static void mirror_close(upload_mirror *m)
+{
+    world_scene_destroy(m->ws);
+    vis_context_destroy(m->ctx);
+}
+
+/* Applies the touched chunks to the mirror, syncs it with a tiny pass and returns the bytes
+ * that sync uploaded (UINT64_MAX on failure). */
+static uint64_t mirror_edit(bench *b, upload_mirror *m, const touched *t, vw_mesh *mesh, vis_quad **quads,
+                            size_t *cap)
+{
+    vis_scene *s = world_scene_scene(m->ws);
+    for (size_t i = 0; i < t->count; ++i) {
+        size_t n = chunk_quads(b, t->chunks[i], mesh, quads, cap);
+        if (n == (size_t)-1)
+            return UINT64_MAX;
+        vis_mesh vm = {*quads, (uint32_t)n, NULL, 0};
+        if (vis_scene_set_object(s, t->ids[i], &vm) != VIS_OK)
+            return UINT64_MAX;
+    }
+    vis_scene_info info;
+    vis_scene_get_info(s, &info);
+    vis_camera cam = {{0, 0, 0}, {info.size[0], info.size[1], info.size[2]}, 60, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+        cam.eye[a] = info.origin[a] - 1.0;
+        cam.target[a] += info.origin[a];
+    }
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = 1;
+    uint32_t id;
+    uint64_t bytes = 0;
+    if (vis_trace(m->ctx, s, &cam, &td, &id, NULL) != VIS_OK || vis_scene_last_upload_bytes(s, &bytes) != VIS_OK)
+        return UINT64_MAX;
+    return bytes;
 }
 
 int bench_run_edits(bench *b)
@@ -70,6 +147,9 @@ int bench_run_edits(bench *b)
     vw_world_get_info(w, &wi);
     double *total = malloc(k * sizeof *total), *update = malloc(k * sizeof *update);
     double *remesh = malloc(k * sizeof *remesh), *emb = malloc(k * sizeof *emb);
+    double *upload = malloc(k * sizeof *upload);
+    upload_mirror mirror;
+    mirror_open(b, &mirror);
     touched t = {0};
     t.cap = 64;
     t.chunks = malloc(t.cap * sizeof *t.chunks);
@@ -78,7 +158,7 @@ int bench_run_edits(bench *b)
     vis_quad *quads = NULL;
     size_t quad_cap = 0;
     int rc = CLI_EXIT_OK;
-    if (!total || !update || !remesh || !emb || !t.chunks || !t.ids) {
+    if (!total || !update || !remesh || !emb || !upload || !t.chunks || !t.ids) {
         rc = cli_fail(CMD, "out of memory");
         goto done;
     }
@@ -126,6 +206,23 @@ int bench_run_edits(bench *b)
         chunks += st.chunks;
         if (b->ec)
             emb[i] = embree_edit(b, &t, &mesh, &quads, &quad_cap);
+        if (mirror.ctx) {
+            uint64_t bytes = mirror_edit(b, &mirror, &t, &mesh, &quads, &quad_cap);
+            if (bytes == UINT64_MAX) {
+                rc = cli_fail(CMD, "edit %u on the OpenCL copy: %s", i, vis_context_last_error(mirror.ctx));
+                goto done;
+            }
+            upload[i] = (double)bytes;
+        }
+    }
+    if (mirror.ctx) {
+        er->upload = 1;
+        snprintf(er->upload_device, sizeof er->upload_device, "%s", mirror.device);
+        er->upload_median_bytes = vc_median(upload, k);
+        er->upload_max_bytes = vc_max(upload, k);
+        vis_scene_info mi;
+        vis_scene_get_info(world_scene_scene(mirror.ws), &mi);
+        er->scene_bytes = (double)mi.bytes;
     }
     er->per_s = sum_ms > 0.0 ? (double)k / (sum_ms / 1e3) : 0.0;
     er->chunks_per_edit = (double)chunks / (double)k;
@@ -149,6 +246,11 @@ int bench_run_edits(bench *b)
             printf("  embree    dynamic scene, replace geometry + rtcCommitScene: median %.4f ms, p99 %.4f ms "
                    "(remesh not included)\n",
                    er->embree_median_ms, er->embree_p99_ms);
+        if (er->upload)
+            printf("  opencl    bytes uploaded per edit (%s): median %.0f, max %.0f (the host scene holds %.0f)\n",
+                   er->upload_device, er->upload_median_bytes, er->upload_max_bytes, er->scene_bytes);
+        else
+            printf("  opencl    bytes uploaded per edit: no OpenCL device in this build or machine\n");
     }
 done:
     world_scene_set_chunk_hook(b->keep.ws, NULL, NULL);
@@ -156,6 +258,9 @@ done:
     free(update);
     free(remesh);
     free(emb);
+    free(upload);
+    if (mirror.ctx)
+        mirror_close(&mirror);
     free(t.chunks);
     free(t.ids);
     free(quads);

@@ -255,6 +255,11 @@ static void print_json(const bench *b)
         json_number(&w, "remesh_median_ms", er->remesh_median_ms);
         json_number(&w, "update_median_ms", er->update_median_ms);
         json_number(&w, "chunks_per_edit", er->chunks_per_edit);
+        if (er->upload) {
+            json_string(&w, "upload_device", er->upload_device);
+            json_number(&w, "upload_bytes_median", er->upload_median_bytes);
+            json_number(&w, "upload_bytes_max", er->upload_max_bytes);
+        }
         json_object_end(&w);
     } else {
         json_null(&w, "edit_ms");
