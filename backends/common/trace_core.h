@@ -389,8 +389,16 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
         if (t >= r->t_near) {
             uint32_t b = (uint32_t)(base[a] + k[a]);
             uint32_t end = bk[b + 1u];
-            for (uint32_t i = bk[b]; i < end; ++i)
+            /* A bucket's quads are sorted by u0 (scene.c), and pu is the crossing point's u
+             * exactly as vis_quad_intersect computes it: a quad starting beyond pu cannot
+             * hold the point, nor can any after it. */
+            uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
+            float pu = r->o[u] + t * r->d[u];
+            for (uint32_t i = bk[b]; i < end; ++i) {
+                if (quads[qbase + i].u0 > pu)
+                    break;
                 vis_test_quad(r, &quads[qbase + i], objects, h);
+            }
         }
         if (k[a] == kend[a]) {
             tk[a] = VIS_INF;

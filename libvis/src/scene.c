@@ -298,6 +298,21 @@ static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap
     return 1;
 }
 
+/* Insertion sort (stable): buckets hold a handful of quads, and a leaf rebuild must not
+ * allocate. */
+static void sort_by_u0(vis_flat_quad *q, uint32_t n)
+{
+    for (uint32_t i = 1; i < n; ++i) {
+        vis_flat_quad x = q[i];
+        uint32_t j = i;
+        while (j > 0 && q[j - 1].u0 > x.u0) {
+            q[j] = q[j - 1];
+            --j;
+        }
+        q[j] = x;
+    }
+}
+
 static vis_status rebuild_leaf(vis_scene *s, uint32_t li)
 {
     vis_flat_leaf *lf = &s->leaves[li];
@@ -376,6 +391,10 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li)
         for (uint32_t b = nb - 1; b > 0; --b)
             bk[b] = bk[b - 1];
         bk[0] = 0;
+        /* Within a bucket, ascending u0 lets the traversal stop at the first quad that starts
+         * beyond the crossing point (trace_core.h). Stable, so equal u0 keep object order. */
+        for (uint32_t b = 0; b + 1 < nb; ++b)
+            sort_by_u0(dst + bk[b], bk[b + 1] - bk[b]);
     }
     lf->quad_offset = qoff;
     lf->quad_count = bucketed;
