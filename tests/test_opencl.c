@@ -784,6 +784,66 @@ static void test_terrain_with_voxel_edits(void **state)
     vis_context_destroy(cl);
 }
 
+/* The real .vox scenes of ../shared/data (made by others, see ATTRIBUTION.md): CPU and OpenCL
+ * agree bit for bit along each scene's camera path, with a burst of voxel edits between. */
+static void test_real_vox_scenes(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    static const char *const files[] = {"vox/mmmm_scene_store8.vox", "vox/mmmm_scene_church1.vox",
+                                        "vox/vengi_test-transform.vox", "vox/vengi_8ontop.vox",
+                                        "vox/ogt_test_multiple_model_scene.vox", "vox/vengi_test_material.vox"};
+    vis_context *cpu = make_ctx(VIS_BACKEND_CPU, NULL, NULL);
+    int ran = 0;
+    for (size_t f = 0; f < sizeof files / sizeof files[0]; ++f) {
+        const char *path = vt_shared_file(files[f]);
+        if (!path)
+            continue;
+        char spec[4200];
+        snprintf(spec, sizeof spec, "%s", path);
+        vw_world *wa = NULL, *wb = NULL;
+        vw_error err;
+        if (vw_world_from_spec(spec, NULL, NULL, &wa, &err) != VW_OK ||
+            vw_world_from_spec(spec, NULL, NULL, &wb, &err) != VW_OK)
+            fail_msg("%s: %s", files[f], err.message);
+        world_scene *sa = NULL, *sb = NULL;
+        assert_int_equal(world_scene_create(cpu, wa, NULL, &sa, NULL, &err), 0);
+        assert_int_equal(world_scene_create(cl, wb, NULL, &sb, NULL, &err), 0);
+        pair p = {cpu, cl, world_scene_scene(sa), world_scene_scene(sb), 0};
+        uint32_t trav = traversal_count(cpu, p.cpu_scene);
+        vc_view views[VC_MAX_VIEWS];
+        size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
+        assert_true(nv > 0);
+        vw_world_info info;
+        vw_world_get_info(wa, &info);
+        uint64_t rng = 99 + f;
+        for (int round = 0; round < 2; ++round) {
+            for (size_t i = 0; i < nv; ++i)
+                compare_view_sel(&p, &views[i].camera, 48, 40, trav, TREE_TRAVERSALS, views[i].name);
+            for (int e = 0; e < 24; ++e) { /* toggle voxels near the surface in both worlds */
+                int64_t x = info.origin[0] + (int64_t)(vt_rand(&rng) % (uint64_t)info.size[0]);
+                int64_t z = info.origin[2] + (int64_t)(vt_rand(&rng) % (uint64_t)info.size[2]);
+                int64_t y = vc_surface_height(wa, x, z) - (int64_t)(vt_rand(&rng) % 2);
+                if (y < info.origin[1] || y >= info.origin[1] + info.size[1])
+                    continue;
+                vw_voxel v = (vw_voxel)(vt_rand(&rng) % 2 ? 0 : 2);
+                assert_int_equal(vw_world_set(wa, x, y, z, v), VW_OK);
+                assert_int_equal(vw_world_set(wb, x, y, z, v), VW_OK);
+            }
+            assert_int_equal(world_scene_update(sa, NULL, &err), 0);
+            assert_int_equal(world_scene_update(sb, NULL, &err), 0);
+        }
+        ++ran;
+        world_scene_destroy(sa);
+        world_scene_destroy(sb);
+        vw_world_destroy(wa);
+        vw_world_destroy(wb);
+    }
+    printf("real .vox scenes compared: %d\n", ran);
+    vis_context_destroy(cpu);
+    vis_context_destroy(cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -795,6 +855,7 @@ int main(void)
         cmocka_unit_test(test_edit_uploads_only_changed_bytes),
         cmocka_unit_test(test_pool_growth_reallocates),
         cmocka_unit_test(test_terrain_with_voxel_edits),
+        cmocka_unit_test(test_real_vox_scenes),
         cmocka_unit_test(test_random_worlds_bit_identical),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
