@@ -73,6 +73,8 @@ typedef struct upload_mirror {
     char device[128];
 } upload_mirror;
 
+static uint64_t mirror_sync(upload_mirror *m);
+
 static void mirror_open(bench *b, upload_mirror *m)
 {
     memset(m, 0, sizeof *m);
@@ -90,9 +92,12 @@ static void mirror_open(bench *b, upload_mirror *m)
     memset(&o, 0, sizeof o);
     o.kd_depth = b->a->kd_depth;
     vw_error err;
-    if (world_scene_create(m->ctx, b->world.world, &o, &m->ws, NULL, &err) != 0) {
+    /* The first sync sends the whole scene; only what follows it is per edit. */
+    if (world_scene_create(m->ctx, b->world.world, &o, &m->ws, NULL, &err) != 0 || mirror_sync(m) == UINT64_MAX) {
+        world_scene_destroy(m->ws);
         vis_context_destroy(m->ctx);
         m->ctx = NULL;
+        m->ws = NULL;
     }
 }
 
@@ -102,20 +107,11 @@ static void mirror_close(upload_mirror *m)
     vis_context_destroy(m->ctx);
 }
 
-/* Applies the touched chunks to the mirror, syncs it with a tiny pass and returns the bytes
- * that sync uploaded (UINT64_MAX on failure). */
-static uint64_t mirror_edit(bench *b, upload_mirror *m, const touched *t, vw_mesh *mesh, vis_quad **quads,
-                            size_t *cap)
+/* Brings the device copy up to date with a 1x1 pass; returns the bytes that sync uploaded
+ * (UINT64_MAX on failure). */
+static uint64_t mirror_sync(upload_mirror *m)
 {
     vis_scene *s = world_scene_scene(m->ws);
-    for (size_t i = 0; i < t->count; ++i) {
-        size_t n = chunk_quads(b, t->chunks[i], mesh, quads, cap);
-        if (n == (size_t)-1)
-            return UINT64_MAX;
-        vis_mesh vm = {*quads, (uint32_t)n, NULL, 0};
-        if (vis_scene_set_object(s, t->ids[i], &vm) != VIS_OK)
-            return UINT64_MAX;
-    }
     vis_scene_info info;
     vis_scene_get_info(s, &info);
     vis_camera cam = {{0, 0, 0}, {info.size[0], info.size[1], info.size[2]}, 60, 0, 0};
@@ -131,6 +127,22 @@ static uint64_t mirror_edit(bench *b, upload_mirror *m, const touched *t, vw_mes
     if (vis_trace(m->ctx, s, &cam, &td, &id, NULL) != VIS_OK || vis_scene_last_upload_bytes(s, &bytes) != VIS_OK)
         return UINT64_MAX;
     return bytes;
+}
+
+/* Applies the touched chunks to the mirror and returns what the next sync uploads. */
+static uint64_t mirror_edit(bench *b, upload_mirror *m, const touched *t, vw_mesh *mesh, vis_quad **quads,
+                            size_t *cap)
+{
+    vis_scene *s = world_scene_scene(m->ws);
+    for (size_t i = 0; i < t->count; ++i) {
+        size_t n = chunk_quads(b, t->chunks[i], mesh, quads, cap);
+        if (n == (size_t)-1)
+            return UINT64_MAX;
+        vis_mesh vm = {*quads, (uint32_t)n, NULL, 0};
+        if (vis_scene_set_object(s, t->ids[i], &vm) != VIS_OK)
+            return UINT64_MAX;
+    }
+    return mirror_sync(m);
 }
 
 int bench_run_edits(bench *b)
