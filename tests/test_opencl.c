@@ -721,24 +721,55 @@ static void test_errors_and_timing(void **state)
 
 /* A generated terrain (greedy chunk meshes, the real workload) with voxel edits: two copies
  * of the same world, one scene per backend, the same edits applied to both. */
+/* The same world loaded twice, one scene on the CPU and one on OpenCL, edited in lockstep. */
+typedef struct world_pair {
+    vw_world *wa, *wb;
+    world_scene *sa, *sb;
+    pair p;
+    uint32_t traversals;
+    vc_view views[VC_MAX_VIEWS];
+    size_t nviews;
+} world_pair;
+
+static void world_pair_open(world_pair *wp, vis_context *cpu, vis_context *cl, const char *spec)
+{
+    memset(wp, 0, sizeof *wp);
+    vw_error err;
+    if (vw_world_from_spec(spec, NULL, NULL, &wp->wa, &err) != VW_OK ||
+        vw_world_from_spec(spec, NULL, NULL, &wp->wb, &err) != VW_OK)
+        fail_msg("%s: %s", spec, err.message);
+    assert_int_equal(world_scene_create(cpu, wp->wa, NULL, &wp->sa, NULL, &err), 0);
+    assert_int_equal(world_scene_create(cl, wp->wb, NULL, &wp->sb, NULL, &err), 0);
+    pair p = {cpu, cl, world_scene_scene(wp->sa), world_scene_scene(wp->sb), 0};
+    wp->p = p;
+    wp->traversals = traversal_count(cpu, p.cpu_scene);
+    wp->nviews = vc_camera_path(wp->wa, wp->views, VC_MAX_VIEWS);
+    assert_true(wp->nviews > 0);
+}
+
+static void world_pair_close(world_pair *wp)
+{
+    world_scene_destroy(wp->sa);
+    world_scene_destroy(wp->sb);
+    vw_world_destroy(wp->wa);
+    vw_world_destroy(wp->wb);
+}
+
 static void test_terrain_with_voxel_edits(void **state)
 {
     (void)state;
     REQUIRE_OPENCL(cl);
-    vw_world *wa = NULL, *wb = NULL;
-    vw_error err;
     const char *spec = vt_small() ? "gen:terrain:size=96x64x96:seed=7" : "gen:terrain:size=192x96x192:seed=7";
-    if (vw_world_from_spec(spec, NULL, NULL, &wa, &err) != VW_OK || vw_world_from_spec(spec, NULL, NULL, &wb, &err) != VW_OK)
-        fail_msg("%s: %s", spec, err.message);
     vis_context *cpu = make_ctx(VIS_BACKEND_CPU, NULL, NULL);
-    world_scene *sa = NULL, *sb = NULL;
-    assert_int_equal(world_scene_create(cpu, wa, NULL, &sa, NULL, &err), 0);
-    assert_int_equal(world_scene_create(cl, wb, NULL, &sb, NULL, &err), 0);
-    pair p = {cpu, cl, world_scene_scene(sa), world_scene_scene(sb), 0};
-    uint32_t trav = traversal_count(cpu, p.cpu_scene);
-    vc_view views[VC_MAX_VIEWS];
-    size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
-    assert_true(nv > 0);
+    world_pair wp;
+    world_pair_open(&wp, cpu, cl, spec);
+    vw_world *wa = wp.wa, *wb = wp.wb;
+    world_scene *sa = wp.sa, *sb = wp.sb;
+    pair p = wp.p;
+    uint32_t trav = wp.traversals;
+    vc_view *views = wp.views;
+    size_t nv = wp.nviews;
+    vw_error err;
     /* The brute force tests every quad of the world per ray: one small view only. */
     compare_view(&p, &views[0].camera, 16, 16, trav, views[0].name);
     for (size_t i = 0; i < nv; ++i)
@@ -776,11 +807,8 @@ static void test_terrain_with_voxel_edits(void **state)
     printf("terrain %s: %u objects, one voxel edit uploaded %llu bytes\n", spec, si.objects,
            (unsigned long long)one_edit_bytes);
     assert_true(one_edit_bytes > 0 && one_edit_bytes < 65536);
-    world_scene_destroy(sa);
-    world_scene_destroy(sb);
+    world_pair_close(&wp);
     vis_context_destroy(cpu);
-    vw_world_destroy(wa);
-    vw_world_destroy(wb);
     vis_context_destroy(cl);
 }
 
@@ -799,27 +827,17 @@ static void test_real_vox_scenes(void **state)
         const char *path = vt_shared_file(files[f]);
         if (!path)
             continue;
-        char spec[4200];
-        snprintf(spec, sizeof spec, "%s", path);
-        vw_world *wa = NULL, *wb = NULL;
+        world_pair wp;
+        world_pair_open(&wp, cpu, cl, path);
+        vw_world *wa = wp.wa, *wb = wp.wb;
         vw_error err;
-        if (vw_world_from_spec(spec, NULL, NULL, &wa, &err) != VW_OK ||
-            vw_world_from_spec(spec, NULL, NULL, &wb, &err) != VW_OK)
-            fail_msg("%s: %s", files[f], err.message);
-        world_scene *sa = NULL, *sb = NULL;
-        assert_int_equal(world_scene_create(cpu, wa, NULL, &sa, NULL, &err), 0);
-        assert_int_equal(world_scene_create(cl, wb, NULL, &sb, NULL, &err), 0);
-        pair p = {cpu, cl, world_scene_scene(sa), world_scene_scene(sb), 0};
-        uint32_t trav = traversal_count(cpu, p.cpu_scene);
-        vc_view views[VC_MAX_VIEWS];
-        size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
-        assert_true(nv > 0);
         vw_world_info info;
         vw_world_get_info(wa, &info);
         uint64_t rng = 99 + f;
         for (int round = 0; round < 2; ++round) {
-            for (size_t i = 0; i < nv; ++i)
-                compare_view_sel(&p, &views[i].camera, 48, 40, trav, TREE_TRAVERSALS, views[i].name);
+            for (size_t i = 0; i < wp.nviews; ++i)
+                compare_view_sel(&wp.p, &wp.views[i].camera, 48, 40, wp.traversals, TREE_TRAVERSALS,
+                                 wp.views[i].name);
             for (int e = 0; e < 24; ++e) { /* toggle voxels near the surface in both worlds */
                 int64_t x = info.origin[0] + (int64_t)(vt_rand(&rng) % (uint64_t)info.size[0]);
                 int64_t z = info.origin[2] + (int64_t)(vt_rand(&rng) % (uint64_t)info.size[2]);
@@ -830,14 +848,11 @@ static void test_real_vox_scenes(void **state)
                 assert_int_equal(vw_world_set(wa, x, y, z, v), VW_OK);
                 assert_int_equal(vw_world_set(wb, x, y, z, v), VW_OK);
             }
-            assert_int_equal(world_scene_update(sa, NULL, &err), 0);
-            assert_int_equal(world_scene_update(sb, NULL, &err), 0);
+            assert_int_equal(world_scene_update(wp.sa, NULL, &err), 0);
+            assert_int_equal(world_scene_update(wp.sb, NULL, &err), 0);
         }
         ++ran;
-        world_scene_destroy(sa);
-        world_scene_destroy(sb);
-        vw_world_destroy(wa);
-        vw_world_destroy(wb);
+        world_pair_close(&wp);
     }
     printf("real .vox scenes compared: %d\n", ran);
     vis_context_destroy(cpu);
