@@ -15,7 +15,7 @@
  * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
  * (registers, spills, stack per kernel).
  *
- * Built by hand (docs/opencl.md) against build outputs: libvis, voxelworld, tools/common. */
+ * Built as the CMake target vis_clbench whenever the OpenCL backend is (docs/opencl.md). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdio.h>
