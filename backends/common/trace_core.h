@@ -455,6 +455,32 @@ VIS_INLINE uint32_t vis_near_child(float o, float d, float split, uint32_t first
     return o < split || (o == split && d < 0.0f) ? first : first + 1u;
 }
 
+/* What the stack method does at an inner node (after Havran's TA_B cases), shared by every
+ * traversal so that they all visit the same leaves with the same intervals. */
+#define VIS_GO_NEAR 0
+#define VIS_GO_FAR 1
+#define VIS_GO_BOTH 2          /* near over [t_min, *t_split], then far over [*t_split, t_max]  */
+#define VIS_GO_BOTH_IN_PLANE 3 /* a ray lying in the split plane: both over [t_min, t_max]      */
+
+VIS_INLINE int vis_node_decide(const vis_ray *r, uint32_t a, float split, uint32_t first, float t_min,
+                               float t_max, uint32_t *near_out, uint32_t *far_out, float *t_split_out)
+{
+    float o = r->o[a], d = r->d[a];
+    uint32_t near_child = vis_near_child(o, d, split, first);
+    *near_out = near_child;
+    *far_out = near_child == first ? first + 1u : first;
+    if (d == 0.0f)
+        return o == split ? VIS_GO_BOTH_IN_PLANE : VIS_GO_NEAR;
+    float t_split = (split - o) * r->inv[a];
+    *t_split_out = t_split;
+    /* t_split <= 0: the ray starts on or past the plane and moves into near_child. */
+    if (t_split > t_max || t_split <= 0.0f)
+        return VIS_GO_NEAR;
+    if (t_split < t_min)
+        return VIS_GO_FAR;
+    return VIS_GO_BOTH;
+}
+
 #define VIS_STACK_SIZE 64
 #define VIS_STACK_SAME_INTERVAL 0x80000000u
 
@@ -462,6 +488,31 @@ typedef struct vis_stack_entry {
     uint32_t node;
     float t_max;
 } vis_stack_entry;
+
+/* One step down from inner node `node` for the stack methods: the child to enter next, the
+ * far child pushed when both are crossed (flagged, with its t_min, for a ray lying in the
+ * split plane: its t_max is where the near subtree ends, the current t_max when popped). A
+ * full stack (capacity > depth) never drops a push. */
+VIS_INLINE uint32_t vis_descend(const vis_ray *r, const VIS_GLOBAL vis_kd_node *nodes, uint32_t node, uint32_t info,
+                                float *t_min, float *t_max, vis_stack_entry *stack, int *sp, int capacity)
+{
+    uint32_t near_child, far_child;
+    float t_split = 0.0f;
+    int go = vis_node_decide(r, info & 3u, nodes[node].split, info >> 2, *t_min, *t_max, &near_child, &far_child,
+                             &t_split);
+    if (go == VIS_GO_NEAR)
+        return near_child;
+    if (go == VIS_GO_FAR)
+        return far_child;
+    if (*sp < capacity) {
+        stack[*sp].node = go == VIS_GO_BOTH_IN_PLANE ? far_child | VIS_STACK_SAME_INTERVAL : far_child;
+        stack[*sp].t_max = go == VIS_GO_BOTH_IN_PLANE ? *t_min : *t_max;
+        ++*sp;
+    }
+    if (go == VIS_GO_BOTH)
+        *t_max = t_split;
+    return near_child;
+}
 
 /* Front-to-back traversal with a full stack of 8-byte entries (Chang & Ihm 2010, "stack").
  * A ray lying exactly in a split plane visits both children.
@@ -482,37 +533,7 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
     for (;;) {
         uint32_t info = nodes[node].info;
         while ((info & 3u) != VIS_NODE_LEAF) {
-            uint32_t a = info & 3u;
-            uint32_t first = info >> 2;
-            float split = nodes[node].split;
-            float o = r->o[a], d = r->d[a];
-            uint32_t near_child = vis_near_child(o, d, split, first);
-            uint32_t far_child = near_child == first ? first + 1u : first;
-            if (d == 0.0f) {
-                if (o == split && sp < VIS_STACK_SIZE) {
-                    /* Lying in the split plane: both children span the same interval. The
-                     * far one is pushed with its t_min (flagged); its t_max is where the
-                     * near subtree ends, which is the current t_max when it is popped. */
-                    stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
-                    stack[sp].t_max = t_min;
-                    ++sp;
-                }
-                node = near_child;
-            } else {
-                float t_split = (split - o) * r->inv[a];
-                /* t_split <= 0: the ray starts on or past the plane and moves into near_child. */
-                if (t_split > t_max || t_split <= 0.0f) {
-                    node = near_child;
-                } else if (t_split < t_min) {
-                    node = far_child;
-                } else {
-                    stack[sp].node = far_child;
-                    stack[sp].t_max = t_max;
-                    ++sp;
-                    node = near_child;
-                    t_max = t_split;
-                }
-            }
+            node = vis_descend(r, nodes, node, info, &t_min, &t_max, stack, &sp, VIS_STACK_SIZE);
             info = nodes[node].info;
         }
         vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
@@ -632,28 +653,14 @@ VIS_INLINE void vis_traverse_restart_range(const vis_ray *r, uint32_t root, floa
     for (;;) {
         uint32_t info = nodes[node].info;
         while ((info & 3u) != VIS_NODE_LEAF) {
-            uint32_t a = info & 3u;
-            uint32_t first = info >> 2;
-            float split = nodes[node].split;
-            float o = r->o[a], d = r->d[a];
-            uint32_t near_child = vis_near_child(o, d, split, first);
-            uint32_t far_child = near_child == first ? first + 1u : first;
             /* The stack method's decisions, verbatim. */
-            int both = 0, in_plane = 0;
+            uint32_t near_child, far_child;
             float t_split = 0.0f;
-            if (d == 0.0f) {
-                in_plane = o == split;
-                both = in_plane;
-                node = near_child;
-            } else {
-                t_split = (split - o) * r->inv[a];
-                if (t_split > t_max || t_split <= 0.0f)
-                    node = near_child;
-                else if (t_split < t_min)
-                    node = far_child;
-                else
-                    both = 1;
-            }
+            int go = vis_node_decide(r, info & 3u, nodes[node].split, info >> 2, t_min, t_max, &near_child,
+                                     &far_child, &t_split);
+            int in_plane = go == VIS_GO_BOTH_IN_PLANE;
+            int both = go >= VIS_GO_BOTH;
+            node = go == VIS_GO_FAR ? far_child : near_child;
             if (both) {
                 vis_u64 bit = (vis_u64)1u << level;
                 if (trail & bit) {
@@ -758,35 +765,7 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
     for (;;) {
         uint32_t info = nodes[node].info;
         while ((info & 3u) != VIS_NODE_LEAF) {
-            uint32_t a = info & 3u;
-            uint32_t first = info >> 2;
-            float split = nodes[node].split;
-            float o = r->o[a], d = r->d[a];
-            uint32_t near_child = vis_near_child(o, d, split, first);
-            uint32_t far_child = near_child == first ? first + 1u : first;
-            if (d == 0.0f) {
-                if (o == split && sp < (int)VIS_SHORT_STACK_MAX) {
-                    stack[sp].node = far_child | VIS_STACK_SAME_INTERVAL;
-                    stack[sp].t_max = t_min;
-                    ++sp;
-                }
-                node = near_child;
-            } else {
-                float t_split = (split - o) * r->inv[a];
-                if (t_split > t_max || t_split <= 0.0f) {
-                    node = near_child;
-                } else if (t_split < t_min) {
-                    node = far_child;
-                } else {
-                    if (sp < (int)VIS_SHORT_STACK_MAX) {
-                        stack[sp].node = far_child;
-                        stack[sp].t_max = t_max;
-                        ++sp;
-                    }
-                    node = near_child;
-                    t_max = t_split;
-                }
-            }
+            node = vis_descend(r, nodes, node, info, &t_min, &t_max, stack, &sp, (int)VIS_SHORT_STACK_MAX);
             info = nodes[node].info;
         }
         vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
