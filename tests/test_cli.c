@@ -211,7 +211,7 @@ static void test_cull_json(void **state)
     json_str(r.out, "backend", s, sizeof s);
     assert_string_equal(s, "cpu");
     json_str(r.out, "traversal", s, sizeof s);
-    assert_string_equal(s, "stack");
+    assert_string_equal(s, "packet"); /* auto, on the CPU */
     double objects = json_num(r.out, "objects"), visible = json_num(r.out, "visible");
     assert_true(objects > 0);
     assert_true(visible > 0 && visible <= objects); /* the default view looks at the world */

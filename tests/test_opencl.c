@@ -223,8 +223,11 @@ static uint32_t compare_view_sel(const pair *p, const vis_camera *cam, uint32_t 
     uint32_t *ia = malloc(n * 4), *ib = malloc(n * 4);
     float *da = malloc(n * 4), *db = malloc(n * 4);
     uint32_t hits = 0;
+    /* The first `traversals` per-ray methods from STACK, identical on both backends. AUTO and
+     * PACKET trace packets on the CPU: they are held to the brute force below. */
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = 0; t < traversals; ++t) {
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < VIS_TRAVERSAL_STACK + traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK;
+             ++t) {
             if (which == TREE_TRAVERSALS && t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE)
                 continue;
             vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, (vis_traversal)t);
@@ -237,9 +240,22 @@ static uint32_t compare_view_sel(const pair *p, const vis_camera *cam, uint32_t 
             if (vis_trace(p->cl, p->cl_scene, cam, &td, ib, db) != VIS_OK)
                 fail_msg("%s: opencl: %s", what, vis_context_last_error(p->cl));
             compare_buffers(ia, da, ib, db, n, W, what, mode, t);
-            if (mode == 0 && t == 0)
+            if (mode == 0 && t == VIS_TRAVERSAL_STACK)
                 for (size_t i = 0; i < n; ++i)
                     hits += ia[i] != 0;
+        }
+    if (which == ALL_TRAVERSALS && traversals > 1)
+        for (uint32_t mode = 0; mode < 2; ++mode) {
+            vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, VIS_TRAVERSAL_BRUTEFORCE);
+            if (vis_trace(p->cpu, p->cpu_scene, cam, &td, ia, da) != VIS_OK)
+                fail_msg("%s: cpu bruteforce: %s", what, vis_context_last_error(p->cpu));
+            td.traversal = VIS_TRAVERSAL_PACKET;
+            if (vis_trace(p->cpu, p->cpu_scene, cam, &td, ib, db) != VIS_OK)
+                fail_msg("%s: cpu packet: %s", what, vis_context_last_error(p->cpu));
+            for (size_t i = 0; i < n; ++i)
+                if (ia[i] != ib[i] || memcmp(&da[i], &db[i], 4) != 0)
+                    fail_msg("%s (ids %u): pixel (%zu,%zu): cpu packet id %u t %.9g, bruteforce id %u t %.9g", what,
+                             mode, i % W, i / W, ib[i], (double)db[i], ia[i], (double)da[i]);
         }
     free(ia), free(ib), free(da), free(db);
     return hits;

@@ -69,14 +69,15 @@ static vis_context *make_ctx(uint32_t threads)
     return ctx;
 }
 
-/* Traces with the tree (and the built-in brute force) and compares with the oracle. Returns
- * the number of hit pixels. */
+/* Traces with the tree -- per ray (the default stack method) and as 8x8 packets -- and with
+ * the built-in brute force, and compares each with the oracle. Returns the number of hit
+ * pixels. */
 static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
                            uint32_t H, const char *what)
 {
     size_t n = (size_t)W * H;
-    uint32_t *ids = malloc(n * 4), *ref_ids = malloc(n * 4), *bf_ids = malloc(n * 4);
-    float *depth = malloc(n * 4), *ref_depth = malloc(n * 4), *bf_depth = malloc(n * 4);
+    uint32_t *ids = malloc(n * 4), *ref_ids = malloc(n * 4), *bf_ids = malloc(n * 4), *pk_ids = malloc(n * 4);
+    float *depth = malloc(n * 4), *ref_depth = malloc(n * 4), *bf_depth = malloc(n * 4), *pk_depth = malloc(n * 4);
     vis_trace_desc td;
     vis_trace_desc_defaults(&td);
     td.width = W;
@@ -85,6 +86,8 @@ static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, 
         fail_msg("%s: %s", what, vis_context_last_error(ctx));
     td.traversal = VIS_TRAVERSAL_BRUTEFORCE;
     assert_int_equal(vis_trace(ctx, scene, cam, &td, bf_ids, bf_depth), VIS_OK);
+    td.traversal = VIS_TRAVERSAL_PACKET;
+    assert_int_equal(vis_trace(ctx, scene, cam, &td, pk_ids, pk_depth), VIS_OK);
 
     vis_scene_info info;
     vis_scene_get_info(scene, &info);
@@ -101,8 +104,11 @@ static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, 
                      (double)depth[i], ref_ids[i], (double)ref_depth[i]);
         if (bf_ids[i] != ref_ids[i] || memcmp(&bf_depth[i], &ref_depth[i], 4) != 0)
             fail_msg("%s: pixel (%zu,%zu): bruteforce id %u, oracle id %u", what, i % W, i / W, bf_ids[i], ref_ids[i]);
+        if (pk_ids[i] != ref_ids[i] || memcmp(&pk_depth[i], &ref_depth[i], 4) != 0)
+            fail_msg("%s: pixel (%zu,%zu): packet id %u t %.9g, oracle id %u t %.9g", what, i % W, i / W, pk_ids[i],
+                     (double)pk_depth[i], ref_ids[i], (double)ref_depth[i]);
     }
-    free(ids), free(ref_ids), free(bf_ids), free(depth), free(ref_depth), free(bf_depth);
+    free(ids), free(ref_ids), free(bf_ids), free(pk_ids), free(depth), free(ref_depth), free(bf_depth), free(pk_depth);
     return hits;
 }
 

@@ -1,13 +1,17 @@
 /* cpu_backend.c — the ray pass on CPU threads. Rays go in square 8x8 tiles (Chang & Ihm
  * 2010 use square thread tiles for coherence: neighbouring rays touch the same nodes and
- * leaves), handed out dynamically by the pool. The scene arrays are the host's own, so a
- * sync is free. Each pixel runs trace_core.h, the same code the OpenCL kernel runs. */
+ * leaves), handed out dynamically by the pool. The scene arrays are the host's own; a sync
+ * only refreshes the subtree occupancy flags the packet method skips empty space with.
+ * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
+ * pixel by pixel, the same code the OpenCL kernel runs. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 #include "backend.h"
+#include "cpu/occupancy.h"
+#include "cpu/packet.h"
 #include "cpu/threadpool.h"
 
 #define TILE 8u
@@ -18,6 +22,7 @@ typedef struct cpu_backend {
 
 typedef struct cpu_job {
     const vis_scene_view *view;
+    const uint8_t *occupied;
     const vis_ray_setup *setup;
     uint32_t *ids;
     float *depth;
@@ -39,6 +44,10 @@ static void trace_tile(void *user, uint32_t tile)
     const vis_rope_node *ropes = v->ropes;
     const uint32_t *rope_index = v->rope_index;
     uint32_t x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
+    if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
+        vis_packet_trace_tile(s, v, job->occupied, x0, y0, job->ids, job->depth);
+        return;
+    }
     uint32_t x1 = x0 + TILE < s->width ? x0 + TILE : s->width;
     uint32_t y1 = y0 + TILE < s->height ? y0 + TILE : s->height;
     for (uint32_t y = y0; y < y1; ++y)
@@ -65,19 +74,37 @@ static void cpu_destroy(void *impl)
 static int cpu_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
                           char *err, size_t err_size)
 {
-    (void)impl, (void)view, (void)changes, (void)err, (void)err_size;
-    *scene_data = (void *)1; /* the host arrays are the scene: nothing to copy */
+    (void)impl;
+    vis_occupancy *occ = *scene_data;
+    if (!occ && !(occ = calloc(1, sizeof *occ))) {
+        snprintf(err, err_size, "out of memory");
+        return 2; /* VIS_ERROR_OUT_OF_MEMORY */
+    }
+    *scene_data = occ; /* the host arrays are the scene: only the occupancy is ours */
+    if (vis_occupancy_sync(occ, view, changes) != 0) {
+        snprintf(err, err_size, "out of memory for the occupancy of %u kd nodes", view->node_count);
+        return 2;
+    }
     return 0;
 }
 
-static void cpu_scene_release(void *impl, void *scene_data) { (void)impl, (void)scene_data; }
+static void cpu_scene_release(void *impl, void *scene_data)
+{
+    (void)impl;
+    vis_occupancy *occ = scene_data;
+    if (!occ)
+        return;
+    vis_occupancy_free(occ);
+    free(occ);
+}
 
 static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                      uint32_t *ids, float *depth, char *err, size_t err_size)
 {
-    (void)scene_data, (void)err, (void)err_size;
+    (void)err, (void)err_size;
     cpu_backend *b = impl;
-    cpu_job job = {view, setup, ids, depth, (setup->width + TILE - 1) / TILE};
+    const vis_occupancy *occ = scene_data;
+    cpu_job job = {view, occ->occupied, setup, ids, depth, (setup->width + TILE - 1) / TILE};
     uint32_t tiles = job.tiles_x * ((setup->height + TILE - 1) / TILE);
     vis_pool_run(b->pool, tiles, trace_tile, &job);
     return 0;

@@ -15,6 +15,17 @@ static double now_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+/* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*), AUTO resolved: the CPU
+ * traces packets, a device one ray per work-item. */
+static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
+{
+    if (t == VIS_TRAVERSAL_AUTO)
+        return ctx->info.kind == VIS_BACKEND_CPU ? VIS_TRAVERSAL_ID_PACKET : VIS_TRAVERSAL_ID_STACK;
+    if (t == VIS_TRAVERSAL_PACKET)
+        return VIS_TRAVERSAL_ID_PACKET;
+    return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6 */
+}
+
 /* The float ray setup of one view: validated camera, resolved desc. */
 static vis_status make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
                              const vis_trace_desc *d, vis_ray_setup *setup)
@@ -26,7 +37,7 @@ static vis_status make_setup(vis_context *ctx, const vis_scene *scene, const vis
     vis_camera_frame_ray_setup(&frame, setup);
     memcpy(setup->size, scene->desc.size, sizeof setup->size);
     setup->id_mode = d->ids == VIS_IDS_LEAF ? 1u : 0u;
-    setup->traversal = (uint32_t)d->traversal;
+    setup->traversal = kernel_traversal(ctx, d->traversal);
     setup->short_stack = d->short_stack;
     setup->root = 0;
     setup->leaf_count = scene->leaf_count;

@@ -100,7 +100,7 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
 {
     size_t n = (size_t)W * H;
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = 0; t < g_traversals; ++t) {
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK; ++t) {
             if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
                 continue; /* every quad of the world per ray: tiny buffers only */
             vis_trace_desc td;
@@ -301,8 +301,8 @@ int main(int argc, char **argv)
     for (size_t vi = 0; vi <= nv; ++vi) {
         const vis_camera *cam = vi == 0 ? &def : &views[vi - 1].camera;
         const char *name = vi == 0 ? "default" : views[vi - 1].name;
-        for (uint32_t t = 0; t < g_traversals; ++t) {
-            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || (vi > 0 && t != 0))
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK; ++t) {
+            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || (vi > 0 && t != VIS_TRAVERSAL_STACK))
                 continue;
             vis_trace_desc td;
             vis_trace_desc_defaults(&td);

@@ -5,6 +5,7 @@
 
 /* Values of the short-stack methods carry N: VC_TRAVERSAL(method, N), see names.h. */
 static const vc_name traversal_names[] = {
+    {"auto", VIS_TRAVERSAL_AUTO},
     {"stack", VIS_TRAVERSAL_STACK},
     {"bruteforce", VIS_TRAVERSAL_BRUTEFORCE},
     {"restart", VIS_TRAVERSAL_RESTART},
@@ -12,6 +13,7 @@ static const vc_name traversal_names[] = {
     {"ropes", VIS_TRAVERSAL_ROPES},
     {"shortstack", VIS_TRAVERSAL_SHORTSTACK}, /* the library default N */
     {"ropes-shortstack", VIS_TRAVERSAL_ROPES_SHORTSTACK},
+    {"packet", VIS_TRAVERSAL_PACKET},
     {"shortstack:1", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 1)},
     {"shortstack:2", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 2)},
     {"shortstack:3", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 3)},
@@ -95,4 +97,11 @@ void vc_name_list(const vc_name_table *table, const char *sep, char *buf, size_t
         }
     }
     buf[used] = '\0';
+}
+
+const char *vc_traversal_run_name(int value, vis_backend_kind kind)
+{
+    if (vc_traversal_method(value) == VIS_TRAVERSAL_AUTO)
+        return kind == VIS_BACKEND_CPU ? "packet" : "stack";
+    return vc_name_of(&vc_traversals, value);
 }

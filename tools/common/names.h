@@ -35,6 +35,10 @@ int vc_name_lookup(const vc_name_table *table, const char *name, int *out);
 /* The name of a value, or "?" when it has none. */
 const char *vc_name_of(const vc_name_table *table, int value);
 
+/* The name of the method a traversal value runs on a backend ("auto" resolved: "packet" on
+ * the CPU, "stack" elsewhere; N of the short-stack methods included). */
+const char *vc_traversal_run_name(int value, vis_backend_kind kind);
+
 /* Every name, joined by `sep` ("stack|bruteforce"), into buf (truncated, NUL-terminated). */
 void vc_name_list(const vc_name_table *table, const char *sep, char *buf, size_t capacity);
 

@@ -386,7 +386,7 @@ static void set_defaults(const cli_command *cmd, cli_args *a)
     a->height = 512;
     a->method = CLI_METHOD_RAY;
     a->ids = VIS_IDS_OBJECT;
-    a->traversal = VIS_TRAVERSAL_STACK;
+    a->traversal = VIS_TRAVERSAL_AUTO;
     a->backends[0] = VIS_BACKEND_AUTO;
     a->backend_count = 1;
     a->threads[0] = 0;

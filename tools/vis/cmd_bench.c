@@ -23,7 +23,8 @@ static int run_views(bench *b, cli_scene *s, size_t config)
     vis_trace_desc desc = cli_trace_desc(a);
     vis_scene *scene = world_scene_scene(s->ws);
     if (!a->json) {
-        printf("\n%s (%s), scene built in %.0f ms\n", s->backend.name, s->backend.device, s->build.total_ms);
+        printf("\n%s (%s), traversal %s, scene built in %.0f ms\n", s->backend.name, s->backend.device,
+               vc_traversal_run_name((int)a->traversal, s->backend.kind), s->build.total_ms);
         printf("  %-10s %10s %10s %10s %10s %10s\n", "view", "median ms", "min ms", "max ms", "Mrays/s", "visible");
     }
     for (size_t v = 0; v < b->nviews; ++v) {

@@ -54,7 +54,7 @@ static void print_json(const cli_args *a, const cli_scene *s, const cull_result 
     json_string(&w, "device", s->backend.device);
     json_uint(&w, "threads", s->backend.threads);
     if (a->method == CLI_METHOD_RAY)
-        json_string(&w, "traversal", vc_name_of(&vc_traversals, (int)a->traversal));
+        json_string(&w, "traversal", vc_traversal_run_name((int)a->traversal, s->backend.kind));
     json_uint(&w, "width", a->width);
     json_uint(&w, "height", a->height);
     json_string(&w, "ids", vc_name_of(&vc_id_modes, (int)a->ids));

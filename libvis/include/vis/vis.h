@@ -250,27 +250,37 @@ typedef enum vis_id_mode {
                            every object of that leaf (conservative: fewer misses, more overdraw) */
 } vis_id_mode;
 
-/* kd-tree traversal methods (Chang & Ihm 2010; docs/traversal.md). All give bit-identical
- * ID and depth buffers; they differ in speed and in the per-ray state they need. */
+/* kd-tree traversal methods (Chang & Ihm 2010; docs/traversal.md). All give the nearest hit
+ * with the lowest-ID tie rule; they differ in speed and in the per-ray state they need. The
+ * per-ray methods give bit-identical buffers among themselves and on every backend;
+ * VIS_TRAVERSAL_PACKET equals the brute force bit for bit, which the per-ray methods do
+ * except where a float crossing point rounds onto a face across a leaf boundary
+ * (docs/traversal.md, "Exactness"). */
 typedef enum vis_traversal {
-    VIS_TRAVERSAL_STACK = 0,      /* full stack, 8-byte entries (default)                    */
-    VIS_TRAVERSAL_BRUTEFORCE = 1, /* no tree: every primitive of every object (the reference) */
-    VIS_TRAVERSAL_RESTART = 2,    /* kd-restart (Foley & Sugerman 2005): after each leaf,
+    VIS_TRAVERSAL_AUTO = 0,       /* the backend's fastest (default): PACKET on the CPU,
+                                     STACK on OpenCL                                         */
+    VIS_TRAVERSAL_STACK = 1,      /* full stack, 8-byte entries, one ray at a time            */
+    VIS_TRAVERSAL_BRUTEFORCE = 2, /* no tree: every primitive of every object (the reference) */
+    VIS_TRAVERSAL_RESTART = 3,    /* kd-restart (Foley & Sugerman 2005): after each leaf,
                                      restart from the root past it; no stack                 */
-    VIS_TRAVERSAL_PUSHDOWN = 3,   /* kd-restart from the deepest node still holding the rest
+    VIS_TRAVERSAL_PUSHDOWN = 4,   /* kd-restart from the deepest node still holding the rest
                                      of the ray (Horn et al. 2007); no stack                 */
-    VIS_TRAVERSAL_SHORTSTACK = 4, /* restart with a ring stack of short_stack entries (Horn
+    VIS_TRAVERSAL_SHORTSTACK = 5, /* restart with a ring stack of short_stack entries (Horn
                                      et al. 2007); restarts only when it runs empty          */
-    VIS_TRAVERSAL_ROPES = 5,      /* neighbour links on every leaf face (Popov et al. 2007);
+    VIS_TRAVERSAL_ROPES = 6,      /* neighbour links on every leaf face (Popov et al. 2007);
                                      no stack                                                */
-    VIS_TRAVERSAL_ROPES_SHORTSTACK = 6 /* ropes on the nodes short_stack levels above the
+    VIS_TRAVERSAL_ROPES_SHORTSTACK = 7, /* ropes on the nodes short_stack levels above the
                                      leaves, a short stack below them (Chang & Ihm 2010)     */
+    VIS_TRAVERSAL_PACKET = 8      /* CPU: each 8x8 tile walks the tree once as a packet, with
+                                     interval culling and exact per-ray tests (Wald et al.
+                                     2001; Reshetov et al. 2005; Boulos et al. 2007); other
+                                     backends run STACK                                      */
 } vis_traversal;
 
 typedef struct vis_trace_desc {
     uint32_t width, height;    /* default 512 x 512; each at most VIS_MAX_RESOLUTION           */
     vis_id_mode ids;           /* default VIS_IDS_OBJECT                                      */
-    vis_traversal traversal;   /* default VIS_TRAVERSAL_STACK                                 */
+    vis_traversal traversal;   /* default VIS_TRAVERSAL_AUTO                                  */
     uint32_t short_stack;      /* N for VIS_TRAVERSAL_SHORTSTACK and _ROPES_SHORTSTACK:
                                   1..VIS_MAX_SHORT_STACK, default (0) 4; ignored otherwise    */
 } vis_trace_desc;

@@ -1,0 +1,393 @@
+/* packet.c — an 8x8 tile of primary rays traced as one packet.
+ *
+ * Every ray of a pinhole camera starts at the eye, so one front-to-back walk of the kd-tree
+ * serves the whole tile (packet traversal: Wald, Slusallek, Benthin, Wagner 2001, "Interactive
+ * rendering with coherent ray tracing"; the tile as a frustum: Reshetov, Soupikov, Hurley 2005,
+ * "Multi-level ray tracing algorithm"). The tile's directions are bounded by intervals
+ * (Boulos et al. 2007, "Packet-based Whitted and distribution ray tracing"), and with them:
+ *  - a kd node is skipped when its subtree holds nothing (occupancy.h), when no ray of the
+ *    tile can enter its box, or when every ray already has a hit nearer than the box;
+ *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
+ *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
+ *    which the tile's rays cross its plane.
+ * Whatever survives is tested ray by ray with exactly the arithmetic of trace_core.h
+ * (vis_quad_intersect, vis_test_tri), and each ray keeps the minimum (t, ID) of what it
+ * tested. The skips are conservative -- widened well past any rounding -- so a skipped
+ * primitive could not have been hit by any ray of the tile, or could not have won: every
+ * pixel equals vis_trace_pixel's (the brute-force reference and the OpenCL kernel), which
+ * the tests check.
+ *
+ * The per-ray loops run over 64 lanes and are written for the compiler to vectorise; on
+ * x86-64 the tile function is also built for AVX2 and picked at load time. No FMA is
+ * contracted (-ffp-contract=off), so a lane computes exactly what a scalar ray does. */
+#include <math.h>
+#include <string.h>
+
+#include "cpu/packet.h"
+
+#define LANES 64
+#define SIDE VIS_PACKET_SIDE
+
+/* Relative widening of t bounds computed from intervals (the exact per-ray distances differ
+ * from them by a few ulps) and of rectangles (by more than any rounding of a crossing point). */
+#define T_SLACK 9.5367431640625e-07f  /* 2^-20 */
+#define XY_SLACK 1.52587890625e-05f   /* 2^-16 */
+
+typedef struct packet {
+    float d[3][LANES], inv[3][LANES]; /* per ray, exactly as vis_ray_for_pixel makes them     */
+    float best_t[LANES];
+    uint32_t best_id[LANES], best_obj[LANES];
+    float plane_t[LANES], plane_u[LANES], plane_v[LANES]; /* crossing of the current plane */
+    float o[3];
+    float t_near, t_far;
+    int sign[3];             /* +1: every ray has d > 0 on that axis, -1: every d < 0, 0: mixed */
+    float dmin[3], dmax[3];  /* direction bounds                                            */
+    float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
+    float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
+    float slack;             /* absolute widening of boxes                                  */
+    float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
+} packet;
+
+#if defined(__GNUC__)
+#  define PK_INLINE static inline __attribute__((always_inline))
+#else
+#  define PK_INLINE static inline
+#endif
+
+PK_INLINE float pk_min(float a, float b) { return a < b ? a : b; }
+PK_INLINE float pk_max(float a, float b) { return a > b ? a : b; }
+
+PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint32_t y0)
+{
+    /* vis_ray_for_pixel, lane by lane (pixels past the image edge repeat the last one). */
+    for (int i = 0; i < LANES; ++i) {
+        uint32_t x = x0 + (uint32_t)(i % SIDE), y = y0 + (uint32_t)(i / SIDE);
+        x = x < s->width ? x : s->width - 1u;
+        y = y < s->height ? y : s->height - 1u;
+        float nx = (float)(int32_t)(2u * x + 1u) / (float)(int32_t)s->width - 1.0f;
+        float ny = 1.0f - (float)(int32_t)(2u * y + 1u) / (float)(int32_t)s->height;
+        float d0 = (s->forward[0] + nx * s->right[0]) + ny * s->up[0];
+        float d1 = (s->forward[1] + nx * s->right[1]) + ny * s->up[1];
+        float d2 = (s->forward[2] + nx * s->right[2]) + ny * s->up[2];
+        float len = sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
+        p->d[0][i] = d0 / len;
+        p->d[1][i] = d1 / len;
+        p->d[2][i] = d2 / len;
+    }
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < LANES; ++i)
+            p->inv[a][i] = 1.0f / p->d[a][i];
+    for (int i = 0; i < LANES; ++i) {
+        p->best_t[i] = INFINITY;
+        p->best_id[i] = 0u;
+        p->best_obj[i] = VIS_NO_OBJECT;
+    }
+    p->max_best = INFINITY;
+    float extent = 1.0f;
+    for (int a = 0; a < 3; ++a) {
+        p->o[a] = s->origin[a];
+        extent = pk_max(extent, pk_max(fabsf(s->origin[a]), s->size[a]));
+    }
+    p->t_near = s->t_near;
+    p->t_far = s->t_far;
+    p->slack = 2.0f * extent * XY_SLACK;
+}
+
+/* The interval bounds of the tile's directions. */
+PK_INLINE void packet_bounds(packet *p)
+{
+    for (int a = 0; a < 3; ++a) {
+        float lo = INFINITY, hi = -INFINITY, ilo = INFINITY, ihi = -INFINITY;
+        for (int i = 0; i < LANES; ++i) {
+            lo = pk_min(lo, p->d[a][i]);
+            hi = pk_max(hi, p->d[a][i]);
+            ilo = pk_min(ilo, p->inv[a][i]);
+            ihi = pk_max(ihi, p->inv[a][i]);
+        }
+        p->dmin[a] = lo;
+        p->dmax[a] = hi;
+        /* A strict common sign with finite inverses; anything else is "mixed". */
+        p->sign[a] = (lo > 0.0f || hi < 0.0f) && isfinite(ilo) && isfinite(ihi) ? (lo > 0.0f ? 1 : -1) : 0;
+        p->imin[a] = ilo;
+        p->imax[a] = ihi;
+    }
+    for (int a = 0; a < 3; ++a) {
+        if (p->sign[a] == 0)
+            continue;
+        for (int b = 0; b < 3; ++b) {
+            float lo = INFINITY, hi = -INFINITY;
+            for (int i = 0; i < LANES; ++i) {
+                float r = p->d[b][i] * p->inv[a][i];
+                lo = pk_min(lo, r);
+                hi = pk_max(hi, r);
+            }
+            p->rlo[a][b] = lo;
+            p->rhi[a][b] = hi;
+        }
+    }
+}
+
+PK_INLINE void packet_update_max_best(packet *p)
+{
+    float m = 0.0f;
+    for (int i = 0; i < LANES; ++i)
+        m = pk_max(m, p->best_t[i]);
+    p->max_best = m;
+}
+
+/* Whether some ray of the tile may have a hit better than its own in the closed box
+ * [lo, hi]: the box, widened by the slack, is met within [t_near, t_far] and no farther
+ * than the farthest best hit. */
+PK_INLINE int packet_box_open(const packet *p, const float *lo, const float *hi)
+{
+    float t0 = p->t_near, t1 = p->t_far;
+    for (int a = 0; a < 3; ++a) {
+        float l = lo[a] - p->slack, h = hi[a] + p->slack, o = p->o[a];
+        if (p->sign[a] != 0) {
+            float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+            t0 = pk_max(t0, pk_min(cin * p->imin[a], cin * p->imax[a]));
+            t1 = pk_min(t1, pk_max(cout * p->imin[a], cout * p->imax[a]));
+        } else if (o < l) {
+            if (!(p->dmax[a] > 0.0f))
+                return 0; /* no ray moves toward the box on this axis */
+            t0 = pk_max(t0, (l - o) / p->dmax[a]);
+        } else if (o > h) {
+            if (!(p->dmin[a] < 0.0f))
+                return 0;
+            t0 = pk_max(t0, (h - o) / p->dmin[a]);
+        }
+    }
+    t0 -= t0 * T_SLACK;
+    return t0 <= t1 + fabsf(t1) * T_SLACK && t0 <= p->max_best + p->max_best * T_SLACK;
+}
+
+/* Every lane's crossing of `plane` on axis a, by vis_quad_intersect's expressions. */
+PK_INLINE void packet_cross_plane(packet *p, int a, float plane)
+{
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float c = plane - p->o[a], ou = p->o[u], ov = p->o[v];
+    for (int i = 0; i < LANES; ++i) {
+        float t = c * p->inv[a][i];
+        p->plane_t[i] = t;
+        p->plane_u[i] = ou + t * p->d[u][i];
+        p->plane_v[i] = ov + t * p->d[v][i];
+    }
+}
+
+/* vis_test_quad for every lane, with the crossing from packet_cross_plane. Returns whether a
+ * lane took the quad. */
+PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id)
+{
+    float u0 = q->u0, v0 = q->v0, u1 = q->u1, v1 = q->v1, tn = p->t_near, tf = p->t_far;
+    uint32_t obj = VIS_META_OBJECT(q->meta);
+    int any = 0;
+    for (int i = 0; i < LANES; ++i) {
+        float t = p->plane_t[i], pu = p->plane_u[i], pv = p->plane_v[i], bt = p->best_t[i];
+        int m = (p->d[a][i] != 0.0f) & (pu >= u0) & (pu <= u1) & (pv >= v0) & (pv <= v1) & (t >= tn) & (t <= tf) &
+                ((t < bt) | ((t == bt) & (id < p->best_id[i])));
+        p->best_t[i] = m ? t : bt;
+        p->best_id[i] = m ? id : p->best_id[i];
+        p->best_obj[i] = m ? obj : p->best_obj[i];
+        any |= m;
+    }
+    return any;
+}
+
+/* A quad tested on its own (loose quads): cull by its box, then every lane. */
+PK_INLINE void packet_loose_quad(packet *p, const vis_flat_quad *q, const vis_flat_object *objects)
+{
+    int a = (int)VIS_META_AXIS(q->meta), u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float lo[3], hi[3];
+    lo[a] = hi[a] = q->plane;
+    lo[u] = q->u0, hi[u] = q->u1, lo[v] = q->v0, hi[v] = q->v1;
+    if (!packet_box_open(p, lo, hi))
+        return;
+    packet_cross_plane(p, a, q->plane);
+    if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id))
+        packet_update_max_best(p);
+}
+
+/* A triangle: cull by its box, then vis_test_tri ray by ray. */
+static void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_object *objects)
+{
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = pk_min(tri->v0[a], pk_min(tri->v1[a], tri->v2[a]));
+        hi[a] = pk_max(tri->v0[a], pk_max(tri->v1[a], tri->v2[a]));
+    }
+    if (!packet_box_open(p, lo, hi))
+        return;
+    for (int i = 0; i < LANES; ++i) {
+        vis_ray r;
+        for (int a = 0; a < 3; ++a) {
+            r.o[a] = p->o[a];
+            r.d[a] = p->d[a][i];
+            r.inv[a] = p->inv[a][i];
+        }
+        r.t_near = p->t_near;
+        r.t_far = p->t_far;
+        vis_hit h = {p->best_t[i], p->best_obj[i], p->best_id[i]};
+        vis_test_tri(&r, tri, objects, &h);
+        p->best_t[i] = h.t;
+        p->best_obj[i] = h.object;
+        p->best_id[i] = h.id;
+    }
+    packet_update_max_best(p);
+}
+
+/* The quads of bucket [first, end) on plane `plane` of axis a, each culled by the rectangle
+ * [ulo,uhi] x [vlo,vhi] that holds every lane's crossing (pass +-inf for none). The bucket
+ * is sorted by u0 (scene.c), so the scan stops at the first quad starting past uhi. */
+PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
+                             const vis_flat_object *objects, float ulo, float uhi, float vlo, float vhi)
+{
+    int crossed = 0, hit = 0;
+    for (uint32_t j = first; j < end; ++j) {
+        const vis_flat_quad *q = &quads[j];
+        if (q->u0 > uhi)
+            break;
+        if (q->u1 < ulo || q->v0 > vhi || q->v1 < vlo)
+            continue;
+        if (!crossed) {
+            packet_cross_plane(p, a, q->plane);
+            crossed = 1;
+        }
+        hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id);
+    }
+    if (hit)
+        packet_update_max_best(p);
+}
+
+static void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
+{
+    const vis_flat_quad *quads = view->quads;
+    const vis_flat_object *objects = view->objects;
+    for (uint32_t i = 0; i < leaf->loose_count; ++i)
+        packet_loose_quad(p, &quads[leaf->loose_offset + i], objects);
+    for (uint32_t i = 0; i < leaf->tri_count; ++i)
+        packet_triangle(p, &view->tris[leaf->tri_offset + i], objects);
+    if (leaf->quad_count == 0u)
+        return;
+    int E[3] = {(int)(leaf->dims_xy & 0xFFFFu), (int)(leaf->dims_xy >> 16), (int)leaf->dims_z};
+    int base[3] = {0, E[0] + 1, E[0] + E[1] + 2};
+    const uint32_t *bk = view->buckets + leaf->bucket_offset;
+    const vis_flat_quad *lq = quads + leaf->quad_offset;
+    for (int a = 0; a < 3; ++a) {
+        int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+        if (p->sign[a] == 0) {
+            /* Directions on both sides of this axis (or along it): no bounds, every quad. */
+            for (int k = 0; k <= E[a]; ++k) {
+                uint32_t b = (uint32_t)(base[a] + k);
+                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, -INFINITY, INFINITY, -INFINITY, INFINITY);
+            }
+            continue;
+        }
+        /* Planes in the order the rays cross them, from the one nearest the eye. */
+        float lo = leaf->lo[a], o = p->o[a];
+        int step = p->sign[a], k = (int)floorf(o - lo), kend = step > 0 ? E[a] : 0;
+        if (step > 0)
+            k = k < 0 ? 0 : (k > E[a] ? E[a] + 1 : k);
+        else
+            k = k + 1 > E[a] ? E[a] : (k + 1 < 0 ? -1 : k + 1);
+        for (; step > 0 ? k <= kend : k >= kend; k += step) {
+            uint32_t b = (uint32_t)(base[a] + k), first = bk[b], end = bk[b + 1u];
+            if (first == end)
+                continue;
+            float c = lq[first].plane - o;
+            /* Each lane's t is c * inv, rounded: monotone in inv, so these bound it exactly. */
+            float ta = c * p->imin[a], tb = c * p->imax[a];
+            float tlo = pk_min(ta, tb), thi = pk_max(ta, tb);
+            if (thi < p->t_near)
+                continue; /* behind the eye or the near plane for every ray */
+            if (tlo > p->t_far || tlo > p->max_best)
+                break;    /* this plane and every later one lie past every ray's hit */
+            float ra = c * p->rlo[a][u], rb = c * p->rhi[a][u];
+            float mu = (fabsf(ra) + fabsf(rb) + fabsf(p->o[u]) + 1.0f) * XY_SLACK;
+            float sa = c * p->rlo[a][v], sb = c * p->rhi[a][v];
+            float mv = (fabsf(sa) + fabsf(sb) + fabsf(p->o[v]) + 1.0f) * XY_SLACK;
+            packet_bucket(p, a, lq, first, end, objects, p->o[u] + pk_min(ra, rb) - mu, p->o[u] + pk_max(ra, rb) + mu,
+                          p->o[v] + pk_min(sa, sb) - mv, p->o[v] + pk_max(sa, sb) + mv);
+        }
+    }
+}
+
+typedef struct packet_frame {
+    uint32_t node;
+    float lo[3], hi[3];
+} packet_frame;
+
+#define PACKET_STACK 128
+
+static void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
+{
+    packet_frame stack[PACKET_STACK];
+    int sp = 0;
+    stack[0].node = 0;
+    for (int a = 0; a < 3; ++a) {
+        stack[0].lo[a] = 0.0f;
+        stack[0].hi[a] = view->size[a];
+    }
+    sp = 1;
+    while (sp > 0) {
+        packet_frame f = stack[--sp];
+        if (!occupied[f.node] || !packet_box_open(p, f.lo, f.hi))
+            continue;
+        uint32_t info = view->nodes[f.node].info;
+        if ((info & 3u) == VIS_NODE_LEAF) {
+            packet_leaf(p, view, &view->leaves[info >> 2]);
+            continue;
+        }
+        uint32_t a = info & 3u, first = info >> 2;
+        float split = view->nodes[f.node].split;
+        /* The child on the eye's side first (any order is correct; this one finds the
+         * nearest hits first, so the far side is often skipped). */
+        uint32_t near_child = p->o[a] < split || (p->o[a] == split && p->sign[a] < 0) ? first : first + 1u;
+        packet_frame lo_child = f, hi_child = f;
+        lo_child.node = first;
+        lo_child.hi[a] = split;
+        hi_child.node = first + 1u;
+        hi_child.lo[a] = split;
+        if (sp + 2 > PACKET_STACK)
+            continue; /* cannot happen: depth is far below the stack size */
+        stack[sp++] = near_child == first ? hi_child : lo_child;
+        stack[sp++] = near_child == first ? lo_child : hi_child;
+    }
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                           uint32_t x0, uint32_t y0, uint32_t *ids, float *depth)
+{
+    packet p;
+    packet_rays(&p, setup, x0, y0);
+    packet_bounds(&p);
+    packet_traverse(&p, view, occupied);
+    for (int i = 0; i < LANES; ++i) {
+        uint32_t x = x0 + (uint32_t)(i % SIDE), y = y0 + (uint32_t)(i / SIDE);
+        if (x >= setup->width || y >= setup->height)
+            continue;
+        size_t at = (size_t)y * setup->width + x;
+        uint32_t id = 0u;
+        if (p.best_obj[i] != VIS_NO_OBJECT) {
+            id = p.best_id[i];
+            if (setup->id_mode == 1u) {
+                vis_ray r;
+                for (int a = 0; a < 3; ++a) {
+                    r.o[a] = p.o[a];
+                    r.d[a] = p.d[a][i];
+                    r.inv[a] = p.inv[a][i];
+                }
+                r.t_near = p.t_near;
+                r.t_far = p.t_far;
+                vis_hit h = {p.best_t[i], p.best_obj[i], p.best_id[i]};
+                id = vis_hit_leaf_id(&r, &h, view->nodes, view->leaves, view->buckets, view->quads, view->tris,
+                                     view->objects, view->object_leaves, view->ropes, view->rope_index);
+            }
+        }
+        ids[at] = id;
+        if (depth)
+            depth[at] = p.best_t[i];
+    }
+}
