@@ -26,7 +26,7 @@
 #include "cpu/packet.h"
 
 #define LANES 64
-#define SIDE VIS_PACKET_SIDE
+#define SIDE ((int)VIS_PACKET_SIDE)
 
 /* Relative widening of t bounds computed from intervals (the exact per-ray distances differ
  * from them by a few ulps) and of rectangles (by more than any rounding of a crossing point). */
@@ -44,18 +44,21 @@ typedef struct packet {
     float dmin[3], dmax[3];  /* direction bounds                                            */
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
+    float row_rlo[3][3][SIDE], row_rhi[3][3][SIDE]; /* the same for each row of 8 lanes       */
     float slack;             /* absolute widening of boxes                                  */
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
 } packet;
 
-#if defined(__GNUC__)
+#if defined(VIS_PACKET_PROFILE) /* every step its own symbol, for perf */
+#  define PK_INLINE static __attribute__((noinline))
+#elif defined(__GNUC__)
 #  define PK_INLINE static inline __attribute__((always_inline))
 #else
 #  define PK_INLINE static inline
 #endif
 
-PK_INLINE float pk_min(float a, float b) { return a < b ? a : b; }
-PK_INLINE float pk_max(float a, float b) { return a > b ? a : b; }
+static inline float pk_min(float a, float b) { return a < b ? a : b; }
+static inline float pk_max(float a, float b) { return a > b ? a : b; }
 
 PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint32_t y0)
 {
@@ -93,17 +96,48 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
     p->slack = 2.0f * extent * XY_SLACK;
 }
 
+/* Minimum and maximum of 64 lanes. Eight running lanes, not one: a float min/max reduction
+ * is only vectorised by the compiler when written elementwise like this. */
+PK_INLINE void pk_bounds(const float *x, float *lo_out, float *hi_out)
+{
+    float lo[8], hi[8];
+    for (int j = 0; j < 8; ++j)
+        lo[j] = hi[j] = x[j];
+    for (int i = 8; i < LANES; i += 8)
+        for (int j = 0; j < 8; ++j) {
+            lo[j] = pk_min(lo[j], x[i + j]);
+            hi[j] = pk_max(hi[j], x[i + j]);
+        }
+    float l = lo[0], h = hi[0];
+    for (int j = 1; j < 8; ++j) {
+        l = pk_min(l, lo[j]);
+        h = pk_max(h, hi[j]);
+    }
+    *lo_out = l;
+    *hi_out = h;
+}
+
+/* Minimum and maximum of each row of 8 lanes. */
+PK_INLINE void pk_row_bounds(const float *x, float *lo, float *hi)
+{
+    for (int r = 0; r < SIDE; ++r) {
+        float l = x[r * SIDE], h = l;
+        for (int i = 1; i < SIDE; ++i) {
+            l = pk_min(l, x[r * SIDE + i]);
+            h = pk_max(h, x[r * SIDE + i]);
+        }
+        lo[r] = l;
+        hi[r] = h;
+    }
+}
+
 /* The interval bounds of the tile's directions. */
 PK_INLINE void packet_bounds(packet *p)
 {
     for (int a = 0; a < 3; ++a) {
-        float lo = INFINITY, hi = -INFINITY, ilo = INFINITY, ihi = -INFINITY;
-        for (int i = 0; i < LANES; ++i) {
-            lo = pk_min(lo, p->d[a][i]);
-            hi = pk_max(hi, p->d[a][i]);
-            ilo = pk_min(ilo, p->inv[a][i]);
-            ihi = pk_max(ihi, p->inv[a][i]);
-        }
+        float lo, hi, ilo, ihi;
+        pk_bounds(p->d[a], &lo, &hi);
+        pk_bounds(p->inv[a], &ilo, &ihi);
         p->dmin[a] = lo;
         p->dmax[a] = hi;
         /* A strict common sign with finite inverses; anything else is "mixed". */
@@ -115,24 +149,21 @@ PK_INLINE void packet_bounds(packet *p)
         if (p->sign[a] == 0)
             continue;
         for (int b = 0; b < 3; ++b) {
-            float lo = INFINITY, hi = -INFINITY;
-            for (int i = 0; i < LANES; ++i) {
-                float r = p->d[b][i] * p->inv[a][i];
-                lo = pk_min(lo, r);
-                hi = pk_max(hi, r);
-            }
-            p->rlo[a][b] = lo;
-            p->rhi[a][b] = hi;
+            if (b == a)
+                continue;
+            float r[LANES];
+            for (int i = 0; i < LANES; ++i)
+                r[i] = p->d[b][i] * p->inv[a][i];
+            pk_bounds(r, &p->rlo[a][b], &p->rhi[a][b]);
+            pk_row_bounds(r, p->row_rlo[a][b], p->row_rhi[a][b]);
         }
     }
 }
 
 PK_INLINE void packet_update_max_best(packet *p)
 {
-    float m = 0.0f;
-    for (int i = 0; i < LANES; ++i)
-        m = pk_max(m, p->best_t[i]);
-    p->max_best = m;
+    float lo;
+    pk_bounds(p->best_t, &lo, &p->max_best);
 }
 
 /* Whether some ray of the tile may have a hit better than its own in the closed box
@@ -174,21 +205,25 @@ PK_INLINE void packet_cross_plane(packet *p, int a, float plane)
     }
 }
 
-/* vis_test_quad for every lane, with the crossing from packet_cross_plane. Returns whether a
- * lane took the quad. */
-PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id)
+/* vis_test_quad for the lanes of the rows in `rows` (bit j: lanes 8j..8j+7), with the
+ * crossing from packet_cross_plane. Returns whether a lane took the quad. */
+PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id, unsigned rows)
 {
     float u0 = q->u0, v0 = q->v0, u1 = q->u1, v1 = q->v1, tn = p->t_near, tf = p->t_far;
     uint32_t obj = VIS_META_OBJECT(q->meta);
     int any = 0;
-    for (int i = 0; i < LANES; ++i) {
-        float t = p->plane_t[i], pu = p->plane_u[i], pv = p->plane_v[i], bt = p->best_t[i];
-        int m = (p->d[a][i] != 0.0f) & (pu >= u0) & (pu <= u1) & (pv >= v0) & (pv <= v1) & (t >= tn) & (t <= tf) &
-                ((t < bt) | ((t == bt) & (id < p->best_id[i])));
-        p->best_t[i] = m ? t : bt;
-        p->best_id[i] = m ? id : p->best_id[i];
-        p->best_obj[i] = m ? obj : p->best_obj[i];
-        any |= m;
+    for (int r = 0; r < SIDE; ++r) {
+        if (!(rows >> r & 1u))
+            continue;
+        for (int i = r * SIDE; i < r * SIDE + SIDE; ++i) {
+            float t = p->plane_t[i], pu = p->plane_u[i], pv = p->plane_v[i], bt = p->best_t[i];
+            int m = (p->d[a][i] != 0.0f) & (pu >= u0) & (pu <= u1) & (pv >= v0) & (pv <= v1) & (t >= tn) & (t <= tf) &
+                    ((t < bt) | ((t == bt) & (id < p->best_id[i])));
+            p->best_t[i] = m ? t : bt;
+            p->best_id[i] = m ? id : p->best_id[i];
+            p->best_obj[i] = m ? obj : p->best_obj[i];
+            any |= m;
+        }
     }
     return any;
 }
@@ -203,7 +238,7 @@ PK_INLINE void packet_loose_quad(packet *p, const vis_flat_quad *q, const vis_fl
     if (!packet_box_open(p, lo, hi))
         return;
     packet_cross_plane(p, a, q->plane);
-    if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id))
+    if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, 0xFFu))
         packet_update_max_best(p);
 }
 
@@ -235,30 +270,82 @@ static void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_o
     packet_update_max_best(p);
 }
 
-/* The quads of bucket [first, end) on plane `plane` of axis a, each culled by the rectangle
- * [ulo,uhi] x [vlo,vhi] that holds every lane's crossing (pass +-inf for none). The bucket
- * is sorted by u0 (scene.c), so the scan stops at the first quad starting past uhi. */
+/* Where the lanes cross a plane c = plane - o[a] away from the eye on axis a: a rectangle for
+ * the whole tile and, made when a quad reaches them, one for each row of 8 lanes. Widened
+ * past any rounding of a lane's crossing point. Unbounded (every quad, every row) when the
+ * tile's directions take both signs on the axis. */
+typedef struct plane_bounds {
+    int bounded;
+    float c, mu, mv;
+    float ulo, uhi, vlo, vhi;
+    float row_ulo[SIDE], row_uhi[SIDE], row_vlo[SIDE], row_vhi[SIDE];
+} plane_bounds;
+
+PK_INLINE void plane_bounds_make(const packet *p, int a, float c, plane_bounds *pb)
+{
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float ra = c * p->rlo[a][u], rb = c * p->rhi[a][u];
+    float sa = c * p->rlo[a][v], sb = c * p->rhi[a][v];
+    pb->bounded = 1;
+    pb->c = c;
+    pb->mu = (fabsf(ra) + fabsf(rb) + fabsf(p->o[u]) + 1.0f) * XY_SLACK;
+    pb->mv = (fabsf(sa) + fabsf(sb) + fabsf(p->o[v]) + 1.0f) * XY_SLACK;
+    pb->ulo = p->o[u] + pk_min(ra, rb) - pb->mu;
+    pb->uhi = p->o[u] + pk_max(ra, rb) + pb->mu;
+    pb->vlo = p->o[v] + pk_min(sa, sb) - pb->mv;
+    pb->vhi = p->o[v] + pk_max(sa, sb) + pb->mv;
+}
+
+PK_INLINE void plane_bounds_rows(const packet *p, int a, plane_bounds *pb)
+{
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float c = pb->c, ou = p->o[u], ov = p->o[v];
+    for (int j = 0; j < SIDE; ++j) {
+        float ra = c * p->row_rlo[a][u][j], rb = c * p->row_rhi[a][u][j];
+        float sa = c * p->row_rlo[a][v][j], sb = c * p->row_rhi[a][v][j];
+        pb->row_ulo[j] = ou + pk_min(ra, rb) - pb->mu;
+        pb->row_uhi[j] = ou + pk_max(ra, rb) + pb->mu;
+        pb->row_vlo[j] = ov + pk_min(sa, sb) - pb->mv;
+        pb->row_vhi[j] = ov + pk_max(sa, sb) + pb->mv;
+    }
+}
+
+/* The quads of bucket [first, end) of axis a, culled by the tile's rectangle, then by the
+ * rows'. The bucket is sorted by u0 (scene.c): the scan stops at the first quad starting past
+ * the tile's rectangle. */
 PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
-                             const vis_flat_object *objects, float ulo, float uhi, float vlo, float vhi)
+                             const vis_flat_object *objects, plane_bounds *pb)
 {
     int crossed = 0, hit = 0;
     for (uint32_t j = first; j < end; ++j) {
         const vis_flat_quad *q = &quads[j];
-        if (q->u0 > uhi)
-            break;
-        if (q->u1 < ulo || q->v0 > vhi || q->v1 < vlo)
-            continue;
+        unsigned rows = 0xFFu;
+        if (pb->bounded) {
+            if (q->u0 > pb->uhi)
+                break;
+            if (q->u1 < pb->ulo || q->v0 > pb->vhi || q->v1 < pb->vlo)
+                continue;
+            if (!crossed)
+                plane_bounds_rows(p, a, pb);
+            unsigned in = 0;
+            for (int r = 0; r < SIDE; ++r)
+                in |= (unsigned)((q->u0 <= pb->row_uhi[r]) & (q->u1 >= pb->row_ulo[r]) & (q->v0 <= pb->row_vhi[r]) &
+                                   (q->v1 >= pb->row_vlo[r]))
+                      << r;
+            rows &= in;
+        }
         if (!crossed) {
             packet_cross_plane(p, a, q->plane);
             crossed = 1;
         }
-        hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id);
+        if (rows)
+            hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, rows);
     }
     if (hit)
         packet_update_max_best(p);
 }
 
-static void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
+PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
 {
     const vis_flat_quad *quads = view->quads;
     const vis_flat_object *objects = view->objects;
@@ -272,41 +359,36 @@ static void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_le
     int base[3] = {0, E[0] + 1, E[0] + E[1] + 2};
     const uint32_t *bk = view->buckets + leaf->bucket_offset;
     const vis_flat_quad *lq = quads + leaf->quad_offset;
+    plane_bounds pb;
     for (int a = 0; a < 3; ++a) {
-        int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
         if (p->sign[a] == 0) {
             /* Directions on both sides of this axis (or along it): no bounds, every quad. */
+            pb.bounded = 0;
             for (int k = 0; k <= E[a]; ++k) {
                 uint32_t b = (uint32_t)(base[a] + k);
-                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, -INFINITY, INFINITY, -INFINITY, INFINITY);
+                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, &pb);
             }
             continue;
         }
-        /* Planes in the order the rays cross them, from the one nearest the eye. */
-        float lo = leaf->lo[a], o = p->o[a];
-        int step = p->sign[a], k = (int)floorf(o - lo), kend = step > 0 ? E[a] : 0;
-        if (step > 0)
-            k = k < 0 ? 0 : (k > E[a] ? E[a] + 1 : k);
-        else
-            k = k + 1 > E[a] ? E[a] : (k + 1 < 0 ? -1 : k + 1);
+        /* Planes in the order the rays cross them, from the one at or behind the eye. */
+        float fk = floorf(p->o[a] - leaf->lo[a]);
+        int step = p->sign[a], kend = step > 0 ? E[a] : 0;
+        int k = fk < -1.0f ? -1 : (fk > (float)E[a] ? E[a] + 1 : (int)fk);
+        k = step > 0 ? (k < 0 ? 0 : k) : (k + 1 > E[a] ? E[a] : k + 1);
         for (; step > 0 ? k <= kend : k >= kend; k += step) {
             uint32_t b = (uint32_t)(base[a] + k), first = bk[b], end = bk[b + 1u];
             if (first == end)
                 continue;
-            float c = lq[first].plane - o;
             /* Each lane's t is c * inv, rounded: monotone in inv, so these bound it exactly. */
+            float c = lq[first].plane - p->o[a];
             float ta = c * p->imin[a], tb = c * p->imax[a];
             float tlo = pk_min(ta, tb), thi = pk_max(ta, tb);
             if (thi < p->t_near)
                 continue; /* behind the eye or the near plane for every ray */
             if (tlo > p->t_far || tlo > p->max_best)
                 break;    /* this plane and every later one lie past every ray's hit */
-            float ra = c * p->rlo[a][u], rb = c * p->rhi[a][u];
-            float mu = (fabsf(ra) + fabsf(rb) + fabsf(p->o[u]) + 1.0f) * XY_SLACK;
-            float sa = c * p->rlo[a][v], sb = c * p->rhi[a][v];
-            float mv = (fabsf(sa) + fabsf(sb) + fabsf(p->o[v]) + 1.0f) * XY_SLACK;
-            packet_bucket(p, a, lq, first, end, objects, p->o[u] + pk_min(ra, rb) - mu, p->o[u] + pk_max(ra, rb) + mu,
-                          p->o[v] + pk_min(sa, sb) - mv, p->o[v] + pk_max(sa, sb) + mv);
+            plane_bounds_make(p, a, c, &pb);
+            packet_bucket(p, a, lq, first, end, objects, &pb);
         }
     }
 }
@@ -318,7 +400,7 @@ typedef struct packet_frame {
 
 #define PACKET_STACK 128
 
-static void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
+PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
 {
     packet_frame stack[PACKET_STACK];
     int sp = 0;
