@@ -43,11 +43,12 @@ static void trace_tile(void *user, uint32_t tile)
     const uint32_t *object_leaves = v->object_leaves;
     const vis_rope_node *ropes = v->ropes;
     const uint32_t *rope_index = v->rope_index;
-    uint32_t x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        vis_packet_trace_tile(s, v, job->occupied, x0, y0, job->ids, job->depth);
+        uint32_t px = (tile % job->tiles_x) * VIS_PACKET_SIDE, py = (tile / job->tiles_x) * VIS_PACKET_SIDE;
+        vis_packet_trace_tile(s, v, job->occupied, px, py, job->ids, job->depth);
         return;
     }
+    uint32_t x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
     uint32_t x1 = x0 + TILE < s->width ? x0 + TILE : s->width;
     uint32_t y1 = y0 + TILE < s->height ? y0 + TILE : s->height;
     for (uint32_t y = y0; y < y1; ++y)
@@ -104,8 +105,9 @@ static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, c
     (void)err, (void)err_size;
     cpu_backend *b = impl;
     const vis_occupancy *occ = scene_data;
-    cpu_job job = {view, occ->occupied, setup, ids, depth, (setup->width + TILE - 1) / TILE};
-    uint32_t tiles = job.tiles_x * ((setup->height + TILE - 1) / TILE);
+    uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
+    cpu_job job = {view, occ->occupied, setup, ids, depth, (setup->width + side - 1) / side};
+    uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
     vis_pool_run(b->pool, tiles, trace_tile, &job);
     return 0;
 }

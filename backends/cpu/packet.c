@@ -25,8 +25,11 @@
 
 #include "cpu/packet.h"
 
-#define LANES 64
 #define SIDE ((int)VIS_PACKET_SIDE)
+#define LANES (SIDE * SIDE)
+#define UNIT 8 /* lanes culled and tested together: one AVX2 vector, row-major in the tile */
+#define UNITS (LANES / UNIT)
+#define ALL_UNITS (UNITS == 32 ? 0xFFFFFFFFu : (1u << UNITS) - 1u)
 
 /* Relative widening of t bounds computed from intervals (the exact per-ray distances differ
  * from them by a few ulps) and of rectangles (by more than any rounding of a crossing point). */
@@ -44,7 +47,7 @@ typedef struct packet {
     float dmin[3], dmax[3];  /* direction bounds                                            */
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
-    float row_rlo[3][3][SIDE], row_rhi[3][3][SIDE]; /* the same for each row of 8 lanes       */
+    float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes  */
     float slack;             /* absolute widening of boxes                                  */
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
 } packet;
@@ -117,14 +120,14 @@ PK_INLINE void pk_bounds(const float *x, float *lo_out, float *hi_out)
     *hi_out = h;
 }
 
-/* Minimum and maximum of each row of 8 lanes. */
-PK_INLINE void pk_row_bounds(const float *x, float *lo, float *hi)
+/* Minimum and maximum of each unit of 8 lanes. */
+PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
 {
-    for (int r = 0; r < SIDE; ++r) {
-        float l = x[r * SIDE], h = l;
-        for (int i = 1; i < SIDE; ++i) {
-            l = pk_min(l, x[r * SIDE + i]);
-            h = pk_max(h, x[r * SIDE + i]);
+    for (int r = 0; r < UNITS; ++r) {
+        float l = x[r * UNIT], h = l;
+        for (int i = 1; i < UNIT; ++i) {
+            l = pk_min(l, x[r * UNIT + i]);
+            h = pk_max(h, x[r * UNIT + i]);
         }
         lo[r] = l;
         hi[r] = h;
@@ -155,7 +158,7 @@ PK_INLINE void packet_bounds(packet *p)
             for (int i = 0; i < LANES; ++i)
                 r[i] = p->d[b][i] * p->inv[a][i];
             pk_bounds(r, &p->rlo[a][b], &p->rhi[a][b]);
-            pk_row_bounds(r, p->row_rlo[a][b], p->row_rhi[a][b]);
+            pk_unit_bounds(r, p->unit_rlo[a][b], p->unit_rhi[a][b]);
         }
     }
 }
@@ -205,17 +208,16 @@ PK_INLINE void packet_cross_plane(packet *p, int a, float plane)
     }
 }
 
-/* vis_test_quad for the lanes of the rows in `rows` (bit j: lanes 8j..8j+7), with the
+/* vis_test_quad for the lanes of the units in `units` (bit j: lanes 8j..8j+7), with the
  * crossing from packet_cross_plane. Returns whether a lane took the quad. */
-PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id, unsigned rows)
+PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id, uint32_t units)
 {
     float u0 = q->u0, v0 = q->v0, u1 = q->u1, v1 = q->v1, tn = p->t_near, tf = p->t_far;
     uint32_t obj = VIS_META_OBJECT(q->meta);
     int any = 0;
-    for (int r = 0; r < SIDE; ++r) {
-        if (!(rows >> r & 1u))
-            continue;
-        for (int i = r * SIDE; i < r * SIDE + SIDE; ++i) {
+    for (; units; units &= units - 1u) {
+        int first = __builtin_ctz(units) * UNIT;
+        for (int i = first; i < first + UNIT; ++i) {
             float t = p->plane_t[i], pu = p->plane_u[i], pv = p->plane_v[i], bt = p->best_t[i];
             int m = (p->d[a][i] != 0.0f) & (pu >= u0) & (pu <= u1) & (pv >= v0) & (pv <= v1) & (t >= tn) & (t <= tf) &
                     ((t < bt) | ((t == bt) & (id < p->best_id[i])));
@@ -238,7 +240,7 @@ PK_INLINE void packet_loose_quad(packet *p, const vis_flat_quad *q, const vis_fl
     if (!packet_box_open(p, lo, hi))
         return;
     packet_cross_plane(p, a, q->plane);
-    if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, 0xFFu))
+    if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, ALL_UNITS))
         packet_update_max_best(p);
 }
 
@@ -271,14 +273,14 @@ static void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_o
 }
 
 /* Where the lanes cross a plane c = plane - o[a] away from the eye on axis a: a rectangle for
- * the whole tile and, made when a quad reaches them, one for each row of 8 lanes. Widened
+ * the whole tile and, made when a quad reaches them, one for each unit of 8 lanes. Widened
  * past any rounding of a lane's crossing point. Unbounded (every quad, every row) when the
  * tile's directions take both signs on the axis. */
 typedef struct plane_bounds {
     int bounded;
     float c, mu, mv;
     float ulo, uhi, vlo, vhi;
-    float row_ulo[SIDE], row_uhi[SIDE], row_vlo[SIDE], row_vhi[SIDE];
+    float unit_ulo[UNITS], unit_uhi[UNITS], unit_vlo[UNITS], unit_vhi[UNITS];
 } plane_bounds;
 
 PK_INLINE void plane_bounds_make(const packet *p, int a, float c, plane_bounds *pb)
@@ -296,50 +298,51 @@ PK_INLINE void plane_bounds_make(const packet *p, int a, float c, plane_bounds *
     pb->vhi = p->o[v] + pk_max(sa, sb) + pb->mv;
 }
 
-PK_INLINE void plane_bounds_rows(const packet *p, int a, plane_bounds *pb)
+PK_INLINE void plane_bounds_units(const packet *p, int a, plane_bounds *pb)
 {
     int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
-    float c = pb->c, ou = p->o[u], ov = p->o[v];
-    for (int j = 0; j < SIDE; ++j) {
-        float ra = c * p->row_rlo[a][u][j], rb = c * p->row_rhi[a][u][j];
-        float sa = c * p->row_rlo[a][v][j], sb = c * p->row_rhi[a][v][j];
-        pb->row_ulo[j] = ou + pk_min(ra, rb) - pb->mu;
-        pb->row_uhi[j] = ou + pk_max(ra, rb) + pb->mu;
-        pb->row_vlo[j] = ov + pk_min(sa, sb) - pb->mv;
-        pb->row_vhi[j] = ov + pk_max(sa, sb) + pb->mv;
+    float c = pb->c, ou = p->o[u], ov = p->o[v], mu = pb->mu, mv = pb->mv;
+    for (int j = 0; j < UNITS; ++j) {
+        float ra = c * p->unit_rlo[a][u][j], rb = c * p->unit_rhi[a][u][j];
+        float sa = c * p->unit_rlo[a][v][j], sb = c * p->unit_rhi[a][v][j];
+        pb->unit_ulo[j] = ou + pk_min(ra, rb) - mu;
+        pb->unit_uhi[j] = ou + pk_max(ra, rb) + mu;
+        pb->unit_vlo[j] = ov + pk_min(sa, sb) - mv;
+        pb->unit_vhi[j] = ov + pk_max(sa, sb) + mv;
     }
 }
 
 /* The quads of bucket [first, end) of axis a, culled by the tile's rectangle, then by the
- * rows'. The bucket is sorted by u0 (scene.c): the scan stops at the first quad starting past
- * the tile's rectangle. */
+ * units'. The bucket is sorted by u0 (scene.c): the scan stops at the first quad starting
+ * past the tile's rectangle. */
 PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
                              const vis_flat_object *objects, plane_bounds *pb)
 {
     int crossed = 0, hit = 0;
     for (uint32_t j = first; j < end; ++j) {
         const vis_flat_quad *q = &quads[j];
-        unsigned rows = 0xFFu;
+        uint32_t units = ALL_UNITS;
         if (pb->bounded) {
             if (q->u0 > pb->uhi)
                 break;
             if (q->u1 < pb->ulo || q->v0 > pb->vhi || q->v1 < pb->vlo)
                 continue;
             if (!crossed)
-                plane_bounds_rows(p, a, pb);
-            unsigned in = 0;
-            for (int r = 0; r < SIDE; ++r)
-                in |= (unsigned)((q->u0 <= pb->row_uhi[r]) & (q->u1 >= pb->row_ulo[r]) & (q->v0 <= pb->row_vhi[r]) &
-                                   (q->v1 >= pb->row_vlo[r]))
-                      << r;
-            rows &= in;
+                plane_bounds_units(p, a, pb);
+            int in[UNITS];
+            for (int r = 0; r < UNITS; ++r)
+                in[r] = (q->u0 <= pb->unit_uhi[r]) & (q->u1 >= pb->unit_ulo[r]) & (q->v0 <= pb->unit_vhi[r]) &
+                        (q->v1 >= pb->unit_vlo[r]);
+            units = 0;
+            for (int r = 0; r < UNITS; ++r)
+                units |= (uint32_t)in[r] << r;
         }
         if (!crossed) {
             packet_cross_plane(p, a, q->plane);
             crossed = 1;
         }
-        if (rows)
-            hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, rows);
+        if (units)
+            hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, units);
     }
     if (hit)
         packet_update_max_best(p);

@@ -6,7 +6,9 @@
 
 #include "backend.h"
 
-#define VIS_PACKET_SIDE 8u
+#ifndef VIS_PACKET_SIDE
+#  define VIS_PACKET_SIDE 16u
+#endif
 
 /* Traces pixels [x0, x0+8) x [y0, y0+8) (clipped to the image) of the view in `setup` and
  * writes their IDs and depths (depth may be NULL) exactly as vis_trace_pixel would: the same
