@@ -50,6 +50,7 @@ typedef struct packet {
     float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes  */
     float slack;             /* absolute widening of boxes                                  */
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
+    int unhit;               /* lanes without a hit yet                                     */
 } packet;
 
 #if defined(VIS_PACKET_PROFILE) /* every step its own symbol, for perf */
@@ -89,6 +90,7 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
         p->best_obj[i] = VIS_NO_OBJECT;
     }
     p->max_best = INFINITY;
+    p->unhit = LANES;
     float extent = 1.0f;
     for (int a = 0; a < 3; ++a) {
         p->o[a] = s->origin[a];
@@ -165,6 +167,8 @@ PK_INLINE void packet_bounds(packet *p)
 
 PK_INLINE void packet_update_max_best(packet *p)
 {
+    if (p->unhit > 0)
+        return; /* still +inf */
     float lo;
     pk_bounds(p->best_t, &lo, &p->max_best);
 }
@@ -195,17 +199,19 @@ PK_INLINE int packet_box_open(const packet *p, const float *lo, const float *hi)
     return t0 <= t1 + fabsf(t1) * T_SLACK && t0 <= p->max_best + p->max_best * T_SLACK;
 }
 
-/* Every lane's crossing of `plane` on axis a, by vis_quad_intersect's expressions. */
-PK_INLINE void packet_cross_plane(packet *p, int a, float plane)
+/* The crossing of `plane` on axis a by the lanes of the units in `units`, with
+ * vis_quad_intersect's expressions. */
+PK_INLINE void packet_cross_plane(packet *p, int a, float plane, uint32_t units)
 {
     int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
     float c = plane - p->o[a], ou = p->o[u], ov = p->o[v];
-    for (int i = 0; i < LANES; ++i) {
-        float t = c * p->inv[a][i];
-        p->plane_t[i] = t;
-        p->plane_u[i] = ou + t * p->d[u][i];
-        p->plane_v[i] = ov + t * p->d[v][i];
-    }
+    for (; units; units &= units - 1u)
+        for (int i = __builtin_ctz(units) * UNIT, e = i + UNIT; i < e; ++i) {
+            float t = c * p->inv[a][i];
+            p->plane_t[i] = t;
+            p->plane_u[i] = ou + t * p->d[u][i];
+            p->plane_v[i] = ov + t * p->d[v][i];
+        }
 }
 
 /* vis_test_quad for the lanes of the units in `units` (bit j: lanes 8j..8j+7), with the
@@ -214,7 +220,7 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
 {
     float u0 = q->u0, v0 = q->v0, u1 = q->u1, v1 = q->v1, tn = p->t_near, tf = p->t_far;
     uint32_t obj = VIS_META_OBJECT(q->meta);
-    int any = 0;
+    int any = 0, first_hits = 0;
     for (; units; units &= units - 1u) {
         int first = __builtin_ctz(units) * UNIT;
         for (int i = first; i < first + UNIT; ++i) {
@@ -225,8 +231,10 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
             p->best_id[i] = m ? id : p->best_id[i];
             p->best_obj[i] = m ? obj : p->best_obj[i];
             any |= m;
+            first_hits += m & (bt == INFINITY);
         }
     }
+    p->unhit -= first_hits;
     return any;
 }
 
@@ -239,13 +247,13 @@ PK_INLINE void packet_loose_quad(packet *p, const vis_flat_quad *q, const vis_fl
     lo[u] = q->u0, hi[u] = q->u1, lo[v] = q->v0, hi[v] = q->v1;
     if (!packet_box_open(p, lo, hi))
         return;
-    packet_cross_plane(p, a, q->plane);
+    packet_cross_plane(p, a, q->plane, ALL_UNITS);
     if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, ALL_UNITS))
         packet_update_max_best(p);
 }
 
 /* A triangle: cull by its box, then vis_test_tri ray by ray. */
-static void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_object *objects)
+PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_object *objects)
 {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
@@ -265,6 +273,7 @@ static void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_o
         r.t_far = p->t_far;
         vis_hit h = {p->best_t[i], p->best_obj[i], p->best_id[i]};
         vis_test_tri(&r, tri, objects, &h);
+        p->unhit -= p->best_t[i] == INFINITY && h.t != INFINITY;
         p->best_t[i] = h.t;
         p->best_obj[i] = h.object;
         p->best_id[i] = h.id;
@@ -318,7 +327,8 @@ PK_INLINE void plane_bounds_units(const packet *p, int a, plane_bounds *pb)
 PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
                              const vis_flat_object *objects, plane_bounds *pb)
 {
-    int crossed = 0, hit = 0;
+    int bounds = 0, hit = 0;
+    uint32_t crossed = 0; /* units whose crossing of this plane is computed */
     for (uint32_t j = first; j < end; ++j) {
         const vis_flat_quad *q = &quads[j];
         uint32_t units = ALL_UNITS;
@@ -327,8 +337,10 @@ PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint3
                 break;
             if (q->u1 < pb->ulo || q->v0 > pb->vhi || q->v1 < pb->vlo)
                 continue;
-            if (!crossed)
+            if (!bounds) {
                 plane_bounds_units(p, a, pb);
+                bounds = 1;
+            }
             int in[UNITS];
             for (int r = 0; r < UNITS; ++r)
                 in[r] = (q->u0 <= pb->unit_uhi[r]) & (q->u1 >= pb->unit_ulo[r]) & (q->v0 <= pb->unit_vhi[r]) &
@@ -337,12 +349,13 @@ PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint3
             for (int r = 0; r < UNITS; ++r)
                 units |= (uint32_t)in[r] << r;
         }
-        if (!crossed) {
-            packet_cross_plane(p, a, q->plane);
-            crossed = 1;
+        if (!units)
+            continue;
+        if (units & ~crossed) {
+            packet_cross_plane(p, a, q->plane, units & ~crossed);
+            crossed |= units;
         }
-        if (units)
-            hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, units);
+        hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, units);
     }
     if (hit)
         packet_update_max_best(p);
