@@ -404,6 +404,12 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             if (tlo > p->t_far || tlo > p->max_best)
                 break;    /* this plane and every later one lie past every ray's hit */
             plane_bounds_make(p, a, c, &pb);
+            /* Rays crossing the plane outside the leaf's box (widened) cannot take a quad of
+             * this leaf there that its neighbour, which holds the quad too, would not. */
+            int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+            if (pb.uhi < leaf->lo[u] - p->slack || pb.ulo > leaf->hi[u] + p->slack ||
+                pb.vhi < leaf->lo[v] - p->slack || pb.vlo > leaf->hi[v] + p->slack)
+                continue;
             packet_bucket(p, a, lq, first, end, objects, &pb);
         }
     }
