@@ -27,7 +27,9 @@
 
 #define SIDE ((int)VIS_PACKET_SIDE)
 #define LANES (SIDE * SIDE)
-#define UNIT 8 /* lanes culled and tested together: one AVX2 vector, row-major in the tile */
+#define UNIT 8 /* lanes culled and tested together: one AVX2 vector */
+#define UNIT_W 4 /* a unit is a UNIT_W x (UNIT / UNIT_W) block of pixels: compact blocks
+                    cross a plane in a small rectangle, so few quads reach a unit's lanes */
 #define UNITS (LANES / UNIT)
 #define ALL_UNITS (UNITS == 32 ? 0xFFFFFFFFu : (1u << UNITS) - 1u)
 
@@ -61,6 +63,19 @@ typedef struct packet {
 #  define PK_INLINE static inline
 #endif
 
+/* The pixel of lane i within the tile: units of UNIT_W x (UNIT / UNIT_W) pixels, row-major. */
+static inline uint32_t lane_x(int i)
+{
+    int unit = i / UNIT, j = i % UNIT;
+    return (uint32_t)((unit % (SIDE / UNIT_W)) * UNIT_W + j % UNIT_W);
+}
+
+static inline uint32_t lane_y(int i)
+{
+    int unit = i / UNIT, j = i % UNIT;
+    return (uint32_t)((unit / (SIDE / UNIT_W)) * (UNIT / UNIT_W) + j / UNIT_W);
+}
+
 static inline float pk_min(float a, float b) { return a < b ? a : b; }
 static inline float pk_max(float a, float b) { return a > b ? a : b; }
 
@@ -68,7 +83,7 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
 {
     /* vis_ray_for_pixel, lane by lane (pixels past the image edge repeat the last one). */
     for (int i = 0; i < LANES; ++i) {
-        uint32_t x = x0 + (uint32_t)(i % SIDE), y = y0 + (uint32_t)(i / SIDE);
+        uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
         x = x < s->width ? x : s->width - 1u;
         y = y < s->height ? y : s->height - 1u;
         float nx = (float)(int32_t)(2u * x + 1u) / (float)(int32_t)s->width - 1.0f;
@@ -469,7 +484,7 @@ void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *vie
     packet_bounds(&p);
     packet_traverse(&p, view, occupied);
     for (int i = 0; i < LANES; ++i) {
-        uint32_t x = x0 + (uint32_t)(i % SIDE), y = y0 + (uint32_t)(i / SIDE);
+        uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
         if (x >= setup->width || y >= setup->height)
             continue;
         size_t at = (size_t)y * setup->width + x;
