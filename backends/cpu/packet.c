@@ -50,6 +50,8 @@ typedef struct packet {
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
     float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes  */
+    float unit_imin[3][UNITS], unit_imax[3][UNITS];      /* 1/d bounds of each unit             */
+    float unit_best[UNITS];  /* the farthest best hit of each unit (+inf while a lane has none) */
     float slack;             /* absolute widening of boxes                                  */
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
     int unhit;               /* lanes without a hit yet                                     */
@@ -105,6 +107,8 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
         p->best_obj[i] = VIS_NO_OBJECT;
     }
     p->max_best = INFINITY;
+    for (int r = 0; r < UNITS; ++r)
+        p->unit_best[r] = INFINITY;
     p->unhit = LANES;
     float extent = 1.0f;
     for (int a = 0; a < 3; ++a) {
@@ -164,6 +168,7 @@ PK_INLINE void packet_bounds(packet *p)
         p->sign[a] = (lo > 0.0f || hi < 0.0f) && isfinite(ilo) && isfinite(ihi) ? (lo > 0.0f ? 1 : -1) : 0;
         p->imin[a] = ilo;
         p->imax[a] = ihi;
+        pk_unit_bounds(p->inv[a], p->unit_imin[a], p->unit_imax[a]);
     }
     for (int a = 0; a < 3; ++a) {
         if (p->sign[a] == 0)
@@ -214,6 +219,42 @@ PK_INLINE int packet_box_open(const packet *p, const float *lo, const float *hi)
     return t0 <= t1 + fabsf(t1) * T_SLACK && t0 <= p->max_best + p->max_best * T_SLACK;
 }
 
+/* The units whose rays may enter the closed box [lo, hi] (widened by the slack) within
+ * [t_near, t_far], no farther than their own farthest best hit: packet_box_open, per unit. */
+PK_INLINE uint32_t packet_box_units(const packet *p, const float *lo, const float *hi)
+{
+    float t0[UNITS], t1[UNITS];
+    for (int j = 0; j < UNITS; ++j) {
+        t0[j] = p->t_near;
+        t1[j] = p->t_far;
+    }
+    for (int a = 0; a < 3; ++a) {
+        float l = lo[a] - p->slack, h = hi[a] + p->slack, o = p->o[a];
+        if (p->sign[a] != 0) {
+            float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+            for (int j = 0; j < UNITS; ++j) {
+                t0[j] = pk_max(t0[j], pk_min(cin * p->unit_imin[a][j], cin * p->unit_imax[a][j]));
+                t1[j] = pk_min(t1[j], pk_max(cout * p->unit_imin[a][j], cout * p->unit_imax[a][j]));
+            }
+        } else if (o < l || o > h) {
+            /* Mixed directions: the tile's bound (packet_box_open has passed, so some ray
+             * moves toward the box). */
+            float te = o < l ? (l - o) / p->dmax[a] : (h - o) / p->dmin[a];
+            for (int j = 0; j < UNITS; ++j)
+                t0[j] = pk_max(t0[j], te);
+        }
+    }
+    int in[UNITS];
+    for (int j = 0; j < UNITS; ++j) {
+        float a0 = t0[j] - t0[j] * T_SLACK;
+        in[j] = (a0 <= t1[j] + fabsf(t1[j]) * T_SLACK) & (a0 <= p->unit_best[j] + p->unit_best[j] * T_SLACK);
+    }
+    uint32_t units = 0;
+    for (int j = 0; j < UNITS; ++j)
+        units |= (uint32_t)in[j] << j;
+    return units;
+}
+
 /* The crossing of `plane` on axis a by the lanes of the units in `units`, with
  * vis_quad_intersect's expressions. */
 PK_INLINE void packet_cross_plane(packet *p, int a, float plane, uint32_t units)
@@ -248,6 +289,10 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
             any |= m;
             first_hits += m & (bt == INFINITY);
         }
+        float ub = p->best_t[first];
+        for (int i = first + 1; i < first + UNIT; ++i)
+            ub = pk_max(ub, p->best_t[i]);
+        p->unit_best[first / UNIT] = ub;
     }
     p->unhit -= first_hits;
     return any;
@@ -293,6 +338,8 @@ PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_fla
         p->best_obj[i] = h.object;
         p->best_id[i] = h.id;
     }
+    float unit_lo[UNITS];
+    pk_unit_bounds(p->best_t, unit_lo, p->unit_best);
     packet_update_max_best(p);
 }
 
@@ -340,13 +387,13 @@ PK_INLINE void plane_bounds_units(const packet *p, int a, plane_bounds *pb)
  * units'. The bucket is sorted by u0 (scene.c): the scan stops at the first quad starting
  * past the tile's rectangle. */
 PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
-                             const vis_flat_object *objects, plane_bounds *pb)
+                             const vis_flat_object *objects, uint32_t leaf_units, plane_bounds *pb)
 {
     int bounds = 0, hit = 0;
     uint32_t crossed = 0; /* units whose crossing of this plane is computed */
     for (uint32_t j = first; j < end; ++j) {
         const vis_flat_quad *q = &quads[j];
-        uint32_t units = ALL_UNITS;
+        uint32_t units = leaf_units;
         if (pb->bounded) {
             if (q->u0 > pb->uhi)
                 break;
@@ -360,9 +407,10 @@ PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint3
             for (int r = 0; r < UNITS; ++r)
                 in[r] = (q->u0 <= pb->unit_uhi[r]) & (q->u1 >= pb->unit_ulo[r]) & (q->v0 <= pb->unit_vhi[r]) &
                         (q->v1 >= pb->unit_vlo[r]);
-            units = 0;
+            uint32_t near_units = 0;
             for (int r = 0; r < UNITS; ++r)
-                units |= (uint32_t)in[r] << r;
+                near_units |= (uint32_t)in[r] << r;
+            units &= near_units;
         }
         if (!units)
             continue;
@@ -378,6 +426,10 @@ PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint3
 
 PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
 {
+    /* The units that can still take a quad here; the others are done before this leaf. */
+    uint32_t leaf_units = packet_box_units(p, leaf->lo, leaf->hi);
+    if (!leaf_units)
+        return;
     const vis_flat_quad *quads = view->quads;
     const vis_flat_object *objects = view->objects;
     for (uint32_t i = 0; i < leaf->loose_count; ++i)
@@ -397,7 +449,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             pb.bounded = 0;
             for (int k = 0; k <= E[a]; ++k) {
                 uint32_t b = (uint32_t)(base[a] + k);
-                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, &pb);
+                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, leaf_units, &pb);
             }
             continue;
         }
@@ -425,7 +477,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             if (pb.uhi < leaf->lo[u] - p->slack || pb.ulo > leaf->hi[u] + p->slack ||
                 pb.vhi < leaf->lo[v] - p->slack || pb.vlo > leaf->hi[v] + p->slack)
                 continue;
-            packet_bucket(p, a, lq, first, end, objects, &pb);
+            packet_bucket(p, a, lq, first, end, objects, leaf_units, &pb);
         }
     }
 }
