@@ -378,6 +378,47 @@ static void test_edits_between_passes(void **state)
     vis_context_destroy(ctx);
 }
 
+/* Packets skip subtrees that hold nothing (the CPU backend's occupancy flags, refreshed at
+ * sync): a leaf emptied and refilled, and a far leaf filled for the first time, must show. */
+static void test_packet_occupancy_follows_edits(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(2);
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = 64.0f, w.size[1] = 32.0f, w.size[2] = 64.0f;
+    float lo[3] = {20, 4, 40}, hi[3] = {24, 9, 44};
+    obj_box(add_obj(&w, 5), lo, hi);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_camera cam = {{32, 30, 0}, {32, 8, 48}, 70, 0.05, 0};
+    check_view(ctx, scene, &w, &cam, 40, 33, "one box");
+    assert_int_equal(vis_scene_remove_object(scene, 5), VIS_OK);
+    obj_clear(&w.objs[0]);
+    w.n = 0;
+    check_view(ctx, scene, &w, &cam, 40, 33, "empty world");
+    float lo2[3] = {40, 0, 56}, hi2[3] = {64, 3, 64}; /* a leaf that never held anything */
+    tobj *o = add_obj(&w, 9);
+    obj_box(o, lo2, hi2);
+    set_obj(scene, o);
+    check_view(ctx, scene, &w, &cam, 40, 33, "far box added");
+    o = add_obj(&w, 5);
+    obj_box(o, lo, hi);
+    set_obj(scene, o);
+    check_view(ctx, scene, &w, &cam, 40, 33, "first box back");
+    uint32_t ids[40 * 33];
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = 40, td.height = 33;
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK); /* AUTO: packets */
+    int seen5 = 0, seen9 = 0;
+    for (size_t i = 0; i < sizeof ids / sizeof ids[0]; ++i)
+        seen5 |= ids[i] == 5, seen9 |= ids[i] == 9;
+    assert_true(seen5 && seen9);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* ---- hard cases ------------------------------------------------------------------------- */
 
 static void wall_world(tworld *w)
@@ -867,6 +908,7 @@ int main(void)
         cmocka_unit_test(test_closed_room_ties_inside_solid),
         cmocka_unit_test(test_random_worlds),
         cmocka_unit_test(test_edits_between_passes),
+        cmocka_unit_test(test_packet_occupancy_follows_edits),
         cmocka_unit_test(test_far_origin_and_leaf_ids),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
