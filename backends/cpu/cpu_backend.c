@@ -1,6 +1,7 @@
-/* cpu_backend.c — the ray pass on CPU threads. Rays go in square 8x8 tiles (Chang & Ihm
- * 2010 use square thread tiles for coherence: neighbouring rays touch the same nodes and
- * leaves), handed out dynamically by the pool. The scene arrays are the host's own; a sync
+/* cpu_backend.c — the ray pass on CPU threads. Rays go in square tiles (Chang & Ihm 2010
+ * use square thread tiles for coherence: neighbouring rays touch the same nodes and leaves),
+ * 8x8 for the per-ray methods and VIS_PACKET_SIDE for packets, handed out dynamically by the
+ * pool. The scene arrays are the host's own; a sync
  * only refreshes the subtree occupancy flags the packet method skips empty space with.
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. */
@@ -26,7 +27,7 @@ typedef struct cpu_job {
     const vis_ray_setup *setup;
     uint32_t *ids;
     float *depth;
-    uint32_t tiles_x;
+    uint32_t side, tiles_x; /* tile edge in pixels, tiles per row */
 } cpu_job;
 
 static void trace_tile(void *user, uint32_t tile)
@@ -43,14 +44,13 @@ static void trace_tile(void *user, uint32_t tile)
     const uint32_t *object_leaves = v->object_leaves;
     const vis_rope_node *ropes = v->ropes;
     const uint32_t *rope_index = v->rope_index;
+    uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        uint32_t px = (tile % job->tiles_x) * VIS_PACKET_SIDE, py = (tile / job->tiles_x) * VIS_PACKET_SIDE;
-        vis_packet_trace_tile(s, v, job->occupied, px, py, job->ids, job->depth);
+        vis_packet_trace_tile(s, v, job->occupied, x0, y0, job->ids, job->depth);
         return;
     }
-    uint32_t x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
-    uint32_t x1 = x0 + TILE < s->width ? x0 + TILE : s->width;
-    uint32_t y1 = y0 + TILE < s->height ? y0 + TILE : s->height;
+    uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
+    uint32_t y1 = y0 + job->side < s->height ? y0 + job->side : s->height;
     for (uint32_t y = y0; y < y1; ++y)
         for (uint32_t x = x0; x < x1; ++x) {
             uint32_t id;
@@ -106,7 +106,7 @@ static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, c
     cpu_backend *b = impl;
     const vis_occupancy *occ = scene_data;
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
-    cpu_job job = {view, occ->occupied, setup, ids, depth, (setup->width + side - 1) / side};
+    cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side};
     uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
     vis_pool_run(b->pool, tiles, trace_tile, &job);
     return 0;

@@ -1,4 +1,4 @@
-/* packet.c — an 8x8 tile of primary rays traced as one packet.
+/* packet.c — a 16x16 tile of primary rays traced as one packet.
  *
  * Every ray of a pinhole camera starts at the eye, so one front-to-back walk of the kd-tree
  * serves the whole tile (packet traversal: Wald, Slusallek, Benthin, Wagner 2001, "Interactive
@@ -7,9 +7,12 @@
  * (Boulos et al. 2007, "Packet-based Whitted and distribution ray tracing"), and with them:
  *  - a kd node is skipped when its subtree holds nothing (occupancy.h), when no ray of the
  *    tile can enter its box, or when every ray already has a hit nearer than the box;
+ *  - a leaf is opened only for the units (4x2 blocks of lanes) whose rays can enter its box
+ *    before their own farthest hit;
  *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
  *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
- *    which the tile's rays cross its plane.
+ *    which the tile's rays cross its plane; one inside is tested on the units whose own
+ *    rectangles it touches.
  * Whatever survives is tested ray by ray with exactly the arithmetic of trace_core.h
  * (vis_quad_intersect, vis_test_tri), and each ray keeps the minimum (t, ID) of what it
  * tested. The skips are conservative -- widened well past any rounding -- so a skipped
@@ -17,9 +20,11 @@
  * pixel equals vis_trace_pixel's (the brute-force reference and the OpenCL kernel), which
  * the tests check.
  *
- * The per-ray loops run over 64 lanes and are written for the compiler to vectorise; on
- * x86-64 the tile function is also built for AVX2 and picked at load time. No FMA is
- * contracted (-ffp-contract=off), so a lane computes exactly what a scalar ray does. */
+ * The lane loops are written for the compiler to vectorise, a unit of 8 lanes at a time; on
+ * x86-64 with GCC the tile function is also built for AVX2 and picked at load time (define
+ * VIS_NO_TARGET_CLONES for the baseline build only). No FMA is contracted
+ * (-ffp-contract=off), so a lane computes exactly what a scalar ray does. docs/traversal.md
+ * has the measurements behind the tile size, the units and the culls. */
 #include <math.h>
 #include <string.h>
 

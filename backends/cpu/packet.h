@@ -6,14 +6,16 @@
 
 #include "backend.h"
 
+/* The tile's side in pixels: 16 (measured fastest, docs/traversal.md) or 8. */
 #ifndef VIS_PACKET_SIDE
 #  define VIS_PACKET_SIDE 16u
 #endif
 
-/* Traces pixels [x0, x0+8) x [y0, y0+8) (clipped to the image) of the view in `setup` and
- * writes their IDs and depths (depth may be NULL) exactly as vis_trace_pixel would: the same
- * rays, the same primitive tests, the same nearest hit and tie rule. `occupied` flags the
- * kd nodes whose subtree holds a primitive (occupancy.h). */
+/* Traces the pixels [x0, x0 + VIS_PACKET_SIDE) x [y0, y0 + VIS_PACKET_SIDE) of the view in
+ * `setup` (clipped to the image) and writes their IDs and depths (depth may be NULL): per
+ * pixel, the nearest hit over every primitive under the lowest-ID tie rule, with the rays
+ * and primitive tests of trace_core.h -- bit for bit the brute force's buffers. `occupied`
+ * flags the kd nodes whose subtree holds a primitive (occupancy.h). */
 void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
                            uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
 
