@@ -163,6 +163,17 @@ static vis_status create_opencl(vis_context *ctx, char *why, size_t why_size, in
 #endif
 }
 
+/* Whether the caller named an OpenCL device (desc or $VIS_OPENCL_DEVICE): AUTO then uses it
+ * whatever its kind. */
+static int opencl_device_named(const vis_context *ctx)
+{
+    const char *sel = ctx->desc.opencl_device;
+    if (sel && *sel)
+        return 1;
+    sel = getenv("VIS_OPENCL_DEVICE");
+    return sel && *sel;
+}
+
 vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_context)
 {
     if (!out_context)
@@ -203,8 +214,18 @@ vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_co
         if (st != VIS_OK)
             vis_fail(ctx, st, "opencl backend: %s", why);
         break;
-    default: /* AUTO: a GPU, else PoCL (any OpenCL device), else the CPU backend */
+    default: /* AUTO: an OpenCL GPU (or any device named), else the CPU backend */
         st = create_opencl(ctx, why, sizeof why, &is_gpu);
+        if (st == VIS_OK && !is_gpu && !opencl_device_named(ctx)) {
+            /* An OpenCL CPU device (PoCL): the CPU backend traces packets on the same cores,
+             * 40-100x faster than the per-ray kernel there (docs/performance.md). */
+            snprintf(why, sizeof why, "the OpenCL device (%.200s) is not a GPU, and the CPU backend is faster on a CPU",
+                     ctx->info.device);
+            ctx->backend.ops->destroy(ctx->backend.impl);
+            memset(&ctx->backend, 0, sizeof ctx->backend);
+            memset(&ctx->info, 0, sizeof ctx->info);
+            st = VIS_ERROR_UNSUPPORTED;
+        }
         if (st == VIS_OK) {
             snprintf(ctx->info.reason, sizeof ctx->info.reason, "auto: OpenCL %s found (%s)",
                      is_gpu ? "GPU" : "device", ctx->info.device);

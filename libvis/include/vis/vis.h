@@ -72,7 +72,8 @@ typedef struct vis_context vis_context;
 typedef struct vis_scene vis_scene;
 
 typedef enum vis_backend_kind {
-    VIS_BACKEND_AUTO = 0, /* a GPU through OpenCL if present, else PoCL, else the CPU     */
+    VIS_BACKEND_AUTO = 0, /* a GPU through OpenCL if present (or the OpenCL device named
+                             by opencl_device / $VIS_OPENCL_DEVICE), else the CPU         */
     VIS_BACKEND_CPU,      /* threads on this machine                                     */
     VIS_BACKEND_OPENCL    /* OpenCL; fails if no usable device                            */
 } vis_backend_kind;
