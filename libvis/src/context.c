@@ -218,7 +218,7 @@ vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_co
         st = create_opencl(ctx, why, sizeof why, &is_gpu);
         if (st == VIS_OK && !is_gpu && !opencl_device_named(ctx)) {
             /* An OpenCL CPU device (PoCL): the CPU backend traces packets on the same cores,
-             * 40-100x faster than the per-ray kernel there (docs/performance.md). */
+             * 10-75x faster than the per-ray kernel there (docs/performance.md). */
             snprintf(why, sizeof why, "the OpenCL device (%.200s) is not a GPU, and the CPU backend is faster on a CPU",
                      ctx->info.device);
             ctx->backend.ops->destroy(ctx->backend.impl);
