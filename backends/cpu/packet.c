@@ -198,28 +198,37 @@ PK_INLINE void packet_update_max_best(packet *p)
     pk_bounds(p->best_t, &lo, &p->max_best);
 }
 
+/* Narrows [*t0, *t1] to where the tile's rays can be inside the slab [lo, hi] (widened by
+ * the slack) of axis a: interval bounds on each ray's entry and exit distances. Returns 0 when
+ * no ray can enter it. */
+PK_INLINE int packet_slab(const packet *p, int a, float lo, float hi, float *t0, float *t1)
+{
+    float l = lo - p->slack, h = hi + p->slack, o = p->o[a];
+    if (p->sign[a] != 0) {
+        float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+        *t0 = pk_max(*t0, pk_min(cin * p->imin[a], cin * p->imax[a]));
+        *t1 = pk_min(*t1, pk_max(cout * p->imin[a], cout * p->imax[a]));
+    } else if (o < l) {
+        if (!(p->dmax[a] > 0.0f))
+            return 0; /* no ray moves toward the slab */
+        *t0 = pk_max(*t0, (l - o) / p->dmax[a]);
+    } else if (o > h) {
+        if (!(p->dmin[a] < 0.0f))
+            return 0;
+        *t0 = pk_max(*t0, (h - o) / p->dmin[a]);
+    }
+    return 1;
+}
+
 /* Whether some ray of the tile may have a hit better than its own in the closed box
  * [lo, hi]: the box, widened by the slack, is met within [t_near, t_far] and no farther
  * than the farthest best hit. */
 PK_INLINE int packet_box_open(const packet *p, const float *lo, const float *hi)
 {
     float t0 = p->t_near, t1 = p->t_far;
-    for (int a = 0; a < 3; ++a) {
-        float l = lo[a] - p->slack, h = hi[a] + p->slack, o = p->o[a];
-        if (p->sign[a] != 0) {
-            float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
-            t0 = pk_max(t0, pk_min(cin * p->imin[a], cin * p->imax[a]));
-            t1 = pk_min(t1, pk_max(cout * p->imin[a], cout * p->imax[a]));
-        } else if (o < l) {
-            if (!(p->dmax[a] > 0.0f))
-                return 0; /* no ray moves toward the box on this axis */
-            t0 = pk_max(t0, (l - o) / p->dmax[a]);
-        } else if (o > h) {
-            if (!(p->dmin[a] < 0.0f))
-                return 0;
-            t0 = pk_max(t0, (h - o) / p->dmin[a]);
-        }
-    }
+    for (int a = 0; a < 3; ++a)
+        if (!packet_slab(p, a, lo[a], hi[a], &t0, &t1))
+            return 0;
     t0 -= t0 * T_SLACK;
     return t0 <= t1 + fabsf(t1) * T_SLACK && t0 <= p->max_best + p->max_best * T_SLACK;
 }
@@ -429,6 +438,15 @@ PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint3
         packet_update_max_best(p);
 }
 
+/* A plane offset clamped to [0, e] before the conversion (no overflow on far or infinite
+ * values; NaN, impossible here, would give 0). */
+static inline int pk_plane_index(float k, int e)
+{
+    if (!(k > 0.0f))
+        return 0;
+    return k < (float)e ? (int)k : e;
+}
+
 PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
 {
     /* The units that can still take a quad here; the others are done before this leaf. */
@@ -447,6 +465,13 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     int base[3] = {0, E[0] + 1, E[0] + E[1] + 2};
     const uint32_t *bk = view->buckets + leaf->bucket_offset;
     const vis_flat_quad *lq = quads + leaf->quad_offset;
+    /* Where the tile's rays can be inside the leaf's box (packet_traverse has found it open). */
+    float t0 = p->t_near, t1 = p->t_far;
+    for (int a = 0; a < 3; ++a)
+        if (!packet_slab(p, a, leaf->lo[a], leaf->hi[a], &t0, &t1))
+            return;
+    t0 -= t0 * T_SLACK;
+    t1 += t1 * T_SLACK;
     plane_bounds pb;
     for (int a = 0; a < 3; ++a) {
         if (p->sign[a] == 0) {
@@ -458,11 +483,16 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             }
             continue;
         }
-        /* Planes in the order the rays cross them, from the one at or behind the eye. */
-        float fk = floorf(p->o[a] - leaf->lo[a]);
-        int step = p->sign[a], kend = step > 0 ? E[a] : 0;
-        int k = fk < -1.0f ? -1 : (fk > (float)E[a] ? E[a] + 1 : (int)fk);
-        k = step > 0 ? (k < 0 ? 0 : k) : (k + 1 > E[a] ? E[a] : k + 1);
+        /* Planes in the order the rays cross them, from the one at or behind the eye, within
+         * the span the tile's rays cover inside the leaf's box (one plane wider each side). */
+        float x0 = pk_min(pk_min(t0 * p->dmin[a], t0 * p->dmax[a]), pk_min(t1 * p->dmin[a], t1 * p->dmax[a]));
+        float x1 = pk_max(pk_max(t0 * p->dmin[a], t0 * p->dmax[a]), pk_max(t1 * p->dmin[a], t1 * p->dmax[a]));
+        int klo = pk_plane_index(floorf(p->o[a] + x0 - leaf->lo[a]) - 1.0f, E[a]);
+        int khi = pk_plane_index(ceilf(p->o[a] + x1 - leaf->lo[a]) + 1.0f, E[a]);
+        int eye = pk_plane_index(floorf(p->o[a] - leaf->lo[a]), E[a]);
+        int step = p->sign[a];
+        int k = step > 0 ? (eye > klo ? eye : klo) : (eye + 1 < khi ? eye + 1 : khi);
+        int kend = step > 0 ? khi : klo;
         for (; step > 0 ? k <= kend : k >= kend; k += step) {
             uint32_t b = (uint32_t)(base[a] + k), first = bk[b], end = bk[b + 1u];
             if (first == end)
