@@ -533,10 +533,10 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         stack[0].lo[a] = 0.0f;
         stack[0].hi[a] = view->size[a];
     }
-    sp = 1;
+    sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
     while (sp > 0) {
         packet_frame f = stack[--sp];
-        if (!occupied[f.node] || !packet_box_open(p, f.lo, f.hi))
+        if (!packet_box_open(p, f.lo, f.hi))
             continue;
         uint32_t info = view->nodes[f.node].info;
         if ((info & 3u) == VIS_NODE_LEAF) {
@@ -555,8 +555,12 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         hi_child.lo[a] = split;
         if (sp + 2 > PACKET_STACK)
             continue; /* cannot happen: depth is far below the stack size */
-        stack[sp++] = near_child == first ? hi_child : lo_child;
-        stack[sp++] = near_child == first ? lo_child : hi_child;
+        const packet_frame *far_f = near_child == first ? &hi_child : &lo_child;
+        const packet_frame *near_f = near_child == first ? &lo_child : &hi_child;
+        if (occupied[far_f->node])
+            stack[sp++] = *far_f;
+        if (occupied[near_f->node])
+            stack[sp++] = *near_f;
     }
 }
 
