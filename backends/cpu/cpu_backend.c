@@ -28,6 +28,7 @@ typedef struct cpu_job {
     uint32_t *ids;
     float *depth;
     uint32_t side, tiles_x; /* tile edge in pixels, tiles per row */
+    int wide;               /* packets: vis_packet_wide */
 } cpu_job;
 
 static void trace_tile(void *user, uint32_t tile)
@@ -46,7 +47,7 @@ static void trace_tile(void *user, uint32_t tile)
     const uint32_t *rope_index = v->rope_index;
     uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        vis_packet_trace_tile(s, v, job->occupied, x0, y0, job->ids, job->depth);
+        vis_packet_trace_tile(s, v, job->occupied, job->wide, x0, y0, job->ids, job->depth);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -106,7 +107,8 @@ static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, c
     cpu_backend *b = impl;
     const vis_occupancy *occ = scene_data;
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
-    cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side};
+    cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
+                   setup->traversal == VIS_TRAVERSAL_ID_PACKET && vis_packet_wide(setup)};
     uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
     vis_pool_run(b->pool, tiles, trace_tile, &job);
     return 0;

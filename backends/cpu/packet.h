@@ -6,17 +6,19 @@
 
 #include "backend.h"
 
-/* The tile's side in pixels: 16 (measured fastest, docs/traversal.md) or 8. */
-#ifndef VIS_PACKET_SIDE
-#  define VIS_PACKET_SIDE 16u
-#endif
+/* The tile the CPU backend hands to a thread for packets, in pixels. */
+#define VIS_PACKET_SIDE 16u
+
+/* Whether a pass's tiles spread too wide for 16x16 packets (then each ray is its own packet). */
+int vis_packet_wide(const vis_ray_setup *setup);
 
 /* Traces the pixels [x0, x0 + VIS_PACKET_SIDE) x [y0, y0 + VIS_PACKET_SIDE) of the view in
  * `setup` (clipped to the image) and writes their IDs and depths (depth may be NULL): per
  * pixel, the nearest hit over every primitive under the lowest-ID tie rule, with the rays
  * and primitive tests of trace_core.h -- bit for bit the brute force's buffers. `occupied`
- * flags the kd nodes whose subtree holds a primitive (occupancy.h). */
+ * flags the kd nodes whose subtree holds a primitive (occupancy.h); `wide` is
+ * vis_packet_wide(setup). */
 void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                           int wide, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
 
 #endif /* VIS_CPU_PACKET_H */

@@ -1,0 +1,613 @@
+/* packet_impl.h — a tile of primary rays traced as one packet. Included by packet_tile.c
+ * (16x16 tiles) and packet_ray.c (one ray, where tiles spread too wide), each defining
+ * PK_TILE_W, PK_TILE_H and PK_ENTRY, the name of the traced-tile function it exports.
+ *
+ * Every ray of a pinhole camera starts at the eye, so one front-to-back walk of the kd-tree
+ * serves the whole tile (packet traversal: Wald, Slusallek, Benthin, Wagner 2001, "Interactive
+ * rendering with coherent ray tracing"; the tile as a frustum: Reshetov, Soupikov, Hurley 2005,
+ * "Multi-level ray tracing algorithm"). The tile's directions are bounded by intervals
+ * (Boulos et al. 2007, "Packet-based Whitted and distribution ray tracing"), and with them:
+ *  - a kd node is skipped when its subtree holds nothing (occupancy.h), when no ray of the
+ *    tile can enter its box, or when every ray already has a hit nearer than the box;
+ *  - a leaf is opened only for the units (4x2 blocks of lanes) whose rays can enter its box
+ *    before their own farthest hit;
+ *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
+ *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
+ *    which the tile's rays cross its plane; one inside is tested on the units whose own
+ *    rectangles it touches.
+ * Whatever survives is tested ray by ray with exactly the arithmetic of trace_core.h
+ * (vis_quad_intersect, vis_test_tri), and each ray keeps the minimum (t, ID) of what it
+ * tested. The skips are conservative -- widened well past any rounding -- so a skipped
+ * primitive could not have been hit by any ray of the tile, or could not have won: every
+ * pixel equals vis_trace_pixel's (the brute-force reference and the OpenCL kernel), which
+ * the tests check.
+ *
+ * The lane loops are written for the compiler to vectorise, a unit of 8 lanes at a time; on
+ * x86-64 with GCC the tile function is also built for AVX2 and picked at load time (define
+ * VIS_NO_TARGET_CLONES for the baseline build only). No FMA is contracted
+ * (-ffp-contract=off), so a lane computes exactly what a scalar ray does. docs/traversal.md
+ * has the measurements behind the tile size, the units and the culls. */
+#include <math.h>
+#include <string.h>
+
+#include "cpu/packet.h"
+
+#if !defined(PK_TILE_W) || !defined(PK_TILE_H) || !defined(PK_ENTRY)
+#  error "define PK_TILE_W, PK_TILE_H and PK_ENTRY before including packet_impl.h"
+#endif
+
+#define LANES (PK_TILE_W * PK_TILE_H)
+/* Lanes culled and tested together: one AVX2 vector (all lanes of a smaller tile). A unit is
+ * a UNIT_W x (UNIT / UNIT_W) block of pixels: compact blocks cross a plane in a small
+ * rectangle, so few quads reach a unit's lanes. */
+#define UNIT (LANES < 8 ? LANES : 8)
+#define UNIT_W (PK_TILE_W < 4 ? PK_TILE_W : 4)
+#define UNITS (LANES / UNIT)
+#define ALL_UNITS (UNITS == 32 ? 0xFFFFFFFFu : (1u << UNITS) - 1u)
+
+/* Relative widening of t bounds computed from intervals (the exact per-ray distances differ
+ * from them by a few ulps) and of rectangles (by more than any rounding of a crossing point). */
+#define T_SLACK 9.5367431640625e-07f  /* 2^-20 */
+#define XY_SLACK 1.52587890625e-05f   /* 2^-16 */
+
+typedef struct packet {
+    float d[3][LANES], inv[3][LANES]; /* per ray, exactly as vis_ray_for_pixel makes them     */
+    float best_t[LANES];
+    uint32_t best_id[LANES], best_obj[LANES];
+    float plane_t[LANES], plane_u[LANES], plane_v[LANES]; /* crossing of the current plane */
+    float o[3];
+    float t_near, t_far;
+    int sign[3];             /* +1: every ray has d > 0 on that axis, -1: every d < 0, 0: mixed */
+    float dmin[3], dmax[3];  /* direction bounds                                            */
+    float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
+    float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
+    float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes  */
+    float unit_imin[3][UNITS], unit_imax[3][UNITS];      /* 1/d bounds of each unit             */
+    float unit_best[UNITS];  /* the farthest best hit of each unit (+inf while a lane has none) */
+    float slack;             /* absolute widening of boxes                                  */
+    float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
+    int unhit;               /* lanes without a hit yet                                     */
+} packet;
+
+#if defined(VIS_PACKET_PROFILE) /* every step its own symbol, for perf */
+#  define PK_INLINE static __attribute__((noinline))
+#elif defined(__GNUC__)
+#  define PK_INLINE static inline __attribute__((always_inline))
+#else
+#  define PK_INLINE static inline
+#endif
+
+/* The pixel of lane i within the tile: units of UNIT_W x (UNIT / UNIT_W) pixels, row-major. */
+static inline uint32_t lane_x(int i)
+{
+    int unit = i / UNIT, j = i % UNIT;
+    return (uint32_t)((unit % (PK_TILE_W / UNIT_W)) * UNIT_W + j % UNIT_W);
+}
+
+static inline uint32_t lane_y(int i)
+{
+    int unit = i / UNIT, j = i % UNIT;
+    return (uint32_t)((unit / (PK_TILE_W / UNIT_W)) * (UNIT / UNIT_W) + j / UNIT_W);
+}
+
+static inline float pk_min(float a, float b) { return a < b ? a : b; }
+static inline float pk_max(float a, float b) { return a > b ? a : b; }
+
+PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint32_t y0)
+{
+    /* vis_ray_for_pixel, lane by lane (pixels past the image edge repeat the last one). */
+    for (int i = 0; i < LANES; ++i) {
+        uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
+        x = x < s->width ? x : s->width - 1u;
+        y = y < s->height ? y : s->height - 1u;
+        float nx = (float)(int32_t)(2u * x + 1u) / (float)(int32_t)s->width - 1.0f;
+        float ny = 1.0f - (float)(int32_t)(2u * y + 1u) / (float)(int32_t)s->height;
+        float d0 = (s->forward[0] + nx * s->right[0]) + ny * s->up[0];
+        float d1 = (s->forward[1] + nx * s->right[1]) + ny * s->up[1];
+        float d2 = (s->forward[2] + nx * s->right[2]) + ny * s->up[2];
+        float len = sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
+        p->d[0][i] = d0 / len;
+        p->d[1][i] = d1 / len;
+        p->d[2][i] = d2 / len;
+    }
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < LANES; ++i)
+            p->inv[a][i] = 1.0f / p->d[a][i];
+    for (int i = 0; i < LANES; ++i) {
+        p->best_t[i] = INFINITY;
+        p->best_id[i] = 0u;
+        p->best_obj[i] = VIS_NO_OBJECT;
+    }
+    p->max_best = INFINITY;
+    for (int r = 0; r < UNITS; ++r)
+        p->unit_best[r] = INFINITY;
+    p->unhit = LANES;
+    float extent = 1.0f;
+    for (int a = 0; a < 3; ++a) {
+        p->o[a] = s->origin[a];
+        extent = pk_max(extent, pk_max(fabsf(s->origin[a]), s->size[a]));
+    }
+    p->t_near = s->t_near;
+    p->t_far = s->t_far;
+    p->slack = 2.0f * extent * XY_SLACK;
+}
+
+/* Minimum and maximum of the lanes. A unit of running lanes, not one: a float min/max reduction
+ * is only vectorised by the compiler when written elementwise like this. */
+PK_INLINE void pk_bounds(const float *x, float *lo_out, float *hi_out)
+{
+    float lo[UNIT], hi[UNIT];
+    for (int j = 0; j < UNIT; ++j)
+        lo[j] = hi[j] = x[j];
+    for (int i = UNIT; i < LANES; i += UNIT)
+        for (int j = 0; j < UNIT; ++j) {
+            lo[j] = pk_min(lo[j], x[i + j]);
+            hi[j] = pk_max(hi[j], x[i + j]);
+        }
+    float l = lo[0], h = hi[0];
+    for (int j = 1; j < UNIT; ++j) {
+        l = pk_min(l, lo[j]);
+        h = pk_max(h, hi[j]);
+    }
+    *lo_out = l;
+    *hi_out = h;
+}
+
+/* Minimum and maximum of each unit of 8 lanes. */
+PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
+{
+    for (int r = 0; r < UNITS; ++r) {
+        float l = x[r * UNIT], h = l;
+        for (int i = 1; i < UNIT; ++i) {
+            l = pk_min(l, x[r * UNIT + i]);
+            h = pk_max(h, x[r * UNIT + i]);
+        }
+        lo[r] = l;
+        hi[r] = h;
+    }
+}
+
+/* The interval bounds of the tile's directions. */
+PK_INLINE void packet_bounds(packet *p)
+{
+    for (int a = 0; a < 3; ++a) {
+        float lo, hi, ilo, ihi;
+        pk_bounds(p->d[a], &lo, &hi);
+        pk_bounds(p->inv[a], &ilo, &ihi);
+        p->dmin[a] = lo;
+        p->dmax[a] = hi;
+        /* A strict common sign with finite inverses; anything else is "mixed". */
+        p->sign[a] = (lo > 0.0f || hi < 0.0f) && isfinite(ilo) && isfinite(ihi) ? (lo > 0.0f ? 1 : -1) : 0;
+        p->imin[a] = ilo;
+        p->imax[a] = ihi;
+        pk_unit_bounds(p->inv[a], p->unit_imin[a], p->unit_imax[a]);
+    }
+    for (int a = 0; a < 3; ++a) {
+        if (p->sign[a] == 0)
+            continue;
+        for (int b = 0; b < 3; ++b) {
+            if (b == a)
+                continue;
+            float r[LANES];
+            for (int i = 0; i < LANES; ++i)
+                r[i] = p->d[b][i] * p->inv[a][i];
+            pk_bounds(r, &p->rlo[a][b], &p->rhi[a][b]);
+            pk_unit_bounds(r, p->unit_rlo[a][b], p->unit_rhi[a][b]);
+        }
+    }
+}
+
+PK_INLINE void packet_update_max_best(packet *p)
+{
+    if (p->unhit > 0)
+        return; /* still +inf */
+    float lo;
+    pk_bounds(p->best_t, &lo, &p->max_best);
+}
+
+/* Narrows [*t0, *t1] to where the tile's rays can be inside the slab [lo, hi] (widened by
+ * the slack) of axis a: interval bounds on each ray's entry and exit distances. Returns 0 when
+ * no ray can enter it. */
+PK_INLINE int packet_slab(const packet *p, int a, float lo, float hi, float *t0, float *t1)
+{
+    float l = lo - p->slack, h = hi + p->slack, o = p->o[a];
+    if (p->sign[a] != 0) {
+        float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+        *t0 = pk_max(*t0, pk_min(cin * p->imin[a], cin * p->imax[a]));
+        *t1 = pk_min(*t1, pk_max(cout * p->imin[a], cout * p->imax[a]));
+    } else if (o < l) {
+        if (!(p->dmax[a] > 0.0f))
+            return 0; /* no ray moves toward the slab */
+        *t0 = pk_max(*t0, (l - o) / p->dmax[a]);
+    } else if (o > h) {
+        if (!(p->dmin[a] < 0.0f))
+            return 0;
+        *t0 = pk_max(*t0, (h - o) / p->dmin[a]);
+    }
+    return 1;
+}
+
+/* Whether some ray of the tile may have a hit better than its own in the closed box
+ * [lo, hi]: the box, widened by the slack, is met within [t_near, t_far] and no farther
+ * than the farthest best hit. */
+PK_INLINE int packet_box_open(const packet *p, const float *lo, const float *hi)
+{
+    float t0 = p->t_near, t1 = p->t_far;
+    for (int a = 0; a < 3; ++a)
+        if (!packet_slab(p, a, lo[a], hi[a], &t0, &t1))
+            return 0;
+    t0 -= t0 * T_SLACK;
+    return t0 <= t1 + fabsf(t1) * T_SLACK && t0 <= p->max_best + p->max_best * T_SLACK;
+}
+
+/* The units whose rays may enter the closed box [lo, hi] (widened by the slack) within
+ * [t_near, t_far], no farther than their own farthest best hit: packet_box_open, per unit. */
+PK_INLINE uint32_t packet_box_units(const packet *p, const float *lo, const float *hi)
+{
+    float t0[UNITS], t1[UNITS];
+    for (int j = 0; j < UNITS; ++j) {
+        t0[j] = p->t_near;
+        t1[j] = p->t_far;
+    }
+    for (int a = 0; a < 3; ++a) {
+        float l = lo[a] - p->slack, h = hi[a] + p->slack, o = p->o[a];
+        if (p->sign[a] != 0) {
+            float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+            for (int j = 0; j < UNITS; ++j) {
+                t0[j] = pk_max(t0[j], pk_min(cin * p->unit_imin[a][j], cin * p->unit_imax[a][j]));
+                t1[j] = pk_min(t1[j], pk_max(cout * p->unit_imin[a][j], cout * p->unit_imax[a][j]));
+            }
+        } else if (o < l || o > h) {
+            /* Mixed directions: the tile's bound (packet_box_open has passed, so some ray
+             * moves toward the box). */
+            float te = o < l ? (l - o) / p->dmax[a] : (h - o) / p->dmin[a];
+            for (int j = 0; j < UNITS; ++j)
+                t0[j] = pk_max(t0[j], te);
+        }
+    }
+    int in[UNITS];
+    for (int j = 0; j < UNITS; ++j) {
+        float a0 = t0[j] - t0[j] * T_SLACK;
+        in[j] = (a0 <= t1[j] + fabsf(t1[j]) * T_SLACK) & (a0 <= p->unit_best[j] + p->unit_best[j] * T_SLACK);
+    }
+    uint32_t units = 0;
+    for (int j = 0; j < UNITS; ++j)
+        units |= (uint32_t)in[j] << j;
+    return units;
+}
+
+/* The crossing of `plane` on axis a by the lanes of the units in `units`, with
+ * vis_quad_intersect's expressions. */
+PK_INLINE void packet_cross_plane(packet *p, int a, float plane, uint32_t units)
+{
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float c = plane - p->o[a], ou = p->o[u], ov = p->o[v];
+    for (; units; units &= units - 1u)
+        for (int i = __builtin_ctz(units) * UNIT, e = i + UNIT; i < e; ++i) {
+            float t = c * p->inv[a][i];
+            p->plane_t[i] = t;
+            p->plane_u[i] = ou + t * p->d[u][i];
+            p->plane_v[i] = ov + t * p->d[v][i];
+        }
+}
+
+/* vis_test_quad for the lanes of the units in `units` (bit j: lanes 8j..8j+7), with the
+ * crossing from packet_cross_plane. Returns whether a lane took the quad. */
+PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id, uint32_t units)
+{
+    float u0 = q->u0, v0 = q->v0, u1 = q->u1, v1 = q->v1, tn = p->t_near, tf = p->t_far;
+    uint32_t obj = VIS_META_OBJECT(q->meta);
+    int any = 0, first_hits = 0;
+    for (; units; units &= units - 1u) {
+        int first = __builtin_ctz(units) * UNIT;
+        for (int i = first; i < first + UNIT; ++i) {
+            float t = p->plane_t[i], pu = p->plane_u[i], pv = p->plane_v[i], bt = p->best_t[i];
+            int m = (p->d[a][i] != 0.0f) & (pu >= u0) & (pu <= u1) & (pv >= v0) & (pv <= v1) & (t >= tn) & (t <= tf) &
+                    ((t < bt) | ((t == bt) & (id < p->best_id[i])));
+            p->best_t[i] = m ? t : bt;
+            p->best_id[i] = m ? id : p->best_id[i];
+            p->best_obj[i] = m ? obj : p->best_obj[i];
+            any |= m;
+            first_hits += m & (bt == INFINITY);
+        }
+        float ub = p->best_t[first];
+        for (int i = first + 1; i < first + UNIT; ++i)
+            ub = pk_max(ub, p->best_t[i]);
+        p->unit_best[first / UNIT] = ub;
+    }
+    p->unhit -= first_hits;
+    return any;
+}
+
+/* A quad tested on its own (loose quads): cull by its box, then every lane. */
+PK_INLINE void packet_loose_quad(packet *p, const vis_flat_quad *q, const vis_flat_object *objects)
+{
+    int a = (int)VIS_META_AXIS(q->meta), u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float lo[3], hi[3];
+    lo[a] = hi[a] = q->plane;
+    lo[u] = q->u0, hi[u] = q->u1, lo[v] = q->v0, hi[v] = q->v1;
+    if (!packet_box_open(p, lo, hi))
+        return;
+    packet_cross_plane(p, a, q->plane, ALL_UNITS);
+    if (packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, ALL_UNITS))
+        packet_update_max_best(p);
+}
+
+/* A triangle: cull by its box, then vis_test_tri ray by ray. */
+PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_flat_object *objects)
+{
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = pk_min(tri->v0[a], pk_min(tri->v1[a], tri->v2[a]));
+        hi[a] = pk_max(tri->v0[a], pk_max(tri->v1[a], tri->v2[a]));
+    }
+    if (!packet_box_open(p, lo, hi))
+        return;
+    for (int i = 0; i < LANES; ++i) {
+        vis_ray r;
+        for (int a = 0; a < 3; ++a) {
+            r.o[a] = p->o[a];
+            r.d[a] = p->d[a][i];
+            r.inv[a] = p->inv[a][i];
+        }
+        r.t_near = p->t_near;
+        r.t_far = p->t_far;
+        vis_hit h = {p->best_t[i], p->best_obj[i], p->best_id[i]};
+        vis_test_tri(&r, tri, objects, &h);
+        p->unhit -= p->best_t[i] == INFINITY && h.t != INFINITY;
+        p->best_t[i] = h.t;
+        p->best_obj[i] = h.object;
+        p->best_id[i] = h.id;
+    }
+    float unit_lo[UNITS];
+    pk_unit_bounds(p->best_t, unit_lo, p->unit_best);
+    packet_update_max_best(p);
+}
+
+/* Where the lanes cross a plane c = plane - o[a] away from the eye on axis a: a rectangle for
+ * the whole tile and, made when a quad reaches them, one for each unit of 8 lanes. Widened
+ * past any rounding of a lane's crossing point. Unbounded (every quad, every row) when the
+ * tile's directions take both signs on the axis. */
+typedef struct plane_bounds {
+    int bounded;
+    float c, mu, mv;
+    float ulo, uhi, vlo, vhi;
+    float unit_ulo[UNITS], unit_uhi[UNITS], unit_vlo[UNITS], unit_vhi[UNITS];
+} plane_bounds;
+
+PK_INLINE void plane_bounds_make(const packet *p, int a, float c, plane_bounds *pb)
+{
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float ra = c * p->rlo[a][u], rb = c * p->rhi[a][u];
+    float sa = c * p->rlo[a][v], sb = c * p->rhi[a][v];
+    pb->bounded = 1;
+    pb->c = c;
+    pb->mu = (fabsf(ra) + fabsf(rb) + fabsf(p->o[u]) + 1.0f) * XY_SLACK;
+    pb->mv = (fabsf(sa) + fabsf(sb) + fabsf(p->o[v]) + 1.0f) * XY_SLACK;
+    pb->ulo = p->o[u] + pk_min(ra, rb) - pb->mu;
+    pb->uhi = p->o[u] + pk_max(ra, rb) + pb->mu;
+    pb->vlo = p->o[v] + pk_min(sa, sb) - pb->mv;
+    pb->vhi = p->o[v] + pk_max(sa, sb) + pb->mv;
+}
+
+PK_INLINE void plane_bounds_units(const packet *p, int a, plane_bounds *pb)
+{
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float c = pb->c, ou = p->o[u], ov = p->o[v], mu = pb->mu, mv = pb->mv;
+    for (int j = 0; j < UNITS; ++j) {
+        float ra = c * p->unit_rlo[a][u][j], rb = c * p->unit_rhi[a][u][j];
+        float sa = c * p->unit_rlo[a][v][j], sb = c * p->unit_rhi[a][v][j];
+        pb->unit_ulo[j] = ou + pk_min(ra, rb) - mu;
+        pb->unit_uhi[j] = ou + pk_max(ra, rb) + mu;
+        pb->unit_vlo[j] = ov + pk_min(sa, sb) - mv;
+        pb->unit_vhi[j] = ov + pk_max(sa, sb) + mv;
+    }
+}
+
+/* The quads of bucket [first, end) of axis a, culled by the tile's rectangle, then by the
+ * units'. The bucket is sorted by u0 (scene.c): the scan stops at the first quad starting
+ * past the tile's rectangle. */
+PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
+                             const vis_flat_object *objects, uint32_t leaf_units, plane_bounds *pb)
+{
+    int bounds = 0, hit = 0;
+    uint32_t crossed = 0; /* units whose crossing of this plane is computed */
+    for (uint32_t j = first; j < end; ++j) {
+        const vis_flat_quad *q = &quads[j];
+        uint32_t units = leaf_units;
+        if (pb->bounded) {
+            if (q->u0 > pb->uhi)
+                break;
+            if (q->u1 < pb->ulo || q->v0 > pb->vhi || q->v1 < pb->vlo)
+                continue;
+            if (!bounds) {
+                plane_bounds_units(p, a, pb);
+                bounds = 1;
+            }
+            int in[UNITS];
+            for (int r = 0; r < UNITS; ++r)
+                in[r] = (q->u0 <= pb->unit_uhi[r]) & (q->u1 >= pb->unit_ulo[r]) & (q->v0 <= pb->unit_vhi[r]) &
+                        (q->v1 >= pb->unit_vlo[r]);
+            uint32_t near_units = 0;
+            for (int r = 0; r < UNITS; ++r)
+                near_units |= (uint32_t)in[r] << r;
+            units &= near_units;
+        }
+        if (!units)
+            continue;
+        if (units & ~crossed) {
+            packet_cross_plane(p, a, q->plane, units & ~crossed);
+            crossed |= units;
+        }
+        hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, units);
+    }
+    if (hit)
+        packet_update_max_best(p);
+}
+
+/* A plane offset clamped to [0, e] before the conversion (no overflow on far or infinite
+ * values; NaN, impossible here, would give 0). */
+static inline int pk_plane_index(float k, int e)
+{
+    if (!(k > 0.0f))
+        return 0;
+    return k < (float)e ? (int)k : e;
+}
+
+PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
+{
+    /* The units that can still take a quad here; the others are done before this leaf. */
+    uint32_t leaf_units = packet_box_units(p, leaf->lo, leaf->hi);
+    if (!leaf_units)
+        return;
+    const vis_flat_quad *quads = view->quads;
+    const vis_flat_object *objects = view->objects;
+    for (uint32_t i = 0; i < leaf->loose_count; ++i)
+        packet_loose_quad(p, &quads[leaf->loose_offset + i], objects);
+    for (uint32_t i = 0; i < leaf->tri_count; ++i)
+        packet_triangle(p, &view->tris[leaf->tri_offset + i], objects);
+    if (leaf->quad_count == 0u)
+        return;
+    int E[3] = {(int)(leaf->dims_xy & 0xFFFFu), (int)(leaf->dims_xy >> 16), (int)leaf->dims_z};
+    int base[3] = {0, E[0] + 1, E[0] + E[1] + 2};
+    const uint32_t *bk = view->buckets + leaf->bucket_offset;
+    const vis_flat_quad *lq = quads + leaf->quad_offset;
+    /* Where the tile's rays can be inside the leaf's box (packet_traverse has found it open). */
+    float t0 = p->t_near, t1 = p->t_far;
+    for (int a = 0; a < 3; ++a)
+        if (!packet_slab(p, a, leaf->lo[a], leaf->hi[a], &t0, &t1))
+            return;
+    t0 -= t0 * T_SLACK;
+    t1 += t1 * T_SLACK;
+    plane_bounds pb;
+    for (int a = 0; a < 3; ++a) {
+        if (p->sign[a] == 0) {
+            /* Directions on both sides of this axis (or along it): no bounds, every quad. */
+            pb.bounded = 0;
+            for (int k = 0; k <= E[a]; ++k) {
+                uint32_t b = (uint32_t)(base[a] + k);
+                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, leaf_units, &pb);
+            }
+            continue;
+        }
+        /* Planes in the order the rays cross them, from the one at or behind the eye, within
+         * the span the tile's rays cover inside the leaf's box (one plane wider each side). */
+        float x0 = pk_min(pk_min(t0 * p->dmin[a], t0 * p->dmax[a]), pk_min(t1 * p->dmin[a], t1 * p->dmax[a]));
+        float x1 = pk_max(pk_max(t0 * p->dmin[a], t0 * p->dmax[a]), pk_max(t1 * p->dmin[a], t1 * p->dmax[a]));
+        int klo = pk_plane_index(floorf(p->o[a] + x0 - leaf->lo[a]) - 1.0f, E[a]);
+        int khi = pk_plane_index(ceilf(p->o[a] + x1 - leaf->lo[a]) + 1.0f, E[a]);
+        int eye = pk_plane_index(floorf(p->o[a] - leaf->lo[a]), E[a]);
+        int step = p->sign[a];
+        int k = step > 0 ? (eye > klo ? eye : klo) : (eye + 1 < khi ? eye + 1 : khi);
+        int kend = step > 0 ? khi : klo;
+        for (; step > 0 ? k <= kend : k >= kend; k += step) {
+            uint32_t b = (uint32_t)(base[a] + k), first = bk[b], end = bk[b + 1u];
+            if (first == end)
+                continue;
+            /* Each lane's t is c * inv, rounded: monotone in inv, so these bound it exactly. */
+            float c = lq[first].plane - p->o[a];
+            float ta = c * p->imin[a], tb = c * p->imax[a];
+            float tlo = pk_min(ta, tb), thi = pk_max(ta, tb);
+            if (thi < p->t_near)
+                continue; /* behind the eye or the near plane for every ray */
+            if (tlo > p->t_far || tlo > p->max_best)
+                break;    /* this plane and every later one lie past every ray's hit */
+            plane_bounds_make(p, a, c, &pb);
+            /* Rays crossing the plane outside the leaf's box (widened) cannot take a quad of
+             * this leaf there that its neighbour, which holds the quad too, would not. */
+            int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+            if (pb.uhi < leaf->lo[u] - p->slack || pb.ulo > leaf->hi[u] + p->slack ||
+                pb.vhi < leaf->lo[v] - p->slack || pb.vlo > leaf->hi[v] + p->slack)
+                continue;
+            packet_bucket(p, a, lq, first, end, objects, leaf_units, &pb);
+        }
+    }
+}
+
+typedef struct packet_frame {
+    uint32_t node;
+    float lo[3], hi[3];
+} packet_frame;
+
+#define PACKET_STACK 128
+
+PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
+{
+    packet_frame stack[PACKET_STACK];
+    int sp = 0;
+    stack[0].node = 0;
+    for (int a = 0; a < 3; ++a) {
+        stack[0].lo[a] = 0.0f;
+        stack[0].hi[a] = view->size[a];
+    }
+    sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
+    while (sp > 0) {
+        packet_frame f = stack[--sp];
+        if (!packet_box_open(p, f.lo, f.hi))
+            continue;
+        uint32_t info = view->nodes[f.node].info;
+        if ((info & 3u) == VIS_NODE_LEAF) {
+            packet_leaf(p, view, &view->leaves[info >> 2]);
+            continue;
+        }
+        uint32_t a = info & 3u, first = info >> 2;
+        float split = view->nodes[f.node].split;
+        /* The child on the eye's side first (any order is correct; this one finds the
+         * nearest hits first, so the far side is often skipped). */
+        uint32_t near_child = p->o[a] < split || (p->o[a] == split && p->sign[a] < 0) ? first : first + 1u;
+        packet_frame lo_child = f, hi_child = f;
+        lo_child.node = first;
+        lo_child.hi[a] = split;
+        hi_child.node = first + 1u;
+        hi_child.lo[a] = split;
+        if (sp + 2 > PACKET_STACK)
+            continue; /* cannot happen: depth is far below the stack size */
+        const packet_frame *far_f = near_child == first ? &hi_child : &lo_child;
+        const packet_frame *near_f = near_child == first ? &lo_child : &hi_child;
+        if (occupied[far_f->node])
+            stack[sp++] = *far_f;
+        if (occupied[near_f->node])
+            stack[sp++] = *near_f;
+    }
+}
+
+void PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, uint32_t x0,
+              uint32_t y0, uint32_t *ids, float *depth);
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, uint32_t x0,
+              uint32_t y0, uint32_t *ids, float *depth)
+{
+    packet p;
+    packet_rays(&p, setup, x0, y0);
+    packet_bounds(&p);
+    packet_traverse(&p, view, occupied);
+    for (int i = 0; i < LANES; ++i) {
+        uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
+        if (x >= setup->width || y >= setup->height)
+            continue;
+        size_t at = (size_t)y * setup->width + x;
+        uint32_t id = 0u;
+        if (p.best_obj[i] != VIS_NO_OBJECT) {
+            id = p.best_id[i];
+            if (setup->id_mode == 1u) {
+                vis_ray r;
+                for (int a = 0; a < 3; ++a) {
+                    r.o[a] = p.o[a];
+                    r.d[a] = p.d[a][i];
+                    r.inv[a] = p.inv[a][i];
+                }
+                r.t_near = p.t_near;
+                r.t_far = p.t_far;
+                vis_hit h = {p.best_t[i], p.best_obj[i], p.best_id[i]};
+                id = vis_hit_leaf_id(&r, &h, view->nodes, view->leaves, view->buckets, view->quads, view->tris,
+                                     view->objects, view->object_leaves, view->ropes, view->rope_index);
+            }
+        }
+        ids[at] = id;
+        if (depth)
+            depth[at] = p.best_t[i];
+    }
+}
