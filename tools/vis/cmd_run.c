@@ -53,7 +53,7 @@ int cmd_run(const cli_args *a)
     printf("backend   %s (%s)%s%s\n", s.backend.name, s.backend.device, s.backend.reason[0] ? ": " : "",
            s.backend.reason);
     printf("pass      %ux%u %s IDs, traversal %s, median of %u passes per view\n\n", a->width, a->height,
-           vc_name_of(&vc_id_modes, (int)a->ids), vc_name_of(&vc_traversals, (int)a->traversal), repeat);
+           vc_name_of(&vc_id_modes, (int)a->ids), vc_traversal_run_name((int)a->traversal, s.backend.kind), repeat);
     printf("  %-10s %18s %10s %10s\n", "view", "visible objects", "ms/pass", "Mrays/s");
 
     vc_view views[VC_MAX_VIEWS];
