@@ -319,6 +319,21 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
     return any;
 }
 
+/* Lane i as the per-ray code sees it: its ray and its best hit so far. */
+PK_INLINE void packet_lane(const packet *p, int i, vis_ray *r, vis_hit *h)
+{
+    for (int a = 0; a < 3; ++a) {
+        r->o[a] = p->o[a];
+        r->d[a] = p->d[a][i];
+        r->inv[a] = p->inv[a][i];
+    }
+    r->t_near = p->t_near;
+    r->t_far = p->t_far;
+    h->t = p->best_t[i];
+    h->object = p->best_obj[i];
+    h->id = p->best_id[i];
+}
+
 /* A quad tested on its own (loose quads): cull by its box, then every lane. */
 PK_INLINE void packet_loose_quad(packet *p, const vis_flat_quad *q, const vis_flat_object *objects)
 {
@@ -345,14 +360,8 @@ PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_fla
         return;
     for (int i = 0; i < LANES; ++i) {
         vis_ray r;
-        for (int a = 0; a < 3; ++a) {
-            r.o[a] = p->o[a];
-            r.d[a] = p->d[a][i];
-            r.inv[a] = p->inv[a][i];
-        }
-        r.t_near = p->t_near;
-        r.t_far = p->t_far;
-        vis_hit h = {p->best_t[i], p->best_obj[i], p->best_id[i]};
+        vis_hit h;
+        packet_lane(p, i, &r, &h);
         vis_test_tri(&r, tri, objects, &h);
         p->unhit -= p->best_t[i] == INFINITY && h.t != INFINITY;
         p->best_t[i] = h.t;
@@ -594,14 +603,8 @@ void PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint
             id = p.best_id[i];
             if (setup->id_mode == 1u) {
                 vis_ray r;
-                for (int a = 0; a < 3; ++a) {
-                    r.o[a] = p.o[a];
-                    r.d[a] = p.d[a][i];
-                    r.inv[a] = p.inv[a][i];
-                }
-                r.t_near = p.t_near;
-                r.t_far = p.t_far;
-                vis_hit h = {p.best_t[i], p.best_obj[i], p.best_id[i]};
+                vis_hit h;
+                packet_lane(&p, i, &r, &h);
                 id = vis_hit_leaf_id(&r, &h, view->nodes, view->leaves, view->buckets, view->quads, view->tris,
                                      view->objects, view->object_leaves, view->ropes, view->rope_index);
             }
