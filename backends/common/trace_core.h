@@ -947,7 +947,7 @@ VIS_INLINE uint32_t vis_hit_leaf_id(const vis_ray *r, const vis_hit *h, VIS_SCEN
 #define VIS_TRAVERSAL_ID_SHORTSTACK 4u
 #define VIS_TRAVERSAL_ID_ROPES 5u
 #define VIS_TRAVERSAL_ID_ROPES_SHORTSTACK 6u
-#define VIS_TRAVERSAL_ID_PACKET 7u /* CPU: 8x8 tiles as packets (backends/cpu/packet.c); per ray: stack */
+#define VIS_TRAVERSAL_ID_PACKET 7u /* CPU backend only: tiles as packets (backends/cpu/packet.c) */
 
 /* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write.
  * A kernel built for one method only may define VIS_TRAVERSAL_ONLY to its VIS_TRAVERSAL_ID_*
@@ -967,7 +967,7 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
 #else
     uint32_t method = s->traversal;
 #endif
-    if (method == VIS_TRAVERSAL_ID_STACK || method == VIS_TRAVERSAL_ID_PACKET)
+    if (method == VIS_TRAVERSAL_ID_STACK)
         vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
     else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
         vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);

@@ -15,14 +15,12 @@ static double now_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
-/* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*), AUTO resolved: the CPU
- * traces packets, a device one ray per work-item. */
+/* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*). AUTO and PACKET are
+ * resolved here, once: the CPU traces packets, a device runs the stack method per ray. */
 static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
 {
-    if (t == VIS_TRAVERSAL_AUTO)
+    if (t == VIS_TRAVERSAL_AUTO || t == VIS_TRAVERSAL_PACKET)
         return ctx->info.kind == VIS_BACKEND_CPU ? VIS_TRAVERSAL_ID_PACKET : VIS_TRAVERSAL_ID_STACK;
-    if (t == VIS_TRAVERSAL_PACKET)
-        return VIS_TRAVERSAL_ID_PACKET;
     return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6 */
 }
 
