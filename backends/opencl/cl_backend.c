@@ -217,8 +217,9 @@ static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, cha
 
 /* The program for one traversal method: built with -DVIS_TRAVERSAL_ONLY=<id>u, so the kernel
  * holds that method alone (trace_core.h, vis_trace_pixel) and none of the others' private
- * stacks. Seven methods (libvis hands packets over as the stack method) and at most VIS_CL_MAX_PROGRAMS option sets; ids above the table
- * (none today) get the generic program that switches on setup->traversal. */
+ * stacks. Seven methods (libvis hands packets over as the stack method) and at most
+ * VIS_CL_MAX_PROGRAMS option sets; ids above the table (none today) get the generic program
+ * that switches on setup->traversal. */
 static const char *traversal_options(uint32_t traversal)
 {
     static const char *const opts[] = {"-DVIS_TRAVERSAL_ONLY=0u", "-DVIS_TRAVERSAL_ONLY=1u", "-DVIS_TRAVERSAL_ONLY=2u",
