@@ -231,19 +231,8 @@ static void test_random_worlds_match_oracle(void **state)
 
 /* ---- hard cases ----------------------------------------------------------------------- */
 
-/* A 1-voxel-thick wall with a corner, a floor, and cameras that look along axes, lie in split
- * planes and sit on chunk corners. */
-static void wall_world(tworld *w)
-{
-    memset(w, 0, sizeof *w);
-    w->size[0] = w->size[1] = w->size[2] = 32.0f;
-    float flo[3] = {0, 0, 0}, fhi[3] = {32, 1, 32};
-    obj_box(add_obj(w, 1), flo, fhi);
-    float lo[3] = {16, 1, 4}, hi[3] = {17, 12, 28}; /* wall x in [16,17]: on the split plane */
-    obj_box(add_obj(w, 2), lo, hi);
-    float lo2[3] = {4, 1, 16}, hi2[3] = {16, 12, 17}; /* meets the wall at a corner */
-    obj_box(add_obj(w, 3), lo2, hi2);
-}
+/* wall_world (scene_builder.h): a 1-voxel-thick wall with a corner and a floor, for cameras
+ * that look along axes, lie in split planes and sit on chunk corners. */
 
 static void test_axis_rays_split_planes_and_corners(void **state)
 {
@@ -283,16 +272,8 @@ static void test_closed_room_does_not_leak(void **state)
     (void)state;
     vis_context *ctx = make_ctx(2);
     tworld w;
-    memset(&w, 0, sizeof w);
-    w.size[0] = w.size[1] = w.size[2] = 48.0f;
-    /* Room: six 1-voxel walls, each its own object, meeting at edges and corners exactly. */
-    float L = 10, H = 30;
-    float walls[6][6] = {{L, L, L, H, L + 1, H},     {L, H - 1, L, H, H, H},     {L, L, L, L + 1, H, H},
-                         {H - 1, L, L, H, H, H},     {L, L, L, H, H, L + 1},     {L, L, H - 1, H, H, H}};
-    for (int i = 0; i < 6; ++i)
-        obj_box(add_obj(&w, 1 + i), walls[i], walls[i] + 3);
-    float out_lo[3] = {0, 0, 0}, out_hi[3] = {48, 2, 48};
-    obj_box(add_obj(&w, 50), out_lo, out_hi); /* something outside to leak to */
+    const float L = 10, H = 30;
+    room_world(&w, L, H); /* the floor, object 50, is something outside to leak to */
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     uint64_t rng = 99;
     int n = vt_small() ? 10 : 40;

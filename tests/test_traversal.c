@@ -428,16 +428,10 @@ static void test_packet_occupancy_follows_edits(void **state)
 
 /* ---- hard cases ------------------------------------------------------------------------- */
 
-static void wall_world(tworld *w)
+/* wall_world (scene_builder.h) and two more objects: */
+static void wall_world_quads(tworld *w)
 {
-    memset(w, 0, sizeof *w);
-    w->size[0] = w->size[1] = w->size[2] = 32.0f;
-    float flo[3] = {0, 0, 0}, fhi[3] = {32, 1, 32};
-    obj_box(add_obj(w, 1), flo, fhi);
-    float lo[3] = {16, 1, 4}, hi[3] = {17, 12, 28};
-    obj_box(add_obj(w, 2), lo, hi);
-    float lo2[3] = {4, 1, 16}, hi2[3] = {16, 12, 17};
-    obj_box(add_obj(w, 3), lo2, hi2);
+    wall_world(w);
     /* quads lying exactly in split planes, seen from both sides by in-plane rays' neighbours */
     obj_quad(add_obj(w, 4), 0, 16.0f, 20.0f, 0.0f, 24.0f, 4.0f);
     obj_quad(add_obj(w, 5), 2, 16.0f, 20.0f, 20.0f, 24.0f, 24.0f);
@@ -448,7 +442,7 @@ static void test_hard_cases(void **state)
     (void)state;
     vis_context *ctx = make_ctx(2);
     tworld w;
-    wall_world(&w);
+    wall_world_quads(&w);
     static const uint32_t depths[] = {0, 1, 2};
     const double views[][7] = {
         {16, 6, 0, 16, 6, 32, 0},     /* in the split plane x=16                              */
@@ -529,17 +523,9 @@ static void test_closed_room_ties_inside_solid(void **state)
 {
     (void)state;
     vis_context *ctx = make_ctx(2);
-    /* A closed room of six 1-voxel walls meeting exactly at edges and corners. */
     tworld w;
-    memset(&w, 0, sizeof w);
-    w.size[0] = w.size[1] = w.size[2] = 48.0f;
-    float L = 16, H = 32;
-    float walls[6][6] = {{L, L, L, H, L + 1, H}, {L, H - 1, L, H, H, H}, {L, L, L, L + 1, H, H},
-                         {H - 1, L, L, H, H, H}, {L, L, L, H, H, L + 1}, {L, L, H - 1, H, H, H}};
-    for (int i = 0; i < 6; ++i)
-        obj_box(add_obj(&w, 1 + i), walls[i], walls[i] + 3);
-    float out_lo[3] = {0, 0, 0}, out_hi[3] = {48, 2, 48};
-    obj_box(add_obj(&w, 50), out_lo, out_hi);
+    const float L = 16, H = 32;
+    room_world(&w, L, H);
     /* the same quad in two objects in different leaves: lowest ID wins */
     obj_quad(add_obj(&w, 61), 2, 40.0f, 34, 34, 46, 46);
     obj_quad(add_obj(&w, 60), 2, 40.0f, 34, 34, 46, 46);
@@ -717,7 +703,7 @@ static void test_degenerate_rays(void **state)
         free_world(&w);
     }
     tworld w;
-    wall_world(&w);
+    wall_world_quads(&w);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     check_rays(scene, &w, &rng, rays, 0, "wall world");
     check_rays(scene, &w, &rng, rays, 1, "wall world, lattice rays");
@@ -877,7 +863,7 @@ static void test_desc_validation(void **state)
     (void)state;
     vis_context *ctx = make_ctx(1);
     tworld w;
-    wall_world(&w);
+    wall_world_quads(&w);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_camera cam = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
     uint32_t ids[16];

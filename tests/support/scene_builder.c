@@ -89,3 +89,28 @@ vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3],
         set_obj(s, &w->objs[i]);
     return s;
 }
+
+void room_world(tworld *w, float lo, float hi)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = w->size[1] = w->size[2] = 48.0f;
+    float L = lo, H = hi;
+    float walls[6][6] = {{L, L, L, H, L + 1, H}, {L, H - 1, L, H, H, H}, {L, L, L, L + 1, H, H},
+                         {H - 1, L, L, H, H, H}, {L, L, L, H, H, L + 1}, {L, L, H - 1, H, H, H}};
+    for (int i = 0; i < 6; ++i)
+        obj_box(add_obj(w, 1u + (uint32_t)i), walls[i], walls[i] + 3);
+    float out_lo[3] = {0, 0, 0}, out_hi[3] = {48, 2, 48};
+    obj_box(add_obj(w, 50), out_lo, out_hi);
+}
+
+void wall_world(tworld *w)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = w->size[1] = w->size[2] = 32.0f;
+    float flo[3] = {0, 0, 0}, fhi[3] = {32, 1, 32};
+    obj_box(add_obj(w, 1), flo, fhi);
+    float lo[3] = {16, 1, 4}, hi[3] = {17, 12, 28}; /* wall x in [16,17]: on the split plane */
+    obj_box(add_obj(w, 2), lo, hi);
+    float lo2[3] = {4, 1, 16}, hi2[3] = {16, 12, 17}; /* meets the wall at a corner */
+    obj_box(add_obj(w, 3), lo2, hi2);
+}

@@ -30,6 +30,12 @@ void obj_box(tobj *o, const float lo[3], const float hi[3]);
 /* Frees the object's primitives and leaves it empty (its ID stays). */
 void obj_clear(tobj *o);
 void free_world(tworld *w);
+/* A 32^3 world: a floor (object 1), a 1-voxel wall on the split plane x = 16 (object 2) and
+ * a wall meeting it at a corner (object 3). */
+void wall_world(tworld *w);
+/* A 48^3 world holding a closed room: six 1-voxel walls, objects 1..6, that meet exactly at
+ * edges and corners and enclose [lo, hi]^3, and a floor slab outside it, object 50. */
+void room_world(tworld *w, float lo, float hi);
 /* vis_scene_set_object with the object's mesh; fails the test on error. */
 void set_obj(vis_scene *s, const tobj *o);
 /* A scene over [0, w->size] (origin may be NULL) holding every object; fails the test on error. */
