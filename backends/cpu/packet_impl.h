@@ -208,11 +208,22 @@ PK_INLINE void packet_update_max_best(packet *p)
 /* Narrows [*t0, *t1] to where the tile's rays can be inside the slab [lo, hi] (widened by
  * the slack) of axis a: interval bounds on each ray's entry and exit distances. Returns 0 when
  * no ray can enter it. */
+/* Where the slab [lo, hi] (widened) of an axis whose rays all move one way (sign != 0)
+ * begins and ends, as offsets from the eye along that axis: a ray's entry and exit distances
+ * are these times its 1/d. */
+PK_INLINE void packet_slab_offsets(const packet *p, int a, float lo, float hi, float *cin, float *cout)
+{
+    float l = lo - p->slack - p->o[a], h = hi + p->slack - p->o[a];
+    *cin = p->sign[a] > 0 ? l : h;
+    *cout = p->sign[a] > 0 ? h : l;
+}
+
 PK_INLINE int packet_slab(const packet *p, int a, float lo, float hi, float *t0, float *t1)
 {
     float l = lo - p->slack, h = hi + p->slack, o = p->o[a];
     if (p->sign[a] != 0) {
-        float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+        float cin, cout;
+        packet_slab_offsets(p, a, lo, hi, &cin, &cout);
         *t0 = pk_max(*t0, pk_min(cin * p->imin[a], cin * p->imax[a]));
         *t1 = pk_min(*t1, pk_max(cout * p->imin[a], cout * p->imax[a]));
     } else if (o < l) {
@@ -250,19 +261,20 @@ PK_INLINE uint32_t packet_box_units(const packet *p, const float *lo, const floa
         t1[j] = p->t_far;
     }
     for (int a = 0; a < 3; ++a) {
-        float l = lo[a] - p->slack, h = hi[a] + p->slack, o = p->o[a];
         if (p->sign[a] != 0) {
-            float cin = p->sign[a] > 0 ? l - o : h - o, cout = p->sign[a] > 0 ? h - o : l - o;
+            float cin, cout;
+            packet_slab_offsets(p, a, lo[a], hi[a], &cin, &cout);
             for (int j = 0; j < UNITS; ++j) {
                 t0[j] = pk_max(t0[j], pk_min(cin * p->unit_imin[a][j], cin * p->unit_imax[a][j]));
                 t1[j] = pk_min(t1[j], pk_max(cout * p->unit_imin[a][j], cout * p->unit_imax[a][j]));
             }
-        } else if (o < l || o > h) {
-            /* Mixed directions: the tile's bound (packet_box_open has passed, so some ray
-             * moves toward the box). */
-            float te = o < l ? (l - o) / p->dmax[a] : (h - o) / p->dmin[a];
+        } else {
+            /* Directions of both signs: the whole tile's bound serves every unit. */
+            float te0 = -INFINITY, te1 = INFINITY;
+            if (!packet_slab(p, a, lo[a], hi[a], &te0, &te1))
+                return 0;
             for (int j = 0; j < UNITS; ++j)
-                t0[j] = pk_max(t0[j], te);
+                t0[j] = pk_max(t0[j], te0);
         }
     }
     int in[UNITS];
