@@ -263,7 +263,7 @@ static void city_open(city *c)
 {
     memset(c, 0, sizeof *c);
     vw_error err;
-    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, &c->world, &err), VW_OK);
+    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, NULL, &c->world, &err), VW_OK);
     vis_context_desc d;
     memset(&d, 0, sizeof d);
     d.backend = VIS_BACKEND_CPU;

@@ -654,7 +654,7 @@ static void test_bridge_edits(void **state)
     (void)state;
     vw_world *world = NULL;
     vw_error err;
-    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, &world, &err), VW_OK);
+    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, NULL, &world, &err), VW_OK);
     vis_context *ctx = cpu_context();
     world_scene *ws = NULL;
     world_scene_stats st;

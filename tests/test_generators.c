@@ -22,7 +22,7 @@ static vw_world *gen(const char *spec)
     vw_world *w = NULL;
     vw_error err;
     err.message[0] = '\0';
-    vw_status st = vw_world_from_spec(spec, NULL, NULL, &w, &err);
+    vw_status st = vw_world_from_spec(spec, NULL, NULL, NULL, &w, &err);
     if (st != VW_OK)
         fail_msg("%s: %s: %s", spec, vw_status_string(st), err.message);
     return w;
@@ -369,7 +369,7 @@ static void expect_error(const char *spec, vw_status want)
     vw_world *w = (vw_world *)&w;
     vw_error err;
     err.message[0] = '\0';
-    vw_status st = vw_world_from_spec(spec, NULL, NULL, &w, &err);
+    vw_status st = vw_world_from_spec(spec, NULL, NULL, NULL, &w, &err);
     if (st != want)
         fail_msg("%s: got %s (%s), want %s", spec ? spec : "(null)", vw_status_string(st), err.message, vw_status_string(want));
     assert_null(w);
@@ -409,13 +409,13 @@ static void test_spec_errors(void **state)
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         expect_error(bad[i], VW_ERROR_INVALID_ARGUMENT);
     vw_world *w = NULL;
-    assert_int_equal(vw_world_from_spec(NULL, NULL, NULL, &w, NULL), VW_ERROR_INVALID_ARGUMENT);
-    assert_int_equal(vw_world_from_spec("gen:maze", NULL, NULL, NULL, NULL), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_from_spec(NULL, NULL, NULL, NULL, &w, NULL), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_from_spec("gen:maze", NULL, NULL, NULL, NULL, NULL), VW_ERROR_INVALID_ARGUMENT);
     /* A file spec is handed to its importer, which reports a missing file its own way. */
     vw_error err;
-    assert_true(vw_world_from_spec("/nonexistent/none.vox", NULL, NULL, &w, &err) != VW_OK);
+    assert_true(vw_world_from_spec("/nonexistent/none.vox", NULL, NULL, NULL, &w, &err) != VW_OK);
     assert_null(w);
-    assert_true(vw_world_from_spec("/nonexistent/none.vdb?grid=density&threshold=0.5&transform=1", NULL, NULL, &w, &err) != VW_OK);
+    assert_true(vw_world_from_spec("/nonexistent/none.vdb?grid=density&threshold=0.5&transform=1", NULL, NULL, NULL, &w, &err) != VW_OK);
     assert_null(w);
 }
 
@@ -442,7 +442,7 @@ static void test_progress(void **state)
     for (int i = 0; i < 3; i++) {
         progress_log p = {0, 0.0, 1, 1};
         vw_world *w = NULL;
-        assert_int_equal(vw_world_from_spec(specs[i], on_progress, &p, &w, NULL), VW_OK);
+        assert_int_equal(vw_world_from_spec(specs[i], NULL, on_progress, &p, &w, NULL), VW_OK);
         assert_true(p.calls >= 2 && p.calls <= 101);
         assert_true(p.monotone && p.stage_ok);
         assert_true(p.last == 1.0);

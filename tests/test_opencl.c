@@ -751,8 +751,8 @@ static void world_pair_open(world_pair *wp, vis_context *cpu, vis_context *cl, c
 {
     memset(wp, 0, sizeof *wp);
     vw_error err;
-    if (vw_world_from_spec(spec, NULL, NULL, &wp->wa, &err) != VW_OK ||
-        vw_world_from_spec(spec, NULL, NULL, &wp->wb, &err) != VW_OK)
+    if (vw_world_from_spec(spec, NULL, NULL, NULL, &wp->wa, &err) != VW_OK ||
+        vw_world_from_spec(spec, NULL, NULL, NULL, &wp->wb, &err) != VW_OK)
         fail_msg("%s: %s", spec, err.message);
     assert_int_equal(world_scene_create(cpu, wp->wa, NULL, &wp->sa, NULL, &err), 0);
     assert_int_equal(world_scene_create(cl, wp->wb, NULL, &wp->sb, NULL, &err), 0);

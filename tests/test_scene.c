@@ -184,7 +184,7 @@ static void test_edits_equal_fresh_build(void **state)
     vis_context *ctx = make_ctx();
     vw_world *w = NULL;
     vw_error err;
-    if (vw_world_from_spec("gen:terrain:size=128x64x128:seed=3", NULL, NULL, &w, &err) != VW_OK)
+    if (vw_world_from_spec("gen:terrain:size=128x64x128:seed=3", NULL, NULL, NULL, &w, &err) != VW_OK)
         fail_msg("world: %s", err.message);
     world_scene *ws = NULL;
     world_scene_options opt;

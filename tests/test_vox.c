@@ -304,12 +304,12 @@ static void test_mapping_and_default_palette(void **state)
     vw_world_destroy(w);
 
     /* Chunk size 32 works; anything else is an argument error. */
-    assert_int_equal(vw_vox_load_memory(b.p, b.n, 32, &w, &e), VW_OK);
+    assert_int_equal(vw_vox_load_memory(b.p, b.n, 32, NULL, &w, &e), VW_OK);
     vw_world_get_info(w, &info);
     assert_int_equal(info.chunk_size, 32);
     assert_int_equal(vw_world_get(w, 1, 2, -2), 7);
     vw_world_destroy(w);
-    assert_int_equal(vw_vox_load_memory(b.p, b.n, 8, &w, &e), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_vox_load_memory(b.p, b.n, 8, NULL, &w, &e), VW_ERROR_INVALID_ARGUMENT);
     assert_null(w);
     vb_free(&b);
 }
@@ -378,7 +378,7 @@ static void test_nested_transforms(void **state)
         vb_end(&b);
         vw_world *w = NULL;
         vw_error e;
-        assert_int_equal(vw_vox_load_memory(b.p, b.n, 16, &w, &e), VW_OK);
+        assert_int_equal(vw_vox_load_memory(b.p, b.n, 16, NULL, &w, &e), VW_OK);
         ref_tf fa = ref_make(ra, 7, -3, 11), fb = ref_make(rb, -5, 9, 2);
         ref_tf f = ref_mul(&fa, &fb);
         expect_model_at(w, &f);
@@ -644,7 +644,7 @@ static void test_unknown_chunks(void **state)
     vb_end(&b);
     vw_world *w = NULL;
     vw_error e;
-    assert_int_equal(vw_vox_load_memory(b.p, b.n, 0, &w, &e), VW_OK);
+    assert_int_equal(vw_vox_load_memory(b.p, b.n, 0, NULL, &w, &e), VW_OK);
     ref_tf f = ref_make(4, 0, 0, 0);
     expect_model_at(w, &f);
     vw_world_destroy(w);
@@ -1039,7 +1039,7 @@ static void test_bad_files(void **state)
         vw_world *w = (vw_world *)&b; /* must be reset to NULL */
         vw_error e;
         memset(&e, 0, sizeof e);
-        vw_status s = vw_vox_load_memory(b.p, b.n, 16, &w, &e);
+        vw_status s = vw_vox_load_memory(b.p, b.n, 16, NULL, &w, &e);
         if (s != bc->status)
             fail_msg("%s: status %s, expected %s (%s)", bc->name, vw_status_string(s), vw_status_string(bc->status),
                      e.message);
@@ -1077,12 +1077,12 @@ static void test_truncated(void **state)
     build_rich(&b);
     vw_world *w = NULL;
     vw_error e;
-    assert_int_equal(vw_vox_load_memory(b.p, b.n, 16, &w, &e), VW_OK);
+    assert_int_equal(vw_vox_load_memory(b.p, b.n, 16, NULL, &w, &e), VW_OK);
     vw_world_destroy(w);
     for (size_t n = 0; n < b.n; n++) {
         uint8_t *copy = malloc(n ? n : 1); /* exact size: ASan sees any overread */
         memcpy(copy, b.p, n);
-        vw_status s = vw_vox_load_memory(copy, n, 16, &w, &e);
+        vw_status s = vw_vox_load_memory(copy, n, 16, NULL, &w, &e);
         if (s != VW_ERROR_FORMAT)
             fail_msg("prefix of %zu bytes: %s", n, vw_status_string(s));
         assert_null(w);
@@ -1105,7 +1105,7 @@ static void test_byte_flips(void **state)
             copy[i] = values[k];
             vw_world *w = NULL;
             vw_error e;
-            vw_status s = vw_vox_load_memory(copy, b.n, 16, &w, &e);
+            vw_status s = vw_vox_load_memory(copy, b.n, 16, NULL, &w, &e);
             if (s == VW_OK)
                 vw_world_destroy(w);
             else
@@ -1130,9 +1130,9 @@ static void test_limits(void **state)
     assert_non_null(strstr(e.message, "more than 4 instances"));
     vb_free(&b);
 
-    assert_int_equal(vw_vox_load_file("/nonexistent/dir/x.vox", 16, &w, &e), VW_ERROR_IO);
+    assert_int_equal(vw_vox_load_file("/nonexistent/dir/x.vox", 16, NULL, &w, &e), VW_ERROR_IO);
     assert_null(w);
-    assert_int_equal(vw_vox_load_memory(NULL, 0, 16, &w, &e), VW_ERROR_FORMAT);
+    assert_int_equal(vw_vox_load_memory(NULL, 0, 16, NULL, &w, &e), VW_ERROR_FORMAT);
 }
 
 /* Many layers times a wide DAG: the hidden-layer lookup must not be per visit and linear
@@ -1304,7 +1304,7 @@ static void test_shared_files(void **state)
         /* The file helper reads the same thing. */
         vw_world *w = NULL;
         vw_error e;
-        assert_int_equal(vw_vox_load_file(path, 16, &w, &e), VW_OK);
+        assert_int_equal(vw_vox_load_file(path, 16, NULL, &w, &e), VW_OK);
         vw_world_info info;
         vw_world_get_info(w, &info);
         assert_int_equal(info.solid_voxels, f->distinct);
@@ -1324,7 +1324,7 @@ static void test_shared_materials(void **state)
         return;
     vw_world *w = NULL;
     vw_error e;
-    assert_int_equal(vw_vox_load_file(path, 16, &w, &e), VW_OK);
+    assert_int_equal(vw_vox_load_file(path, 16, NULL, &w, &e), VW_OK);
     /* _blend with _trans 0.5 or 1 (ids 190, 194, 197, 199) is see-through; the other _blend
      * entries have no transparency and stay opaque; 158 is a smooth full metal. */
     int see = 0, refl = 0;
@@ -1417,7 +1417,7 @@ static void round_trip(const vw_world *a, const int64_t shift[3], uint32_t want_
     vw_error e;
     assert_int_equal(vw_vox_save_file(a, tmp_path(), &e), VW_OK);
     vw_world *b = NULL;
-    assert_int_equal(vw_vox_load_file(tmp_path(), 16, &b, &e), VW_OK);
+    assert_int_equal(vw_vox_load_file(tmp_path(), 16, NULL, &b, &e), VW_OK);
     expect_same(a, b, shift);
     vw_world_destroy(b);
     /* The memory writer gives the same bytes as the file writer. */
@@ -1503,7 +1503,7 @@ static void test_export_shared_file(void **state)
             continue;
         vw_world *a = NULL;
         vw_error e;
-        assert_int_equal(vw_vox_load_file(path, 16, &a, &e), VW_OK);
+        assert_int_equal(vw_vox_load_file(path, 16, NULL, &a, &e), VW_OK);
         const int64_t zero[3] = {0, 0, 0};
         round_trip(a, zero, 0);
         vw_world_destroy(a);

@@ -205,7 +205,7 @@ int main(int argc, char **argv)
     vw_error werr;
     vw_world *wa = NULL, *wb = NULL;
     double t0 = vc_now_ms();
-    if (vw_world_from_spec(spec, NULL, NULL, &wa, &werr) != VW_OK || vw_world_from_spec(spec, NULL, NULL, &wb, &werr) != VW_OK) {
+    if (vw_world_from_spec(spec, NULL, NULL, NULL, &wa, &werr) != VW_OK || vw_world_from_spec(spec, NULL, NULL, NULL, &wb, &werr) != VW_OK) {
         fprintf(stderr, "vis_clbench: %s: %s\n", spec, werr.message);
         return 2;
     }

@@ -76,7 +76,7 @@ int cli_world_load(const char *cmd, const char *spec, cli_progress *p, cli_world
     vw_error err;
     err.message[0] = '\0';
     double t0 = vc_now_ms();
-    vw_status s = vw_world_from_spec(spec, p ? cli_progress_update : NULL, p, &out->world, &err);
+    vw_status s = vw_world_from_spec(spec, NULL, p ? cli_progress_update : NULL, p, &out->world, &err);
     if (p)
         cli_progress_finish(p);
     out->load_ms = vc_now_ms() - t0;

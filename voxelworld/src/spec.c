@@ -363,7 +363,7 @@ static vw_status from_file(const char *spec, vw_progress_fn progress, void *user
     if (st == VW_OK) {
         if (progress)
             progress("loading", 0.0, user);
-        st = vox ? vw_vox_load_file(path, vo.chunk_size, out, err) : vw_vdb_load_file(path, &vo, out, err);
+        st = vox ? vw_vox_load_file(path, vo.chunk_size, NULL, out, err) : vw_vdb_load_file(path, &vo, out, err);
         if (st == VW_OK) {
             vw_world_clear_dirty(*out);
             if (progress)
@@ -374,8 +374,9 @@ static vw_status from_file(const char *spec, vw_progress_fn progress, void *user
     return st;
 }
 
-vw_status vw_world_from_spec(const char *spec, vw_progress_fn progress, void *progress_user, vw_world **out_world, vw_error *err)
+vw_status vw_world_from_spec(const char *spec, const vw_budget *budget, vw_progress_fn progress, void *progress_user, vw_world **out_world, vw_error *err)
 {
+    (void)budget; /* TODO(budget) */
     if (!spec || !out_world)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "vw_world_from_spec: spec and out_world must not be NULL");
     *out_world = NULL;

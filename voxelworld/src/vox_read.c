@@ -1304,14 +1304,15 @@ vw_status vw_vox_load_memory_ex(const void *data, size_t size, int32_t chunk_siz
     return s;
 }
 
-vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, vw_world **out_world, vw_error *err)
+vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, const vw_budget *budget, vw_world **out_world, vw_error *err)
 {
+    (void)budget; /* TODO(budget): enforced by the budget work in progress */
     if (!out_world)
         return VW_ERROR_INVALID_ARGUMENT;
     return vw_vox_load_memory_ex(data, size, chunk_size, NULL, out_world, NULL, err);
 }
 
-vw_status vw_vox_load_file(const char *path, int32_t chunk_size, vw_world **out_world, vw_error *err)
+vw_status vw_vox_load_file(const char *path, int32_t chunk_size, const vw_budget *budget, vw_world **out_world, vw_error *err)
 {
     if (out_world)
         *out_world = NULL;
@@ -1356,7 +1357,7 @@ vw_status vw_vox_load_file(const char *path, int32_t chunk_size, vw_world **out_
     }
     fclose(f);
     if (s == VW_OK)
-        s = vw_vox_load_memory(buf, size, chunk_size, out_world, err);
+        s = vw_vox_load_memory(buf, size, chunk_size, budget, out_world, err);
     else if (s == VW_ERROR_OUT_OF_MEMORY && err && !err->message[0])
         snprintf(err->message, sizeof err->message, "out of memory reading %s", path);
     free(buf);

@@ -32,6 +32,7 @@ const char *vw_status_string(vw_status status)
     case VW_ERROR_FORMAT: return "malformed data";
     case VW_ERROR_UNSUPPORTED: return "unsupported";
     case VW_ERROR_RANGE: return "coordinate outside the world";
+    case VW_ERROR_BUDGET: return "over budget";
     }
     return "unknown status";
 }

@@ -33,7 +33,8 @@ typedef enum vw_status {
     VW_ERROR_IO,          /* a file could not be opened, read or written                  */
     VW_ERROR_FORMAT,      /* a file or buffer is malformed (the message has offset, chunk) */
     VW_ERROR_UNSUPPORTED, /* a feature this build or format version lacks                 */
-    VW_ERROR_RANGE        /* a coordinate outside the world                               */
+    VW_ERROR_RANGE,       /* a coordinate outside the world                               */
+    VW_ERROR_BUDGET       /* a load, generator or edit would exceed its vw_budget          */
 } vw_status;
 
 const char *vw_status_string(vw_status status);
@@ -58,6 +59,21 @@ typedef struct vw_material {
 /* Voxel values are material indices: 0 is empty, 1..255 are materials. */
 typedef uint8_t vw_voxel;
 
+/* ---- budgets ------------------------------------------------------------------------ */
+
+/* What building a world may cost. Loaders and generators check it arithmetically (from the
+ * sizes and counts a file or spec declares) before allocating, and the world enforces
+ * max_bytes on every allocation it makes afterwards, so no input can cost more than this.
+ * Zero fields mean the defaults. */
+#define VW_DEFAULT_MAX_BYTES  ((uint64_t)2 << 30) /* 2 GiB                                   */
+#define VW_DEFAULT_MAX_VOXELS ((uint64_t)1 << 30)
+
+typedef struct vw_budget {
+    uint64_t max_bytes;  /* memory the world may hold: chunk table, dirty bits, dense chunks  */
+    uint64_t max_voxels; /* voxels a load may write: a generator's whole box, an importer's
+                            solid voxels (each instance of a model counted)                 */
+} vw_budget;
+
 /* ---- world -------------------------------------------------------------------------- */
 
 typedef struct vw_world vw_world;
@@ -66,6 +82,10 @@ typedef struct vw_world_desc {
     int32_t chunk_size;  /* 16 (default when 0) or 32                                        */
     int64_t origin[3];   /* minimum voxel; must be a multiple of chunk_size                  */
     int32_t size[3];     /* voxels per axis, > 0, rounded up to a multiple of chunk_size      */
+    uint64_t max_bytes;  /* memory the world may ever hold (vw_world_info.bytes); 0 =
+                            VW_DEFAULT_MAX_BYTES. Creation fails with VW_ERROR_BUDGET when the
+                            chunk table alone exceeds it; an edit that would need more fails
+                            with VW_ERROR_BUDGET and changes nothing                          */
 } vw_world_desc;
 
 vw_status vw_world_create(const vw_world_desc *desc, vw_world **out_world, vw_error *err);
@@ -80,6 +100,7 @@ typedef struct vw_world_info {
     uint32_t nonempty_chunks;/* chunks holding at least one solid voxel                      */
     uint64_t solid_voxels;   /* voxels with a material                                      */
     uint64_t bytes;          /* memory held                                                 */
+    uint64_t max_bytes;      /* the limit on `bytes` (vw_world_desc.max_bytes)              */
 } vw_world_info;
 
 void vw_world_get_info(const vw_world *world, vw_world_info *out_info);
@@ -154,11 +175,14 @@ typedef void (*vw_progress_fn)(const char *stage, double fraction, void *user);
  * a 2560x160x2560 terrain with over 100,000 chunks that have a mesh. The same spec always
  * gives the same voxels, relative to the origin. A file path may end in a query:
  * "f.vox?chunk=32", "f.vdb?grid=NAME&threshold=F&transform=0|1&chunk=16|32" (see
- * vw_vdb_options). A world returned here has no dirty chunks. Errors in the spec:
+ * vw_vdb_options). `budget` may be NULL (the defaults); a spec or file that would exceed it
+ * fails with VW_ERROR_BUDGET and a message naming the number that was too big, before the
+ * memory is taken, and the world keeps budget->max_bytes as its limit. A world returned
+ * here has no dirty chunks. Errors in the spec:
  * VW_ERROR_INVALID_ARGUMENT with a message. `progress` may be NULL; it is called at most
  * 101 times ("generating" or "loading", fraction non-decreasing, ending at 1). */
-vw_status vw_world_from_spec(const char *spec, vw_progress_fn progress, void *progress_user,
-                             vw_world **out_world, vw_error *err);
+vw_status vw_world_from_spec(const char *spec, const vw_budget *budget, vw_progress_fn progress,
+                             void *progress_user, vw_world **out_world, vw_error *err);
 
 /* The spec of the built-in default world. */
 const char *vw_default_spec(void);
@@ -173,9 +197,12 @@ vw_status vw_export_obj(const vw_world *world, const char *path, vw_error *err);
  * into a new world whose origin is chosen to hold every instance. Coordinates: the .vox
  * cell [x,x+1]x[y,y+1]x[z,z+1] (z up) becomes the world cell [x,x+1]x[z,z+1]x[-y-1,-y]
  * after the scene graph is applied. On a malformed buffer: VW_ERROR_FORMAT and a message
- * with the byte offset and chunk. `chunk_size` 0 means 16. */
-vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, vw_world **out_world, vw_error *err);
-vw_status vw_vox_load_file(const char *path, int32_t chunk_size, vw_world **out_world, vw_error *err);
+ * with the byte offset and chunk. `chunk_size` 0 means 16. `budget` may be NULL (the
+ * defaults): VW_ERROR_BUDGET when the instanced voxels or the world's memory would exceed it. */
+vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, const vw_budget *budget,
+                             vw_world **out_world, vw_error *err);
+vw_status vw_vox_load_file(const char *path, int32_t chunk_size, const vw_budget *budget, vw_world **out_world,
+                           vw_error *err);
 
 /* Writes any world as .vox (version 200), splitting it into models of at most 256 per axis
  * placed with a scene graph, so that loading it gives back the same voxels. */
@@ -189,6 +216,7 @@ typedef struct vw_vdb_options {
     int use_transform;       /* 0: index space is voxel space (scale 1); 1: honour the grid's
                                 transform (voxel size and translation, rounded to voxels)      */
     int32_t chunk_size;      /* 0 = 16                                                         */
+    vw_budget budget;        /* zero fields: the defaults                                      */
 } vw_vdb_options;
 
 /* Loads one grid: level sets are solid where the value is below zero (interior, inactive
