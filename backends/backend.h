@@ -11,8 +11,69 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "common/trace_core.h"
+/* The device's short-stack limit, taken before vis.h defines the same macro token for token:
+ * a different value draws a "redefined" warning and, with trace_core.h included first as
+ * here, fails the assertion below. */
+enum { VIS_DEVICE_MAX_SHORT_STACK_ = VIS_MAX_SHORT_STACK };
+#include "vis/vis.h"
+
+/* One set of numbers on both sides of the boundary: the limits and enums of vis.h are the
+ * ones trace_core.h (and so the OpenCL kernels) use. */
+_Static_assert(VIS_DEVICE_MAX_SHORT_STACK_ == VIS_MAX_SHORT_STACK, "trace_core.h and vis.h disagree on the short stack");
+/* vis_ray_setup.traversal is vis_traversal - 1 (AUTO resolved by libvis/src/trace.c). */
+#define VIS_CHECK_TRAVERSAL_(name)                                                                                     \
+    _Static_assert(VIS_TRAVERSAL_ID_##name + 1u == (unsigned)VIS_TRAVERSAL_##name, "VIS_TRAVERSAL_ID_" #name)
+VIS_CHECK_TRAVERSAL_(STACK);
+VIS_CHECK_TRAVERSAL_(BRUTEFORCE);
+VIS_CHECK_TRAVERSAL_(RESTART);
+VIS_CHECK_TRAVERSAL_(PUSHDOWN);
+VIS_CHECK_TRAVERSAL_(SHORTSTACK);
+VIS_CHECK_TRAVERSAL_(ROPES);
+VIS_CHECK_TRAVERSAL_(ROPES_SHORTSTACK);
+VIS_CHECK_TRAVERSAL_(PACKET);
+#undef VIS_CHECK_TRAVERSAL_
+_Static_assert(VIS_IDS_OBJECT == 0 && VIS_IDS_LEAF == 1, "vis_ray_setup.id_mode is vis_id_mode");
+
+/* The flat layout is copied to devices byte for byte: 4-byte fields only, no padding, the
+ * sizes trace_core.h states. The kernels check the same sizes against the host's on their
+ * side (cl_program.c passes them to the build, opencl/kernels/trace.cl compares). */
+#define VIS_CHECK_LAYOUT_(type, bytes)                                                                                 \
+    _Static_assert(sizeof(type) == (bytes) && _Alignof(type) == 4, #type " is laid out as the device expects")
+VIS_CHECK_LAYOUT_(vis_kd_node, 8);
+VIS_CHECK_LAYOUT_(vis_flat_leaf, 64);
+VIS_CHECK_LAYOUT_(vis_flat_quad, 24);
+VIS_CHECK_LAYOUT_(vis_flat_tri, 40);
+VIS_CHECK_LAYOUT_(vis_flat_object, 16);
+VIS_CHECK_LAYOUT_(vis_rope_node, 56);
+VIS_CHECK_LAYOUT_(vis_ray_setup, 96);
+#undef VIS_CHECK_LAYOUT_
+
+/* Host memory of a backend comes from the context's allocator (vis_context_desc.allocator, or
+ * libvis's malloc-based default); both functions are always set. Nothing in a backend calls
+ * malloc/free directly. */
+static inline void *vis_host_alloc(const vis_allocator *a, size_t size)
+{
+    return a->alloc(size ? size : 1u, 64u, a->user);
+}
+
+static inline void *vis_host_calloc(const vis_allocator *a, size_t count, size_t size)
+{
+    if (size && count > SIZE_MAX / size)
+        return NULL;
+    void *p = vis_host_alloc(a, count * size);
+    if (p)
+        memset(p, 0, count * size);
+    return p;
+}
+
+static inline void vis_host_free(const vis_allocator *a, void *ptr)
+{
+    if (ptr)
+        a->free(ptr, a->user);
+}
 
 /* The scene as flat arrays. Counts are the used extents of each array. */
 typedef struct vis_scene_view {
@@ -37,8 +98,11 @@ typedef struct vis_scene_view {
     uint32_t kd_depth;
 } vis_scene_view;
 
-/* What changed since the backend's last sync of this scene. When `full` is set (first sync,
- * or a pool was reallocated and grew) everything must be re-sent. Otherwise only:
+/* What changed since the backend's last sync of this scene. `full` is set for the backend's
+ * first sync of the scene (and for every sync of a copy held by a context other than the
+ * scene's own, libvis/src/scene_share.c): everything must be sent. Pools that grew on the
+ * host do not set it: the view's counts say how large each array is now, and the backend
+ * grows its copy itself (the OpenCL backend counts those reallocations). Otherwise only:
  *  - leaves[i]: the leaf header and its quad and triangle slots (bucketed, loose, tris);
  *  - objects[i]: those object slots;
  *  - object_leaves[object_leaf_lo, object_leaf_hi). */
@@ -57,17 +121,17 @@ typedef struct vis_backend_ops {
     void (*destroy)(void *impl);
     /* Brings the backend's copy of a scene up to date. *scene_data is NULL on the first call
      * for a scene and is kept by libvis between calls. */
-    int (*scene_sync)(void *impl, void **scene_data, const vis_scene_view *view,
+    vis_status (*scene_sync)(void *impl, void **scene_data, const vis_scene_view *view,
                       const vis_scene_changes *changes, char *err, size_t err_size);
     void (*scene_release)(void *impl, void *scene_data);
-    /* One pass: width*height IDs into ids; depth may be NULL. Returns a vis_status value. */
-    int (*trace)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+    /* One pass: width*height IDs into ids; depth may be NULL. */
+    vis_status (*trace)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                  uint32_t *ids, float *depth, char *err, size_t err_size);
     /* Bytes sent to the device by the last scene_sync (0 for host backends). */
     uint64_t (*last_upload_bytes)(void *impl, void *scene_data);
     /* Optional (NULL: libvis calls trace once per view). `count` views of one size, view i
      * with setups[i], its IDs at ids + i*width*height (depths likewise; depth may be NULL). */
-    int (*trace_batch)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
+    vis_status (*trace_batch)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
                        uint32_t count, uint32_t *ids, float *depth, char *err, size_t err_size);
     /* Optional (NULL: libvis times the trace call itself): device time of the ray pass(es)
      * of the last trace or trace_batch, in milliseconds. */
@@ -81,13 +145,22 @@ typedef struct vis_backend {
 
 typedef void (*vis_backend_log_fn)(int level, const char *message, void *user);
 
-/* CPU backend: `threads` workers (0 = cores, 1 = the calling thread only). Returns a
- * vis_status value. */
-int vis_cpu_backend_create(uint32_t threads, vis_backend *out, uint32_t *out_threads, char *err, size_t err_size);
+/* CPU backend: `threads` workers (0 = cores, 1 = the calling thread only). Its host memory
+ * comes from `alloc`, which must outlive the backend. */
+vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, vis_backend *out,
+                                  uint32_t *out_threads, char *err, size_t err_size);
+
+/* Runs the CPU backend's passes through the caller's job system instead of its pool (create
+ * it with threads = 1 so that the pool starts no thread). */
+void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn parallel_for, void *user);
 
 /* OpenCL backend (only when built with VIS_HAVE_OPENCL). selector: NULL, an index or a
- * name substring. Writes the device name. Returns a vis_status value. */
-int vis_opencl_backend_create(const char *selector, vis_backend *out, char *device_name, size_t name_size,
-                              int *is_gpu, vis_backend_log_fn log, void *log_user, char *err, size_t err_size);
+ * name substring. gpu_only (AUTO, nothing named): a GPU or nothing, without starting CPU-only
+ * implementations such as PoCL (backends/opencl/cl_loader.c). The ICD loader is opened at
+ * run time (no link dependency): UNSUPPORTED with the reason when it is missing. Writes the
+ * device name. Its host memory comes from `alloc`, which must outlive the backend. */
+vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const vis_allocator *alloc,
+                                     vis_backend *out, char *device_name, size_t name_size, int *is_gpu,
+                                     vis_backend_log_fn log, void *log_user, char *err, size_t err_size);
 
 #endif /* VIS_BACKEND_H */

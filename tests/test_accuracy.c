@@ -6,10 +6,16 @@
  * leaf IDs never miss more than object IDs at the same resolution, and the z-buffer culler
  * never misses an object the ray pass at its resolution sees. Last, one small `vis accuracy`
  * run of the built binary: the CSV's columns and rows, the JSON, and a missing gnuplot; and
- * `vis bench --method zbuf`, the culler's timing along the camera path.
+ * `vis bench --method zbuf`, the culler's timing along the camera path. And the report's
+ * safety: scene and directory names built to run gnuplot commands run none, and a failed
+ * gnuplot or CSV write leaves the files (or devices) that were there.
  */
 #define _POSIX_C_SOURCE 200809L
+#define _XOPEN_SOURCE 700 /* mknod and S_IFCHR, for the device-node outputs */
 
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -19,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -26,6 +33,7 @@
 
 #include "accuracy.h"
 #include "camera_path.h"
+#include "run_tool.h"
 #include "test_support.h"
 #include "vis/vis.h"
 #include "voxelworld/vw.h"
@@ -323,7 +331,7 @@ static size_t ray_list(city *c, world_scene *ws, const vis_camera *cam, uint32_t
     d.width = w;
     d.height = h;
     d.ids = mode;
-    assert_int_equal(vis_trace(c->ctx, world_scene_scene(ws), cam, &d, c->ids, NULL), VIS_OK);
+    assert_int_equal(vis_trace(c->ctx, world_scene_scene(ws), cam, &d, c->ids, (size_t)512 * 512, NULL, 0), VIS_OK);
     size_t n = 0;
     assert_int_equal(vis_drawlist_build(c->ctx, world_scene_scene(ws), c->ids, w, h, mode, out, c->cap, &n), VIS_OK);
     return n;
@@ -430,56 +438,12 @@ static void test_zbuf_conservative(void **state)
     city_close(&c);
 }
 
-/* ---- the binary ----------------------------------------------------------------------------- */
+/* ---- the binary (support/run_tool.h) ------------------------------------------------------- */
 
-typedef struct run_result {
-    int code;
-    char *out, *err;
-} run_result;
-
-static char *slurp(const char *path)
-{
-    size_t n = 0;
-    char *data = vt_read_file(path, &n);
-    char *s = malloc(n + 1);
-    assert_non_null(s);
-    if (data)
-        memcpy(s, data, n);
-    s[n] = '\0';
-    free(data);
-    return s;
-}
-
-static run_result run_vis(const char *env, const char *fmt, ...)
-{
-    char args[2048], cmd[4096], out_path[512], err_path[512];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(args, sizeof args, fmt, ap);
-    va_end(ap);
-    snprintf(out_path, sizeof out_path, "%s/stdout.txt", tmp_dir);
-    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-    snprintf(cmd, sizeof cmd, "%s '%s' %s >'%s' 2>'%s'", env ? env : "", VIS_EXE, args, out_path, err_path);
-    int status = system(cmd);
-    run_result r;
-    r.code = status != -1 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out_path);
-    r.err = slurp(err_path);
-    return r;
-}
-
-#define assert_exit(r, expected)                                                                  \
-    do {                                                                                          \
-        if ((r).code != (expected))                                                               \
-            print_message("exit %d (expected %d); stderr: %s\n", (r).code, (expected), (r).err);   \
-        assert_int_equal((r).code, (expected));                                                   \
-    } while (0)
-
-static void run_free(run_result *r)
-{
-    free(r->out);
-    free(r->err);
-}
+/* `ENV vis ARGS` through the shell; ENV may be NULL. */
+#define run_vis(env, ...) vt_run(VIS_EXE, tmp_dir, env, __VA_ARGS__)
+/* The binary in CWD with ARGS passed as they are, no shell in between. */
+#define run_vis_argv(cwd, args) vt_run_argv(VIS_EXE, tmp_dir, cwd, args)
 
 /* The index of `name` among the comma-separated fields of `header`, or -1. */
 static int column(const char *header, const char *name)
@@ -518,18 +482,18 @@ static void test_binary_run(void **state)
     char dir[512];
     snprintf(dir, sizeof dir, "%s/run1", tmp_dir);
     /* Ladder 64², 128² for both ray modes, the culler at 256x128: 5 rows. */
-    run_result r = run_vis(NULL,
+    vt_run_result r = run_vis(NULL,
                            "accuracy --scene %s --truth-res 192x108 --max-res 128 --frames 2 --repeat 1 "
                            "--backend cpu --threads 2 --out '%s'",
                            CITY, dir);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_non_null(strstr(r.out, "ray-object"));
     assert_non_null(strstr(r.out, "zbuf"));
-    run_free(&r);
+    vt_run_free(&r);
 
     char path[600];
     snprintf(path, sizeof path, "%s/accuracy.csv", dir);
-    char *csv = slurp(path);
+    char *csv = vt_slurp(path);
     static const char *const required[] = {"method",   "width",    "height",             "time_ms",
                                            "drawn",    "missed",   "missed_area",        "overdraw",
                                            "overdraw_triangles", "occluded_culled", NULL};
@@ -582,14 +546,14 @@ static void test_binary_run(void **state)
                 "accuracy --scene %s --truth-res 96x54 --supersample 2 --max-res 64 --frames 1 --repeat 1 "
                 "--backend cpu --out '%s' --json",
                 CITY, dir);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_int_equal(r.out[0], '{');
     assert_non_null(strstr(r.out, "\"command\": \"accuracy\""));
     assert_non_null(strstr(r.out, "\"supersample\": 2"));
     assert_non_null(strstr(r.out, "\"samples\": 20736")); /* 192 x 108 */
     assert_non_null(strstr(r.out, "\"png\": null"));
     assert_non_null(strstr(r.err, "gnuplot"));
-    run_free(&r);
+    vt_run_free(&r);
     snprintf(path, sizeof path, "%s/accuracy.csv", dir);
     assert_int_equal(stat(path, &sb), 0);
     snprintf(path, sizeof path, "%s/accuracy.png", dir);
@@ -597,22 +561,22 @@ static void test_binary_run(void **state)
 
     /* Bad arguments: exit 2. */
     r = run_vis(NULL, "accuracy --scene %s --truth-res 9000x100 --supersample 2", CITY);
-    assert_exit(r, 2);
-    run_free(&r);
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
     r = run_vis(NULL, "accuracy --scene %s --supersample 5", CITY);
-    assert_exit(r, 2);
-    run_free(&r);
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
     r = run_vis(NULL, "accuracy --scene %s --max-res 32", CITY);
-    assert_exit(r, 2);
-    run_free(&r);
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
 }
 
 /* `vis bench --method zbuf`: the culler along the camera path, at 512x512 and 256x128. */
 static void test_bench_zbuf(void **state)
 {
     (void)state;
-    run_result r = run_vis(NULL, "bench --method zbuf --scene %s --frames 2 --json", CITY);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis(NULL, "bench --method zbuf --scene %s --frames 2 --json", CITY);
+    vt_assert_exit(r, 0);
     assert_int_equal(r.out[0], '{');
     assert_non_null(strstr(r.out, "\"method\": \"zbuf\""));
     static const char *const keys[] = {"\"raster_ms\":", "\"test_ms\":", "\"triangles\":", "\"visible\":",
@@ -625,32 +589,114 @@ static void test_bench_zbuf(void **state)
     }
     assert_non_null(strstr(r.out, "\"width\": 256, \"height\": 128"));
     assert_non_null(strstr(r.out, "\"width\": 512, \"height\": 512"));
-    run_free(&r);
+    vt_run_free(&r);
     r = run_vis(NULL, "bench --method zbuf --scene %s --frames 1 --res 64x32", CITY);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_non_null(strstr(r.out, "64x32"));
     assert_null(strstr(r.out, "512x512"));
-    run_free(&r);
+    vt_run_free(&r);
     r = run_vis(NULL, "bench --method zbuf --compare embree --scene %s", CITY);
-    assert_exit(r, 2);
-    run_free(&r);
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
+}
+
+/* ---- hostile names and outputs the user named (docs/cli.md, "Output files") -------------- */
+
+/* The scene's name goes into the plot's title and the output directory's into gnuplot's
+ * command line: names that try every way out of a gnuplot string (newline, CR, quotes,
+ * backslash, backquotes, `;`, `!`, macros, control characters) must reach the picture as
+ * text. Any command that ran would leave a pwn file in the run's directory or in DIR. */
+static void test_hostile_names(void **state)
+{
+    (void)state;
+    if (system("command -v gnuplot >/dev/null 2>&1") != 0) {
+        print_message("gnuplot is not installed: the script is never run, nothing to test\n");
+        skip();
+    }
+    static const char scene[] = "k\nsystem \"touch pwn1\"\n!touch pwn2\n'`touch pwn3`;system('touch pwn4');"
+                                "$(touch pwn5)\\\r\\\n\"; system \"touch pwn6\" #\x01\x1b[31m@x.vox";
+    static const char out[] = "o\nsystem \"touch pwn7\"\n'`touch pwn8`;!touch pwn9\\\r\x02\"";
+    char cwd[512], path[1024];
+    snprintf(cwd, sizeof cwd, "%s/hostile", tmp_dir);
+    assert_int_equal(mkdir(cwd, 0777), 0);
+    vw_world *w = NULL;
+    vw_error e;
+    assert_int_equal(vw_world_from_spec(CITY, NULL, NULL, NULL, &w, &e), VW_OK);
+    snprintf(path, sizeof path, "%s/%s", cwd, scene);
+    assert_int_equal(vw_vox_save_file(w, path, &e), VW_OK);
+    vw_world_destroy(w);
+
+    const char *const args[] = {"accuracy", "--scene", scene, "--truth-res", "96x54", "--max-res", "64", "--frames",
+                                "1", "--repeat", "1", "--backend", "cpu", "--out", out, NULL};
+    vt_run_result r = run_vis_argv(cwd, args);
+    const char *const top[] = {scene, out, NULL};
+    vt_assert_dir_holds(cwd, top);
+    snprintf(path, sizeof path, "%s/%s", cwd, out);
+    const char *const written[] = {"accuracy.csv", "accuracy.gp", "accuracy.png", NULL};
+    vt_assert_dir_holds(path, written);
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    /* The name's control characters are not in the script (the title is shown as one line). */
+    snprintf(path, sizeof path, "%s/%s/accuracy.gp", cwd, out);
+    char *script = vt_slurp(path);
+    for (const char *p = script; *p; ++p)
+        assert_true((unsigned char)*p >= 0x20 || *p == '\n');
+    free(script);
+    snprintf(path, sizeof path, "%s/%s/accuracy.png", cwd, out);
+    struct stat sb;
+    assert_int_equal(stat(path, &sb), 0);
+    assert_true(sb.st_size > 1000);
+}
+
+/* When gnuplot fails, the accuracy.png that was there stays (it used to be removed before
+ * gnuplot ran), be it a picture or a device; a CSV that cannot be written is an error that
+ * leaves its device alone. */
+static void test_report_keeps_outputs(void **state)
+{
+    (void)state;
+    char dir[512], png[600], csv[600];
+    snprintf(dir, sizeof dir, "%s/keep", tmp_dir);
+    snprintf(png, sizeof png, "%s/accuracy.png", dir);
+    snprintf(csv, sizeof csv, "%s/accuracy.csv", dir);
+    assert_int_equal(mkdir(dir, 0777), 0);
+    FILE *f = fopen(png, "wb");
+    assert_non_null(f);
+    fputs("old picture", f);
+    assert_int_equal(fclose(f), 0);
+    const char *opts = "--truth-res 96x54 --max-res 64 --frames 1 --repeat 1 --backend cpu";
+    vt_run_result r = run_vis("VIS_GNUPLOT=false", "accuracy --scene %s %s --out '%s'", CITY, opts, dir);
+    vt_assert_exit(r, 1);
+    vt_run_free(&r);
+    char *now = vt_slurp(png);
+    assert_string_equal(now, "old picture");
+    free(now);
+    const char *const written[] = {"accuracy.csv", "accuracy.gp", "accuracy.png", NULL};
+    vt_assert_dir_holds(dir, written);
+
+    assert_int_equal(remove(png), 0);
+    if (!vt_make_full_device(png)) {
+        print_message("cannot make a device node (not root?): the device cases are not run\n");
+        skip();
+    }
+    r = run_vis("VIS_GNUPLOT=false", "accuracy --scene %s %s --out '%s'", CITY, opts, dir);
+    vt_assert_exit(r, 1);
+    vt_run_free(&r);
+    assert_true(vt_is_full_device(png));
+
+    assert_int_equal(remove(png), 0);
+    assert_int_equal(remove(csv), 0);
+    assert_true(vt_make_full_device(csv));
+    r = run_vis(NULL, "accuracy --scene %s %s --out '%s'", CITY, opts, dir);
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, csv));
+    assert_non_null(strstr(r.err, strerror(ENOSPC)));
+    vt_run_free(&r);
+    assert_true(vt_is_full_device(csv));
 }
 
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(tmp_dir, sizeof tmp_dir, "/tmp/vis_test_accuracy_XXXXXX");
-    if (!mkdtemp(tmp_dir))
-        return -1;
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmp_dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return vt_run_setup(state, tmp_dir, sizeof tmp_dir, "vis_test_accuracy", VIS_EXE);
 }
 
 int main(void)
@@ -666,6 +712,8 @@ int main(void)
         cmocka_unit_test(test_zbuf_conservative),
         cmocka_unit_test(test_binary_run),
         cmocka_unit_test(test_bench_zbuf),
+        cmocka_unit_test(test_hostile_names),
+        cmocka_unit_test(test_report_keeps_outputs),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, setup, vt_tmp_dir_teardown);
 }

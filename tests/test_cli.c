@@ -3,10 +3,14 @@
  * the built binary is run on small generated worlds and its JSON keys, dump sizes and
  * contents, draw lists and exit codes are checked; plus the world -> scene bridge
  * (tools/common/world_scene.c) in process: edits applied in place must give the same ID
- * buffer as a scene built from scratch.
+ * buffer as a scene built from scratch. Every output option: a failed write never destroys
+ * what was there (a device, an old file), a successful one replaces it, no temporary stays.
  */
 #define _POSIX_C_SOURCE 200809L
+#define _XOPEN_SOURCE 700 /* mknod and S_IFCHR, for the device-node outputs */
 
+#include <dirent.h>
+#include <errno.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -16,11 +20,14 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
 
+#include "run_tool.h"
 #include "test_support.h"
 #include "vis/vis.h"
 #include "voxelworld/vw.h"
@@ -32,62 +39,10 @@
 
 static char tmp_dir[256];
 
-/* ---- running the binary ------------------------------------------------------------- */
-
-typedef struct run_result {
-    int code;       /* exit code, or -1 if it did not exit normally */
-    char *out;      /* stdout (NUL-terminated, malloc'ed)          */
-    char *err;      /* stderr                                      */
-    char args[2048]; /* for messages                               */
-} run_result;
-
-/* Checks the exit code, showing the command and its stderr when it is not the expected one. */
-#define assert_exit(r, expected)                                                                  \
-    do {                                                                                          \
-        if ((r).code != (expected))                                                               \
-            print_message("vis %s -> exit %d (expected %d)\n  stderr: %s\n", (r).args, (r).code,  \
-                          (expected), (r).err);                                                   \
-        assert_int_equal((r).code, (expected));                                                   \
-    } while (0)
-
-static char *slurp(const char *path)
-{
-    size_t n = 0;
-    char *data = vt_read_file(path, &n);
-    char *s = malloc(n + 1);
-    assert_non_null(s);
-    if (data)
-        memcpy(s, data, n);
-    s[n] = '\0';
-    free(data);
-    return s;
-}
+/* ---- running the binary (support/run_tool.h) ------------------------------------------- */
 
 /* Runs `vis ARGS` (ARGS is shell text) with stdout and stderr captured to files. */
-static run_result run_vis(const char *fmt, ...)
-{
-    char args[2048], cmd[4096], out_path[512], err_path[512];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(args, sizeof args, fmt, ap);
-    va_end(ap);
-    snprintf(out_path, sizeof out_path, "%s/stdout.txt", tmp_dir);
-    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-    snprintf(cmd, sizeof cmd, "'%s' %s >'%s' 2>'%s'", VIS_EXE, args, out_path, err_path);
-    int status = system(cmd);
-    run_result r;
-    r.code = status != -1 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out_path);
-    r.err = slurp(err_path);
-    snprintf(r.args, sizeof r.args, "%s", args);
-    return r;
-}
-
-static void run_free(run_result *r)
-{
-    free(r->out);
-    free(r->err);
-}
+#define run_vis(...) vt_run(VIS_EXE, tmp_dir, NULL, __VA_ARGS__)
 
 static const char *tmp_path(const char *name)
 {
@@ -196,8 +151,8 @@ static uint32_t le32(const unsigned char *p)
 static void test_cull_json(void **state)
 {
     (void)state;
-    run_result r = run_vis("cull --scene %s --res 96x64 --backend cpu --threads 2 --json", SMALL);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("cull --scene %s --res 96x64 --backend cpu --threads 2 --json", SMALL);
+    vt_assert_exit(r, 0);
     assert_one_object(r.out);
     static const char *const keys[] = {"backend", "width", "height", "ids", "objects", "visible", "time_ms",
                                        "mrays_per_s", "traversal", "threads", "scene", "camera", "device", NULL};
@@ -217,20 +172,20 @@ static void test_cull_json(void **state)
     assert_true(visible > 0 && visible <= objects); /* the default view looks at the world */
     assert_true(json_num(r.out, "time_ms") > 0.0);
     assert_true(json_num(r.out, "mrays_per_s") > 0.0);
-    run_free(&r);
+    vt_run_free(&r);
 
     /* --repeat N: the median of N passes. */
     r = run_vis("cull --scene %s --res 32x32 --repeat 3 --json", SMALL);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_int_equal((int)json_num(r.out, "repeat"), 3);
-    run_free(&r);
+    vt_run_free(&r);
 
     /* Without --json: a human summary, not JSON. */
     r = run_vis("cull --scene %s --res 32x32", SMALL);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_true(r.out[0] != '{');
     assert_non_null(strstr(r.out, "visible"));
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 /* The dumps agree with each other and with the JSON: sizes, IDs vs depth, the draw list. */
@@ -239,10 +194,10 @@ static void test_cull_dumps(void **state)
     (void)state;
     const uint32_t w = 80, h = 60;
     const char *ids_path = tmp_path("ids.bin"), *depth_path = tmp_path("depth.bin"), *list_path = tmp_path("list.txt");
-    run_result r = run_vis("cull --scene %s --res %ux%u --camera 32,40,-30,32,8,32,70 --dump-ids '%s' "
+    vt_run_result r = run_vis("cull --scene %s --res %ux%u --camera 32,40,-30,32,8,32,70 --dump-ids '%s' "
                            "--dump-depth '%s' --dump-list '%s' --json",
                            CITY, w, h, ids_path, depth_path, list_path);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     unsigned char *ids = read_exact(ids_path, (size_t)w * h * 4);
     unsigned char *depth = read_exact(depth_path, (size_t)w * h * 4);
     uint32_t objects = (uint32_t)json_num(r.out, "objects");
@@ -267,7 +222,7 @@ static void test_cull_dumps(void **state)
     assert_true(hit < (size_t)w * h); /* some sky in this view */
 
     /* The draw list: ascending IDs, each with its pixel count in the ID buffer. */
-    char *list = slurp(list_path);
+    char *list = vt_slurp(list_path);
     size_t lines = 0, listed_pixels = 0;
     uint32_t prev = 0;
     for (char *line = strtok(list, "\n"); line; line = strtok(NULL, "\n")) {
@@ -286,7 +241,7 @@ static void test_cull_dumps(void **state)
     free(count);
     free(ids);
     free(depth);
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 /* Traversal methods and thread counts must give identical ID buffers (DESIGN.md). */
@@ -300,8 +255,8 @@ static void test_cull_variants_agree(void **state)
     void *ref = NULL;
     for (size_t v = 0; v < sizeof variants / sizeof variants[0]; ++v) {
         const char *path = tmp_path("variant.bin");
-        run_result r = run_vis("cull --scene %s --res 40x30 %s %s --dump-ids '%s'", SMALL, cam, variants[v], path);
-        assert_exit(r, 0);
+        vt_run_result r = run_vis("cull --scene %s --res 40x30 %s %s --dump-ids '%s'", SMALL, cam, variants[v], path);
+        vt_assert_exit(r, 0);
         void *ids = read_exact(path, n);
         if (!ref)
             ref = ids;
@@ -309,17 +264,17 @@ static void test_cull_variants_agree(void **state)
             assert_memory_equal(ref, ids, n);
             free(ids);
         }
-        run_free(&r);
+        vt_run_free(&r);
     }
     free(ref);
 
     /* Leaf IDs: every ID is a kd-leaf (1..leaves of `vis info`). */
-    run_result info = run_vis("info --scene %s --json", SMALL);
-    assert_exit(info, 0);
+    vt_run_result info = run_vis("info --scene %s --json", SMALL);
+    vt_assert_exit(info, 0);
     uint32_t leaves = (uint32_t)json_num(info.out, "leaves");
     const char *path = tmp_path("leaf.bin");
-    run_result r = run_vis("cull --scene %s --res 40x30 %s --ids leaf --dump-ids '%s' --json", SMALL, cam, path);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("cull --scene %s --res 40x30 %s --ids leaf --dump-ids '%s' --json", SMALL, cam, path);
+    vt_assert_exit(r, 0);
     char mode[16];
     json_str(r.out, "ids", mode, sizeof mode);
     assert_string_equal(mode, "leaf");
@@ -327,17 +282,17 @@ static void test_cull_variants_agree(void **state)
     for (size_t i = 0; i < n / 4; ++i)
         assert_true(le32(ids + 4 * i) <= leaves);
     free(ids);
-    run_free(&r);
-    run_free(&info);
+    vt_run_free(&r);
+    vt_run_free(&info);
 }
 
 static void test_cull_png(void **state)
 {
     (void)state;
     const char *path = tmp_path("ids.png");
-    run_result r = run_vis("cull --scene %s --res 48x32 --png '%s'", SMALL, path);
+    vt_run_result r = run_vis("cull --scene %s --res 48x32 --png '%s'", SMALL, path);
 #ifdef VIS_HAVE_PNG
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     size_t n = 0;
     unsigned char *png = vt_read_file(path, &n);
     assert_non_null(png);
@@ -345,10 +300,10 @@ static void test_cull_png(void **state)
     assert_memory_equal(png, "\x89PNG\r\n\x1a\n", 8);
     free(png);
 #else
-    assert_exit(r, 2);
+    vt_assert_exit(r, 2);
     assert_non_null(strstr(r.err, "not available"));
 #endif
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 /* The z-buffer culler: a draw list with 0 pixels per entry; options that need an ID buffer
@@ -357,13 +312,13 @@ static void test_cull_zbuf(void **state)
 {
     (void)state;
     const char *list_path = tmp_path("zlist.txt"), *depth_path = tmp_path("zdepth.bin");
-    run_result r = run_vis("cull --scene %s --res 64x48 --method zbuf --dump-list '%s' --dump-depth '%s' --json",
+    vt_run_result r = run_vis("cull --scene %s --res 64x48 --method zbuf --dump-list '%s' --dump-depth '%s' --json",
                            SMALL, list_path, depth_path);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     static const char *const keys[] = {"backend", "width", "height", "objects", "visible", "time_ms", "mrays_per_s",
                                        NULL};
     assert_keys(r.out, keys);
-    char *list = slurp(list_path);
+    char *list = vt_slurp(list_path);
     size_t lines = 0;
     for (char *line = strtok(list, "\n"); line; line = strtok(NULL, "\n")) {
         unsigned id, pixels;
@@ -374,11 +329,11 @@ static void test_cull_zbuf(void **state)
     assert_int_equal(lines, (size_t)json_num(r.out, "visible"));
     free(list);
     free(read_exact(depth_path, 64 * 48 * 4));
-    run_free(&r);
+    vt_run_free(&r);
 
     r = run_vis("cull --scene %s --method zbuf --dump-ids '%s'", SMALL, tmp_path("x.bin"));
-    assert_exit(r, 2);
-    run_free(&r);
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
 }
 
 /* Bad arguments: exit code 2 and a message on stderr that names the problem. */
@@ -424,13 +379,13 @@ static void test_bad_arguments(void **state)
         {"bench --frames 0", "--frames"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
-        run_result r = run_vis("%s", cases[i].args);
+        vt_run_result r = run_vis("%s", cases[i].args);
         if (r.code != 2 || !strstr(r.err, cases[i].names))
             print_message("case 'vis %s': exit %d, stderr '%s'\n", cases[i].args, r.code, r.err);
-        assert_exit(r, 2);
+        vt_assert_exit(r, 2);
         assert_non_null(strstr(r.err, cases[i].names));
         assert_string_equal(r.out, ""); /* nothing on stdout for scripts to mistake */
-        run_free(&r);
+        vt_run_free(&r);
     }
 }
 
@@ -438,33 +393,33 @@ static void test_bad_arguments(void **state)
 static void test_runtime_errors(void **state)
 {
     (void)state;
-    run_result r = run_vis("cull --scene '%s/does-not-exist.vox'", tmp_dir);
-    assert_exit(r, 1);
+    vt_run_result r = run_vis("cull --scene '%s/does-not-exist.vox'", tmp_dir);
+    vt_assert_exit(r, 1);
     assert_non_null(strstr(r.err, "does-not-exist.vox"));
-    run_free(&r);
+    vt_run_free(&r);
     r = run_vis("cull --scene %s --res 8x8 --dump-ids '%s/no/such/dir/ids.bin'", SMALL, tmp_dir);
-    assert_exit(r, 1);
+    vt_assert_exit(r, 1);
     assert_non_null(strstr(r.err, "ids.bin"));
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 static void test_help(void **state)
 {
     (void)state;
-    run_result r = run_vis("--help");
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("--help");
+    vt_assert_exit(r, 0);
     static const char *const commands[] = {"cull", "run", "bench", "info", "export"};
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; ++i)
         assert_non_null(strstr(r.out, commands[i]));
-    run_free(&r);
+    vt_run_free(&r);
     r = run_vis("cull --help");
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     static const char *const flags[] = {"--scene", "--camera", "--res", "--method", "--ids", "--traversal",
                                         "--backend", "--threads", "--repeat", "--dump-ids", "--dump-depth",
                                         "--dump-list", "--png", "--json"};
     for (size_t i = 0; i < sizeof flags / sizeof flags[0]; ++i)
         assert_non_null(strstr(r.out, flags[i]));
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 /* ---- vis info / export ---------------------------------------------------------------- */
@@ -472,8 +427,8 @@ static void test_help(void **state)
 static void test_info(void **state)
 {
     (void)state;
-    run_result r = run_vis("info --scene %s --json", SMALL);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("info --scene %s --json", SMALL);
+    vt_assert_exit(r, 0);
     assert_one_object(r.out);
     static const char *const keys[] = {"bounds", "min", "max", "chunk_size", "chunks", "objects", "voxels",
                                        "quads", "triangles", "kd_depth", "leaves", "bytes", NULL};
@@ -487,20 +442,20 @@ static void test_info(void **state)
     assert_true(json_num(r.out, "quads") >= objects);
     assert_true(json_num(r.out, "leaves") >= 1);
     assert_true(json_num(r.out, "bytes") > 0);
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 static void test_export(void **state)
 {
     (void)state;
-    run_result info = run_vis("info --scene %s --json", SMALL);
-    assert_exit(info, 0);
+    vt_run_result info = run_vis("info --scene %s --json", SMALL);
+    vt_assert_exit(info, 0);
 
     /* OBJ: one `o ID` group per object, exactly the objects libvis traces. */
     const char *obj = tmp_path("world.obj");
-    run_result r = run_vis("export --scene %s --out '%s'", SMALL, obj);
-    assert_exit(r, 0);
-    char *text = slurp(obj);
+    vt_run_result r = run_vis("export --scene %s --out '%s'", SMALL, obj);
+    vt_assert_exit(r, 0);
+    char *text = vt_slurp(obj);
     size_t groups = 0, faces = 0;
     for (char *line = strtok(text, "\n"); line; line = strtok(NULL, "\n")) {
         groups += strncmp(line, "o ", 2) == 0;
@@ -509,18 +464,18 @@ static void test_export(void **state)
     assert_int_equal(groups, (size_t)json_num(info.out, "objects"));
     assert_int_equal(faces, (size_t)json_num(info.out, "quads"));
     free(text);
-    run_free(&r);
+    vt_run_free(&r);
 
     /* .vox: loading it back gives the same voxels. */
     const char *vox = tmp_path("world.vox");
     r = run_vis("export --scene %s --out '%s'", SMALL, vox);
-    assert_exit(r, 0);
-    run_free(&r);
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
     r = run_vis("info --scene '%s' --json", vox);
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_true(json_num(r.out, "voxels") == json_num(info.out, "voxels"));
-    run_free(&r);
-    run_free(&info);
+    vt_run_free(&r);
+    vt_run_free(&info);
 }
 
 /* Real files from the shared data: a MagicaVoxel scene is culled; a .vdb is described with
@@ -530,25 +485,27 @@ static void test_real_files(void **state)
     (void)state;
     const char *vox = vt_shared_file("vox/mmmm_scene_church1.vox");
     if (vox) {
-        run_result r = run_vis("cull --scene '%s' --res 64x64 --json", vox);
-        assert_exit(r, 0);
+        vt_run_result r = run_vis("cull --scene '%s' --res 64x64 --json", vox);
+        vt_assert_exit(r, 0);
         assert_true(json_num(r.out, "visible") > 0);
-        run_free(&r);
+        vt_run_free(&r);
     }
     const char *vdb = vt_shared_file("vdb/gaffer_sphere.vdb");
     if (!vdb)
-        return;
-    run_result r = run_vis("info --scene '%s' --json", vdb);
+        skip(); /* vt_shared_file printed why */
+    vt_run_result r = run_vis("info --scene '%s' --json", vdb);
 #ifdef VW_WITH_OPENVDB
-    assert_exit(r, 0);
+    vt_assert_exit(r, 0);
     assert_non_null(json_value(r.out, "grids"));
     assert_non_null(strstr(r.out, "ls_sphere"));
     assert_true(json_num(r.out, "voxels") > 0);
 #else
-    assert_exit(r, 1); /* the build cannot read .vdb: a library error, with a message */
+    vt_assert_exit(r, 1); /* the build cannot read .vdb: a library error, with a message */
     assert_true(r.err[0] != '\0');
 #endif
-    run_free(&r);
+    vt_run_free(&r);
+    if (!vox)
+        skip(); /* the .vox half did not run: vt_shared_file printed why */
 }
 
 /* ---- vis bench / run ------------------------------------------------------------------ */
@@ -556,8 +513,8 @@ static void test_real_files(void **state)
 static void test_bench_json(void **state)
 {
     (void)state;
-    run_result r = run_vis("bench --scene %s --res 48x48 --frames 2 --edits 40 --threads 1,2 --json", SMALL);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("bench --scene %s --res 48x48 --frames 2 --edits 40 --threads 1,2 --json", SMALL);
+    vt_assert_exit(r, 0);
     assert_one_object(r.out);
     static const char *const keys[] = {"views", "name", "time_ms", "mrays_per_s", "min_ms", "max_ms", "edit_ms",
                                        "edits", "p99_ms", "per_s", NULL};
@@ -565,7 +522,7 @@ static void test_bench_json(void **state)
     assert_non_null(strstr(r.out, "\"name\": \"overview\""));
     assert_non_null(strstr(r.out, "\"name\": \"walk-0\""));
     assert_true(json_num(r.out, "edit_ms") > 0.0);
-    run_free(&r);
+    vt_run_free(&r);
 
     /* The Embree comparison where the build has it; a clear refusal where it has not. */
     r = run_vis("bench --scene %s --res 32x32 --frames 1 --edits 5 --threads 2 --compare embree --json", SMALL);
@@ -574,10 +531,10 @@ static void test_bench_json(void **state)
                                             "diff_pixels_single", NULL};
         assert_keys(r.out, ekeys);
     } else {
-        assert_exit(r, 2);
+        vt_assert_exit(r, 2);
         assert_non_null(strstr(r.err, "not available"));
     }
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 static size_t count_str(const char *s, const char *what)
@@ -592,8 +549,8 @@ static size_t count_str(const char *s, const char *what)
 static void test_bench_traversal_all(void **state)
 {
     (void)state;
-    run_result r = run_vis("bench --scene %s --res 32x32 --traversal all --backend cpu --frames 1 --json", SMALL);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("bench --scene %s --res 32x32 --traversal all --backend cpu --frames 1 --json", SMALL);
+    vt_assert_exit(r, 0);
     assert_one_object(r.out);
     static const char *const keys[] = {"traversal_table", "rope_memory", "method", "mrays_per_s", "bytes", NULL};
     assert_keys(r.out, keys);
@@ -606,22 +563,22 @@ static void test_bench_traversal_all(void **state)
     assert_int_equal(count_str(ropes, "\"short_stack\""), 6);
     assert_int_equal(count_str(table, "\"backend\": \"cpu\""), 9);
     assert_non_null(strstr(table, "\"method\": \"ropes-shortstack:4\""));
-    run_free(&r);
+    vt_run_free(&r);
     /* only bench takes it */
     r = run_vis("cull --scene %s --res 32x32 --traversal all", SMALL);
-    assert_exit(r, 2);
-    run_free(&r);
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
 }
 
 static void test_run(void **state)
 {
     (void)state;
-    run_result r = run_vis("run --scene %s --res 32x32 --repeat 1 --threads 2", CITY);
-    assert_exit(r, 0);
+    vt_run_result r = run_vis("run --scene %s --res 32x32 --repeat 1 --threads 2", CITY);
+    vt_assert_exit(r, 0);
     static const char *const views[] = {"ground", "overview", "topdown", "walk-0", "walk-5", "Mrays/s"};
     for (size_t i = 0; i < sizeof views / sizeof views[0]; ++i)
         assert_non_null(strstr(r.out, views[i]));
-    run_free(&r);
+    vt_run_free(&r);
 }
 
 /* ---- the bridge, in process ----------------------------------------------------------- */
@@ -643,7 +600,7 @@ static void trace(vis_context *ctx, world_scene *ws, const vis_camera *cam, uint
     memset(&td, 0, sizeof td);
     td.width = 64;
     td.height = 48;
-    assert_int_equal(vis_trace(ctx, world_scene_scene(ws), cam, &td, ids, NULL), VIS_OK);
+    assert_int_equal(vis_trace(ctx, world_scene_scene(ws), cam, &td, ids, 64 * 48, NULL, 0), VIS_OK);
 }
 
 /* Random edits applied through world_scene_update (remesh + in-place leaf update), a chunk
@@ -730,28 +687,278 @@ static void test_bridge_quads(void **state)
     assert_true(out[1].plane == -4.0f && out[1].u0 == -8.0f && out[1].v1 == 1.0f);
 }
 
+/* ---- the load budget (--max-bytes, --max-voxels) -------------------------------------- */
+
+static void put32(FILE *f, uint32_t v)
+{
+    const uint8_t b[4] = {(uint8_t)v, (uint8_t)(v >> 8), (uint8_t)(v >> 16), (uint8_t)(v >> 24)};
+    assert_int_equal(fwrite(b, 1, 4, f), 4);
+}
+
+/* One .vox chunk with no children; `content` words, then `text` (a DICT's pairs) if any. */
+static void put_chunk(FILE *f, const char *id, const uint32_t *content, size_t n, const char *key, const char *value)
+{
+    size_t extra = key ? 4 + 4 + strlen(key) + 4 + strlen(value) : 0;
+    assert_int_equal(fwrite(id, 1, 4, f), 4);
+    put32(f, (uint32_t)(4 * n + extra));
+    put32(f, 0);
+    for (size_t i = 0; i < n; ++i)
+        put32(f, content[i]);
+    if (key) {
+        put32(f, 1);
+        put32(f, (uint32_t)strlen(key));
+        fputs(key, f);
+        put32(f, (uint32_t)strlen(value));
+        fputs(value, f);
+    }
+}
+
+/* The hostile file of test_vox.c, about 20 KB: a 256^3 model with one voxel in each of its 4,096
+ * chunks, instanced 32 x 32 times through a shared group, so that every instanced voxel
+ * needs a dense chunk of its own (16 GiB). */
+static void write_sparse_dag(const char *path)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite("VOX ", 1, 4, f), 4);
+    put32(f, 200);
+    assert_int_equal(fwrite("MAIN", 1, 4, f), 4);
+    put32(f, 0);
+    put32(f, 0); /* patched below */
+    const uint32_t size[3] = {256, 256, 256};
+    put_chunk(f, "SIZE", size, 3, NULL, NULL);
+    uint32_t *xyzi = malloc(4 * 4097);
+    assert_non_null(xyzi);
+    xyzi[0] = 4096;
+    for (uint32_t i = 0; i < 4096; ++i)
+        xyzi[1 + i] = (16 * (i % 16)) | (16 * (i / 16 % 16)) << 8 | (16 * (i / 256)) << 16 | 1u << 24;
+    put_chunk(f, "XYZI", xyzi, 4097, NULL, NULL);
+    free(xyzi);
+    /* nTRN: id, empty attributes, child, -1, layer -1, 1 frame: {_t: ...} */
+    uint32_t node[40];
+    const uint32_t root[] = {0, 0, 1, 0xFFFFFFFFu, 0xFFFFFFFFu, 1, 0};
+    put_chunk(f, "nTRN", root, 7, NULL, NULL);
+    for (int level = 0; level < 2; ++level) {
+        const uint32_t group = level ? 1000 : 1, first = level ? 1001 : 2, next = level ? 3000 : 1000;
+        node[0] = group, node[1] = 0, node[2] = 32;
+        for (uint32_t k = 0; k < 32; ++k)
+            node[3 + k] = first + k;
+        put_chunk(f, "nGRP", node, 35, NULL, NULL);
+        for (uint32_t k = 0; k < 32; ++k) {
+            char t[32];
+            snprintf(t, sizeof t, level ? "0 %u 0" : "%u 0 0", 256 * k);
+            const uint32_t trn[] = {first + k, 0, next, 0xFFFFFFFFu, 0xFFFFFFFFu, 1};
+            put_chunk(f, "nTRN", trn, 6, "_t", t);
+        }
+    }
+    const uint32_t shp[] = {3000, 0, 1, 0, 0};
+    put_chunk(f, "nSHP", shp, 5, NULL, NULL);
+    long end = ftell(f);
+    assert_int_equal(fseek(f, 16, SEEK_SET), 0);
+    put32(f, (uint32_t)(end - 20));
+    assert_int_equal(fclose(f), 0);
+}
+
+static double wall_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* `vis info` on the 20 KB file that asked for 16 GiB: refused from the arithmetic, within
+ * seconds, with the numbers. Outside sanitizer builds it runs with 4 GiB of address space,
+ * so that a regression fails here instead of taking the machine's memory. */
+static void test_budget_hostile_file(void **state)
+{
+    (void)state;
+    const char *path = tmp_path("dag.vox");
+    write_sparse_dag(path);
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    assert_true(st.st_size > 16000 && st.st_size < 24000);
+    /* run_vis, with `ulimit -v` in front (not under ASan, whose shadow needs the space). */
+    char cmd[2048];
+    const char *out = tmp_path("dag.out"), *err = tmp_path("dag.err");
+#ifdef VT_ASAN
+    const char *cap = "";
+#else
+    const char *cap = "ulimit -v 4194304 && ";
+#endif
+    snprintf(cmd, sizeof cmd, "%sexec '%s' info --scene '%s' >'%s' 2>'%s'", cap, VIS_EXE, path, out, err);
+    double t0 = wall_seconds();
+    int status = system(cmd);
+    double dt = wall_seconds() - t0;
+    vt_run_result r;
+    r.code = status != -1 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = vt_slurp(out);
+    r.err = vt_slurp(err);
+    snprintf(r.args, sizeof r.args, "info --scene '%s'", path);
+    print_message("vis %s: exit %d in %.2f s: %s", r.args, r.code, dt, r.err);
+    vt_assert_exit(r, 1);
+    assert_true(dt < 10.0);
+    assert_non_null(strstr(r.err, "over budget"));
+    assert_non_null(strstr(r.err, "4,194,304 dense chunks"));
+    assert_non_null(strstr(r.err, "2.0 GiB"));
+    vt_run_free(&r);
+}
+
+static void test_budget_options(void **state)
+{
+    (void)state;
+    static const char *const commands[] = {"cull", "run", "bench", "accuracy", "info", "export"};
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; ++i) {
+        vt_run_result r = run_vis("%s --help", commands[i]);
+        vt_assert_exit(r, 0);
+        assert_non_null(strstr(r.out, "--max-bytes"));
+        assert_non_null(strstr(r.out, "--max-voxels"));
+        vt_run_free(&r);
+    }
+    vt_run_result r = run_vis("info --scene %s --max-bytes 16K", SMALL);
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "over budget"));
+    assert_non_null(strstr(r.err, "16.0 KiB"));
+    vt_run_free(&r);
+    /* Within the budget the load succeeds (export needs no scene: only the load is tested). */
+    r = run_vis("export --scene %s --max-bytes 512M --out '%s'", SMALL, tmp_path("budget.vox"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    r = run_vis("export --scene %s --max-bytes=536870912 --max-voxels 2^20 --out '%s'", SMALL, tmp_path("budget.vox"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    r = run_vis("info --scene %s --max-voxels 1000", SMALL);
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "1,000"));
+    vt_run_free(&r);
+    r = run_vis("export --scene %s --max-voxels 1K --out '%s'", SMALL, tmp_path("budget.obj"));
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "over budget"));
+    vt_run_free(&r);
+    static const char *const bad[] = {"12Q", "-5", "", "1.5G", "2^64", "99999999999999999999", "4GG"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        r = run_vis("info --scene %s --max-bytes '%s'", SMALL, bad[i]);
+        vt_assert_exit(r, 2);
+        assert_non_null(strstr(r.err, "--max-bytes"));
+        vt_run_free(&r);
+    }
+}
+
+/* ---- outputs the user named are never destroyed (docs/cli.md, "Output files") ---------- */
+
+#ifdef VIS_HAVE_PNG
+#define HAVE_PNG 1
+#else
+#define HAVE_PNG 0
+#endif
+
+static void put_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fputs(text, f) >= 0, 1);
+    assert_int_equal(fclose(f), 0);
+}
+
+/* What each output test writes; the PNG first, left out in builds without libpng. */
+static const char *const output_names[] = {"ids.png", "ids.bin", "depth.bin", "list.txt", "world.obj", "world.vox",
+                                           NULL};
+
+/* The vis arguments that write output_names[i] to PATH. */
+static void output_args(size_t i, const char *path, char *args, size_t size)
+{
+    static const char *const opt[] = {"--png", "--dump-ids", "--dump-depth", "--dump-list"};
+    if (i < 4)
+        snprintf(args, size, "cull --scene %s --res 48x32 %s '%s'", SMALL, opt[i], path);
+    else
+        snprintf(args, size, "export --scene %s --out '%s'", SMALL, path);
+}
+
+/* Every output option aimed at a full device: exit 1 with the reason, and the device node is
+ * still there (libpng's file writer used to remove() it: `--png /dev/full` as root deleted
+ * /dev/full). */
+static void test_output_to_device(void **state)
+{
+    (void)state;
+    const char *dir = tmp_path("dev");
+    assert_int_equal(mkdir(dir, 0777), 0);
+    for (size_t i = 0; output_names[i]; ++i) {
+        if (i == 0 && !HAVE_PNG)
+            continue;
+        char path[600], args[1024];
+        snprintf(path, sizeof path, "%s/%s", dir, output_names[i]);
+        if (!vt_make_full_device(path))
+            skip(); /* not root (no CAP_MKNOD): cannot make a device node to write to */
+        output_args(i, path, args, sizeof args);
+        vt_run_result r = run_vis("%s", args);
+        vt_assert_exit(r, 1);
+        if (!strstr(r.err, path) || !strstr(r.err, strerror(ENOSPC)))
+            print_message("stderr does not name %s and \"%s\": %s\n", path, strerror(ENOSPC), r.err);
+        assert_non_null(strstr(r.err, path));
+        assert_non_null(strstr(r.err, strerror(ENOSPC)));
+        vt_run_free(&r);
+        assert_true(vt_is_full_device(path));
+    }
+}
+
+/* A write that fails half-way leaves the file that was there untouched, a successful one
+ * replaces it, and neither leaves a temporary file behind. The failure is real for root too:
+ * `ulimit -f 0` makes every write to a regular file fail (EFBIG). */
+static void test_output_failure_keeps_file(void **state)
+{
+    (void)state;
+    const char *dir = tmp_path("keep");
+    assert_int_equal(mkdir(dir, 0777), 0);
+    static const char old[] = "old contents\n";
+    for (size_t i = 0; output_names[i]; ++i) {
+        if (i == 0 && !HAVE_PNG)
+            continue;
+        char path[600], args[1024], cmd[2048];
+        snprintf(path, sizeof path, "%s/%s", dir, output_names[i]);
+        put_file(path, old);
+        output_args(i, path, args, sizeof args);
+        /* Failing: stdout and stderr go to /dev/null, which the file size limit spares. */
+        snprintf(cmd, sizeof cmd, "ulimit -f 0 && trap '' XFSZ && exec '%s' %s >/dev/null 2>&1", VIS_EXE, args);
+        int status = system(cmd);
+        if (!(WIFEXITED(status) && WEXITSTATUS(status) == 1))
+            print_message("vis %s under ulimit -f 0: status %d (expected exit 1)\n", args, status);
+        assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 1);
+        char *now = vt_slurp(path);
+        if (strcmp(now, old) != 0)
+            print_message("%s was changed by the failed write\n", path);
+        assert_string_equal(now, old);
+        free(now);
+        /* Succeeding: the new contents replace the old. */
+        vt_run_result r = run_vis("%s", args);
+        vt_assert_exit(r, 0);
+        vt_run_free(&r);
+        size_t n = 0;
+        unsigned char *data = vt_read_file(path, &n);
+        assert_non_null(data);
+        static const char *const magic[] = {"\x89PNG", NULL, NULL, NULL, "# voxelworld", "VOX "};
+        if (magic[i])
+            assert_memory_equal(data, magic[i], strlen(magic[i]));
+        else
+            assert_true(n != sizeof old - 1 || memcmp(data, old, n) != 0);
+        if (i == 1 || i == 2)
+            assert_int_equal(n, 48 * 32 * 4);
+        free(data);
+    }
+    vt_assert_dir_holds(dir, output_names + !HAVE_PNG);
+    /* A target that is a directory: refused, and still a directory. */
+    vt_run_result r = run_vis("cull --scene %s --res 8x8 --dump-ids '%s'", SMALL, dir);
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, dir));
+    vt_run_free(&r);
+    struct stat st;
+    assert_int_equal(stat(dir, &st), 0);
+    assert_true(S_ISDIR(st.st_mode));
+}
+
 /* ---- fixture -------------------------------------------------------------------------- */
 
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(tmp_dir, sizeof tmp_dir, "/tmp/vis_test_cli_XXXXXX");
-    if (!mkdtemp(tmp_dir))
-        return -1;
-    struct stat st;
-    if (stat(VIS_EXE, &st) != 0) {
-        printf("the vis binary is missing: %s\n", VIS_EXE);
-        return -1;
-    }
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmp_dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return vt_run_setup(state, tmp_dir, sizeof tmp_dir, "vis_test_cli", VIS_EXE);
 }
 
 int main(void)
@@ -773,6 +980,10 @@ int main(void)
         cmocka_unit_test(test_run),
         cmocka_unit_test(test_bridge_quads),
         cmocka_unit_test(test_bridge_edits),
+        cmocka_unit_test(test_budget_hostile_file),
+        cmocka_unit_test(test_budget_options),
+        cmocka_unit_test(test_output_to_device),
+        cmocka_unit_test(test_output_failure_keeps_file),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, setup, vt_tmp_dir_teardown);
 }

@@ -493,6 +493,85 @@ static void test_timings(void **state)
     vw_world_destroy(w);
 }
 
+/* ---- the budget (vw_budget) ----------------------------------------------------------- */
+
+static vw_status from_spec_budget(const char *spec, uint64_t max_bytes, uint64_t max_voxels, vw_world **w,
+                                  vw_error *err, double *seconds)
+{
+    vw_budget b = {max_bytes, max_voxels};
+    err->message[0] = '\0';
+    *w = (vw_world *)w;
+    double t0 = now();
+    vw_status st = vw_world_from_spec(spec, &b, NULL, NULL, w, err);
+    *seconds = now() - t0;
+    return st;
+}
+
+/* A maze of 16384 x 16 x 16384 voxels (4.3e9, four times the default max_voxels) took 6.9 GB
+ * before failing; it is refused from its size, at once. */
+static void test_budget_maze(void **state)
+{
+    (void)state;
+    vw_world *w;
+    vw_error err;
+    double dt;
+    const char *spec = "gen:maze:size=16384x16x16384";
+    assert_int_equal(from_spec_budget(spec, 0, 0, &w, &err, &dt), VW_ERROR_BUDGET);
+    assert_null(w);
+    printf("%s refused in %.3f s: %s\n", spec, dt, err.message);
+    assert_true(dt < 1.0);
+    assert_non_null(strstr(err.message, "4,294,967,296 voxels"));
+    assert_non_null(strstr(err.message, "1,073,741,824"));
+    /* Through vw_world_from_spec's NULL budget too. */
+    err.message[0] = '\0';
+    w = (vw_world *)&w;
+    assert_int_equal(vw_world_from_spec(spec, NULL, NULL, NULL, &w, &err), VW_ERROR_BUDGET);
+    assert_null(w);
+    /* Under a raised max_voxels, the memory limit still refuses it before anything is made:
+     * its cells' scratch alone (vwg_maze_scratch_bytes) is over 256 MiB. */
+    assert_int_equal(from_spec_budget(spec, 256ull << 20, (uint64_t)1 << 33, &w, &err, &dt), VW_ERROR_BUDGET);
+    assert_null(w);
+    printf("%s with 256 MiB and 2^33 voxels refused in %.3f s: %s\n", spec, dt, err.message);
+    assert_non_null(strstr(err.message, "256.0 MiB"));
+}
+
+/* gen:default loads under the default budget and reports it; small budgets refuse it, by
+ * its voxels before anything is made, or by its memory during generation. */
+static void test_budget_default_world(void **state)
+{
+    (void)state;
+    vw_world *w;
+    vw_error err;
+    double dt;
+    assert_int_equal(from_spec_budget("gen:default", 0, 0, &w, &err, &dt), VW_OK);
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.max_bytes, VW_DEFAULT_MAX_BYTES);
+    assert_true(info.bytes <= info.max_bytes);
+    const uint64_t bytes = info.bytes;
+    printf("gen:default: %.1f MiB\n", bytes / 1048576.0);
+    vw_world_destroy(w);
+
+    assert_int_equal(from_spec_budget("gen:default", 0, 1000000, &w, &err, &dt), VW_ERROR_BUDGET);
+    assert_null(w);
+    assert_non_null(strstr(err.message, "33,554,432 voxels"));
+    assert_non_null(strstr(err.message, "1,000,000"));
+
+    assert_int_equal(from_spec_budget("gen:default", 1 << 20, 0, &w, &err, &dt), VW_ERROR_BUDGET);
+    assert_null(w);
+    assert_non_null(strstr(err.message, "1.0 MiB"));
+    printf("gen:default, 1 MiB: %s\n", err.message);
+    /* Half of what the world ends up holding cannot be enough. */
+    assert_int_equal(from_spec_budget("gen:default", bytes / 2, 0, &w, &err, &dt), VW_ERROR_BUDGET);
+    assert_null(w);
+    /* The table alone over the limit: refused before the world is made. */
+    assert_int_equal(from_spec_budget("gen:terrain:size=16384x16x16384", 4 << 20, (uint64_t)1 << 33, &w, &err,
+                                      &dt), VW_ERROR_BUDGET);
+    assert_null(w);
+    assert_true(dt < 1.0);
+    assert_non_null(strstr(err.message, "1,048,576 chunks"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -504,6 +583,8 @@ int main(void)
         cmocka_unit_test(test_spec_errors),
         cmocka_unit_test(test_progress),
         cmocka_unit_test(test_timings),
+        cmocka_unit_test(test_budget_maze),
+        cmocka_unit_test(test_budget_default_world),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

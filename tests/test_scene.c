@@ -7,6 +7,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,27 +15,17 @@
 
 #include "kdtree.h"
 #include "scene.h"
+#include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
 #include "voxelworld/vw.h"
 #include "world_scene.h"
 
-static vis_context *make_ctx(void)
-{
-    vis_context_desc cd;
-    vis_context_desc_defaults(&cd);
-    cd.backend = VIS_BACKEND_CPU;
-    cd.threads = 2;
-    vis_context *ctx = NULL;
-    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
-    return ctx;
-}
-
 /* Leaves tile the bounds exactly, and every cell-aligned box lands in exactly one leaf. */
 static void test_tree_shape(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx();
+    vis_context *ctx = make_cpu_ctx(2);
     vis_scene_desc d;
     vis_scene_desc_defaults(&d);
     d.size[0] = 80, d.size[1] = 48, d.size[2] = 128; /* 5 x 3 x 8 cells: not powers of two */
@@ -77,7 +68,7 @@ static void test_tree_shape(void **state)
 static void test_object_lifecycle(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx();
+    vis_context *ctx = make_cpu_ctx(2);
     vis_scene_desc d;
     vis_scene_desc_defaults(&d);
     d.size[0] = d.size[1] = d.size[2] = 256;
@@ -174,14 +165,15 @@ static void trace_all(vis_context *ctx, vis_scene *s, const views *v, vis_id_mod
     td.height = 64;
     td.ids = mode;
     for (int i = 0; i < v->n; ++i)
-        if (vis_trace(ctx, s, &v->cams[i], &td, ids + (size_t)i * 96 * 64, depth + (size_t)i * 96 * 64) != VIS_OK)
+        if (vis_trace(ctx, s, &v->cams[i], &td, ids + (size_t)i * 96 * 64, 96 * 64, depth + (size_t)i * 96 * 64,
+                      96 * 64) != VIS_OK)
             fail_msg("trace: %s", vis_context_last_error(ctx));
 }
 
 static void test_edits_equal_fresh_build(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx();
+    vis_context *ctx = make_cpu_ctx(2);
     vw_world *w = NULL;
     vw_error err;
     if (vw_world_from_spec("gen:terrain:size=128x64x128:seed=3", NULL, NULL, NULL, &w, &err) != VW_OK)
@@ -227,7 +219,9 @@ static void test_edits_equal_fresh_build(void **state)
     }
     vis_scene_info info;
     vis_scene_get_info(world_scene_scene(ws), &info);
-    assert_true(info.relocations > 0); /* the leaf-outgrew-its-slot path ran */
+    vis_scene_stats stats;
+    assert_int_equal(vis_scene_get_stats(world_scene_scene(ws), &stats), VIS_OK);
+    assert_true(stats.relocations > 0); /* the leaf-outgrew-its-slot path ran */
 
     world_scene *fresh = NULL;
     if (world_scene_create(ctx, w, &opt, &fresh, NULL, &err) != 0)
@@ -274,6 +268,52 @@ static void count_free(void *p, void *user)
     free(p);
 }
 
+/* vis_scene_get_stats: the pools' slots against what the leaves hold, counted here from
+ * the leaves' object lists (an object counts once in every leaf it overlaps). */
+static void test_scene_stats(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    d.size[0] = d.size[1] = d.size[2] = 64;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene_stats st;
+    assert_int_equal(vis_scene_get_stats(NULL, &st), VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_scene_get_stats(s, NULL), VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_scene_get_stats(s, &st), VIS_OK);
+    assert_int_equal(st.quads_in_leaves, 0);
+    assert_int_equal(st.tris_in_leaves, 0);
+    assert_int_equal(st.relocations, 0);
+    assert_true(st.rope_bytes > 0);
+    vis_quad floor_q = {1, 0, 8, 0, 0, 64, 64};           /* object 1: one quad over every column */
+    vis_quad two[2] = {{0, 0, 3, 1, 1, 2, 2}, {2, 0, 5, 1, 1, 2, 2}}; /* object 2: one cell */
+    vis_triangle tri = {{{1, 1, 1}, {40, 2, 1}, {1, 40, 2}}, 0};     /* object 3 */
+    vis_mesh m1 = {&floor_q, 1, NULL, 0}, m2 = {two, 2, NULL, 0}, m3 = {NULL, 0, &tri, 1};
+    assert_int_equal(vis_scene_set_object(s, 1, &m1), VIS_OK);
+    assert_int_equal(vis_scene_set_object(s, 2, &m2), VIS_OK);
+    assert_int_equal(vis_scene_set_object(s, 3, &m3), VIS_OK);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    uint64_t refs[4] = {0, 0, 0, 0};
+    for (uint32_t leaf = 1; leaf <= info.leaves; ++leaf) {
+        uint32_t ids[4], n = 0;
+        assert_int_equal(vis_scene_leaf_objects(s, leaf, ids, 4, &n), VIS_OK);
+        for (uint32_t i = 0; i < n; ++i)
+            ++refs[ids[i]];
+    }
+    assert_true(refs[1] > 1 && refs[2] == 1 && refs[3] > 1);
+    assert_int_equal(vis_scene_get_stats(s, &st), VIS_OK);
+    assert_int_equal(st.quads_in_leaves, refs[1] + 2 * refs[2]);
+    assert_int_equal(st.tris_in_leaves, refs[3]);
+    assert_true(st.quad_slots >= st.quads_in_leaves);
+    assert_true(st.tri_slots >= st.tris_in_leaves);
+    assert_true(st.rope_bytes_used[0] > 0 && st.rope_bytes_used[0] <= st.rope_bytes);
+    vis_scene_destroy(s);
+    vis_context_destroy(ctx);
+}
+
 static void test_no_allocation_per_frame(void **state)
 {
     (void)state;
@@ -303,12 +343,12 @@ static void test_no_allocation_per_frame(void **state)
     vis_trace_desc td;
     vis_trace_desc_defaults(&td);
     td.width = td.height = 64;
-    assert_int_equal(vis_trace(ctx, s, &cam, &td, ids, depth), VIS_OK); /* warm-up */
+    assert_int_equal(vis_trace(ctx, s, &cam, &td, ids, 64 * 64, depth, 64 * 64), VIS_OK); /* warm-up */
     assert_int_equal(vis_drawlist_build(ctx, s, ids, 64, 64, VIS_IDS_OBJECT, list, 4, &count), VIS_OK);
     size_t before = c.allocs;
     for (int i = 0; i < 10; ++i) {
         cam.eye[0] += 0.5;
-        assert_int_equal(vis_trace(ctx, s, &cam, &td, ids, depth), VIS_OK);
+        assert_int_equal(vis_trace(ctx, s, &cam, &td, ids, 64 * 64, depth, 64 * 64), VIS_OK);
         assert_int_equal(vis_drawlist_build(ctx, s, ids, 64, 64, VIS_IDS_OBJECT, list, 4, &count), VIS_OK);
     }
     assert_int_equal(c.allocs, before);
@@ -320,6 +360,311 @@ static void test_no_allocation_per_frame(void **state)
     assert_int_equal(c.allocs, c.frees);
 }
 
+/* ---- size limits ------------------------------------------------------------------------ */
+
+static vis_scene_desc sized(float x, float y, float z)
+{
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    d.size[0] = x, d.size[1] = y, d.size[2] = z;
+    return d;
+}
+
+/* Refused with VIS_ERROR_BUDGET, nothing created, the message naming the number and the
+ * limit. */
+static void expect_budget(vis_context *ctx, const vis_scene_desc *d, const char *number, const char *limit)
+{
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, d, &s), VIS_ERROR_BUDGET);
+    assert_null(s);
+    const char *msg = vis_context_last_error(ctx);
+    if (!strstr(msg, number) || !strstr(msg, limit))
+        fail_msg("message '%s' does not name %s and the limit %s", msg, number, limit);
+}
+
+/* Trees too big to build are refused from their size alone. Walking these trees node by node
+ * takes minutes (1e6 x 256 x 1e6 voxels in chunks of 16 has 1.25e11 nodes), so a check that
+ * walks shows up here as a time-out. */
+static void test_huge_scenes_refused(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    vis_scene_desc d = sized(1e6f, 256, 1e6f);             /* 62500 x 16 x 62500 cells */
+    expect_budget(ctx, &d, "124999999999 nodes", "67108864");
+    d = sized(65536, 256, 65536);                         /* 4096 x 16 x 4096 cells   */
+    expect_budget(ctx, &d, "536870911 nodes", "67108864");
+    /* Cells that would not fit the tree's 32-bit cell arithmetic. */
+    d = sized(16777216, 16, 16);
+    d.cell_size = 1e-6f;
+    d.kd_depth = 4;
+    expect_budget(ctx, &d, "cells", "1073741824");
+    /* Fewer nodes than the limit, but the empty tree alone holds about 4 GB, over the
+     * default max_bytes. */
+    d = sized(16384, 256, 16384);
+    expect_budget(ctx, &d, "bytes", "2147483648");
+    /* The depth is a parameter with a range of its own. */
+    d = sized(64, 64, 64);
+    d.kd_depth = 49;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_ERROR_INVALID_ARGUMENT);
+    assert_non_null(strstr(vis_context_last_error(ctx), "49"));
+    /* The same huge bounds with a shallow fixed depth are cheap, and accepted. */
+    d = sized(1e6f, 256, 1e6f);
+    d.kd_depth = 12;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_int_equal(info.nodes, 8191);
+    assert_int_equal(info.leaves, 4096);
+    vis_scene_destroy(s);
+    vis_context_destroy(ctx);
+}
+
+/* max_bytes: the default (2 GiB) takes gen:large's bounds; a smaller limit refuses them. */
+static void test_scene_max_bytes(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    vis_scene_desc d = sized(2560, 160, 2560); /* gen:large: 160 x 10 x 160 chunks of 16 */
+    assert_true(d.max_bytes == VIS_DEFAULT_SCENE_MAX_BYTES);
+    assert_true(VIS_DEFAULT_SCENE_MAX_BYTES == (uint64_t)2 << 30);
+    d.max_bytes = 0; /* zero means the default */
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_true(info.max_bytes == VIS_DEFAULT_SCENE_MAX_BYTES);
+    assert_int_equal(info.leaves, 160 * 10 * 160);
+    vis_scene_destroy(s);
+    char limit[32];
+    d.max_bytes = info.bytes - 1;
+    snprintf(limit, sizeof limit, "%llu", (unsigned long long)d.max_bytes);
+    expect_budget(ctx, &d, "bytes", limit);
+    d.max_bytes = info.bytes + info.bytes / 100;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene_destroy(s);
+    vis_context_destroy(ctx);
+}
+
+/* The plan (arithmetic on the desc) gives the built tree's nodes, leaves and ropes, and the
+ * bytes vis_scene_get_info reports for the empty scene, for sizes that are not powers of two,
+ * cells of other sizes and fixed depths that stop above single cells. */
+static void test_plan_matches_build(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    static const float sizes[][3] = {{16, 16, 16},   {17, 16, 16},    {80, 48, 128},  {16, 200, 16},
+                                     {1000, 30, 7},  {2560, 160, 2560}, {333, 1, 999}, {64, 64, 64}};
+    static const float cells[] = {16.0f, 1.0f, 3.5f};
+    static const uint32_t depths[] = {0, 1, 3, 7, 20};
+    int built = 0;
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; ++i)
+        for (size_t c = 0; c < sizeof cells / sizeof cells[0]; ++c)
+            for (size_t k = 0; k < sizeof depths / sizeof depths[0]; ++k) {
+                vis_scene_desc d = sized(sizes[i][0], sizes[i][1], sizes[i][2]);
+                d.cell_size = cells[c];
+                d.kd_depth = depths[k];
+                vis_kdtree_plan plan;
+                assert_int_equal(vis_kdtree_plan_make(ctx, &d, &plan), VIS_OK);
+                if (plan.nodes > 600000)
+                    continue; /* keep the test quick */
+                vis_scene *s = NULL;
+                assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+                vis_scene_info info;
+                assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+                if (plan.nodes != s->node_count || plan.leaves != s->leaf_count || plan.ropes != s->rope_count ||
+                    plan.kd_depth != s->kd_depth)
+                    fail_msg("%gx%gx%g cell %g depth %u: plan %llu nodes %llu leaves %llu ropes depth %u, built %u %u "
+                             "%u depth %u",
+                             (double)sizes[i][0], (double)sizes[i][1], (double)sizes[i][2], (double)cells[c], depths[k],
+                             (unsigned long long)plan.nodes, (unsigned long long)plan.leaves,
+                             (unsigned long long)plan.ropes, plan.kd_depth, s->node_count, s->leaf_count,
+                             s->rope_count, s->kd_depth);
+                assert_true(plan.bytes >= info.bytes); /* the estimate never falls short ... */
+                assert_true(plan.bytes == info.bytes); /* ... and is the figure itself */
+                vis_scene_destroy(s);
+                ++built;
+            }
+    assert_true(built > 50);
+    /* Counts past 64 bits saturate instead of wrapping. */
+    vis_scene_desc d = sized(16777216, 16777216, 16777216);
+    d.cell_size = 1.0f / 32.0f; /* 2^29 cells per axis: 2^88 leaves */
+    vis_kdtree_plan plan;
+    assert_int_equal(vis_kdtree_plan_make(ctx, &d, &plan), VIS_OK);
+    assert_true(plan.leaves == UINT64_MAX && plan.nodes == UINT64_MAX && plan.bytes == UINT64_MAX);
+    vis_context_destroy(ctx);
+}
+
+/* A mesh of n quads on y planes inside the chunk (cx, 0, cz), or across the whole 64^3 scene
+ * when cx < 0. */
+static vis_quad *quads_in(uint32_t n, int cx, int cz, uint64_t *rng)
+{
+    vis_quad *q = malloc((n ? n : 1) * sizeof *q);
+    assert_non_null(q);
+    for (uint32_t i = 0; i < n; ++i) {
+        float x0 = cx < 0 ? 0.0f : (float)cx * 16.0f, z0 = cx < 0 ? 0.0f : (float)cz * 16.0f;
+        float ext = cx < 0 ? 64.0f : 16.0f;
+        float a = (float)(vt_rand_unit(rng) * ext * 0.5), b = (float)(vt_rand_unit(rng) * ext * 0.5);
+        q[i].axis = 1;
+        q[i].flags = 0;
+        q[i].plane = (float)(int)(vt_rand_unit(rng) * 15.0) + (i % 3 ? 0.5f : 0.0f); /* bucketed and loose */
+        q[i].u0 = z0 + b, q[i].u1 = z0 + b + ext * 0.5f; /* u = z */
+        q[i].v0 = x0 + a, q[i].v1 = x0 + a + ext * 0.5f; /* v = x */
+    }
+    return q;
+}
+
+/* What a refused edit must leave as it was. */
+typedef struct scene_state {
+    vis_scene_info info;
+    vis_scene_stats stats;
+} scene_state;
+
+static void snapshot(vis_scene *s, scene_state *state, uint32_t *ids)
+{
+    assert_int_equal(vis_scene_get_info(s, &state->info), VIS_OK);
+    assert_int_equal(vis_scene_get_stats(s, &state->stats), VIS_OK);
+    vis_camera cam = {{70, 40, 70}, {0, 0, 0}, 70, 0, 0};
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = 32;
+    assert_int_equal(vis_trace(s->ctx, s, &cam, &td, ids, 32 * 32, NULL, 0), VIS_OK);
+}
+
+static void assert_same(const scene_state *sa, const uint32_t *ia, const scene_state *sb, const uint32_t *ib)
+{
+    const vis_scene_info *a = &sa->info, *b = &sb->info;
+    assert_int_equal(a->objects, b->objects);
+    assert_int_equal(a->max_id, b->max_id);
+    assert_int_equal(a->quads, b->quads);
+    assert_int_equal(a->triangles, b->triangles);
+    assert_int_equal(a->bytes, b->bytes);
+    assert_int_equal(a->edits, b->edits);
+    assert_memory_equal(&sa->stats, &sb->stats, sizeof sa->stats);
+    assert_memory_equal(ia, ib, 32 * 32 * sizeof *ia);
+}
+
+/* Edits respect max_bytes: an edit that would grow the scene past it is refused with
+ * VIS_ERROR_BUDGET and changes nothing (counts, bytes, the traced image); every accepted
+ * edit leaves bytes <= max_bytes. */
+static void test_edits_respect_max_bytes(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    vis_scene_desc d = sized(64, 64, 64);
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene_info info;
+    scene_state before, after;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    vis_scene_destroy(s);
+    d.max_bytes = info.bytes + 256 * 1024;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    uint64_t rng = 99;
+    static uint32_t ids_before[32 * 32], ids_after[32 * 32];
+    uint32_t id = 1;
+    vis_status st = VIS_OK;
+    for (; id < 10000 && st == VIS_OK; ++id) {
+        snapshot(s, &before, ids_before);
+        uint32_t n = 20 + (uint32_t)(vt_rand_unit(&rng) * 200);
+        vis_quad *q = quads_in(n, id % 7 == 0 ? -1 : (int)(id % 4), (int)(id / 4 % 4), &rng);
+        vis_mesh m = {q, n, NULL, 0};
+        st = vis_scene_set_object(s, id, &m);
+        free(q);
+        if (st != VIS_OK) {
+            assert_int_equal(st, VIS_ERROR_BUDGET);
+            assert_non_null(strstr(vis_context_last_error(ctx), "max_bytes"));
+        }
+        snapshot(s, &after, ids_after);
+        assert_true(after.info.bytes <= d.max_bytes);
+        if (st != VIS_OK)
+            assert_same(&before, ids_before, &after, ids_after);
+    }
+    assert_int_equal(st, VIS_ERROR_BUDGET); /* the limit was reached */
+    assert_true(id > 3);
+    /* Replacing an object with a bigger mesh than fits: refused, the old mesh stays. */
+    snapshot(s, &before, ids_before);
+    vis_quad *q = quads_in(20000, -1, 0, &rng);
+    vis_mesh m = {q, 20000, NULL, 0};
+    assert_int_equal(vis_scene_set_object(s, 1, &m), VIS_ERROR_BUDGET);
+    free(q);
+    snapshot(s, &after, ids_after);
+    assert_same(&before, ids_before, &after, ids_after);
+    /* Removing and shrinking still work at the limit. */
+    assert_int_equal(vis_scene_remove_object(s, 2), VIS_OK);
+    q = quads_in(1, 0, 0, &rng);
+    m.quads = q, m.quad_count = 1;
+    assert_int_equal(vis_scene_set_object(s, 1, &m), VIS_OK);
+    free(q);
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_true(info.bytes <= d.max_bytes);
+    vis_scene_destroy(s);
+    vis_context_destroy(ctx);
+}
+
+/* The growth an edit is charged before it is made is exactly what it then adds: on a twin
+ * scene whose max_bytes leaves one byte less than that, the same edit is refused and changes
+ * nothing; with exactly that much it goes through. Random meshes in one leaf and across many,
+ * triangles, replacements and removals (which reuse slots). */
+static void test_edit_growth_exact(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    vis_scene_desc d = sized(64, 64, 64);
+    vis_scene *a = NULL, *b = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &a), VIS_OK);
+    assert_int_equal(vis_scene_create(ctx, &d, &b), VIS_OK);
+    uint64_t rng = 4711;
+    int refused = 0;
+    for (int e = 0; e < 300; ++e) {
+        uint32_t id = 1 + (uint32_t)(vt_rand_unit(&rng) * 40);
+        int remove = vt_rand_unit(&rng) < 0.15 && vis_scene_find(a, id) != VIS_NO_OBJECT;
+        uint32_t nq = remove ? 0 : (uint32_t)(vt_rand_unit(&rng) * 300);
+        uint32_t nt = remove ? 0 : (uint32_t)(vt_rand_unit(&rng) * 4);
+        int cx = vt_rand_unit(&rng) < 0.2 ? -1 : (int)(vt_rand_unit(&rng) * 4);
+        vis_quad *q = quads_in(nq, cx, (int)(vt_rand_unit(&rng) * 4), &rng);
+        vis_triangle tris[4];
+        for (uint32_t t = 0; t < nt; ++t)
+            for (int k = 0; k < 3; ++k)
+                for (int ax = 0; ax < 3; ++ax)
+                    tris[t].v[k][ax] = (float)(vt_rand_unit(&rng) * 64.0);
+        for (uint32_t t = 0; t < nt; ++t)
+            tris[t].flags = 0;
+        vis_mesh m = {q, nq, tris, nt};
+        if (!remove && nq + nt == 0)
+            m.quad_count = nq = 1, q[0].plane = 1, q[0].u0 = q[0].v0 = 0, q[0].u1 = q[0].v1 = 1;
+        vis_scene_info ia, ib;
+        assert_int_equal(vis_scene_get_info(a, &ia), VIS_OK);
+        assert_int_equal(vis_scene_get_info(b, &ib), VIS_OK);
+        assert_int_equal(ia.bytes, ib.bytes);
+        vis_status st = remove ? vis_scene_remove_object(a, id) : vis_scene_set_object(a, id, &m);
+        assert_int_equal(st, VIS_OK);
+        vis_scene_info ia2;
+        assert_int_equal(vis_scene_get_info(a, &ia2), VIS_OK);
+        uint64_t grew = ia2.bytes - ib.bytes;
+        if (grew > 0) {
+            b->desc.max_bytes = ib.bytes + grew - 1;
+            st = remove ? vis_scene_remove_object(b, id) : vis_scene_set_object(b, id, &m);
+            assert_int_equal(st, VIS_ERROR_BUDGET);
+            vis_scene_info ib2;
+            assert_int_equal(vis_scene_get_info(b, &ib2), VIS_OK);
+            assert_int_equal(ib2.bytes, ib.bytes);
+            assert_int_equal(ib2.edits, ib.edits);
+            assert_int_equal(ib2.objects, ib.objects);
+            assert_int_equal(ib2.quads, ib.quads);
+            ++refused;
+        }
+        b->desc.max_bytes = ib.bytes + grew;
+        st = remove ? vis_scene_remove_object(b, id) : vis_scene_set_object(b, id, &m);
+        assert_int_equal(st, VIS_OK);
+        free(q);
+    }
+    assert_true(refused > 20);
+    vis_scene_destroy(a);
+    vis_scene_destroy(b);
+    vis_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -327,6 +672,12 @@ int main(void)
         cmocka_unit_test(test_object_lifecycle),
         cmocka_unit_test(test_edits_equal_fresh_build),
         cmocka_unit_test(test_no_allocation_per_frame),
+        cmocka_unit_test(test_scene_stats),
+        cmocka_unit_test(test_huge_scenes_refused),
+        cmocka_unit_test(test_scene_max_bytes),
+        cmocka_unit_test(test_edits_respect_max_bytes),
+        cmocka_unit_test(test_plan_matches_build),
+        cmocka_unit_test(test_edit_growth_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,9 +7,12 @@
  * whose leaves lie at different depths), on the hard cases of DESIGN.md, after edits, in leaf
  * ID mode, and ray by ray on rays built to be degenerate: starting on split planes and chunk
  * corners, lying in split planes, running along axes and exact diagonals through cell corners,
- * ending exactly on a split plane. The ropes themselves are checked against their definition
- * (Popov et al. 2007): each link points to the smallest node, no deeper than its own, that
- * covers the face; VIS_NO_ROPE exactly on the scene boundary. */
+ * ending exactly on a split plane, and aimed exactly at chunk edges and corners; those rays
+ * are also held, ray by ray, to the double-precision reference of tests/support/ref_trace.c
+ * under the conservative rule (docs/traversal.md, "Exactness"). The ropes themselves are
+ * checked against their definition (Popov et al. 2007): each link points to the smallest
+ * node, no deeper than its own, that covers the face; VIS_NO_ROPE exactly on the scene
+ * boundary. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -24,6 +27,7 @@
 #include "common/trace_core.h"
 #include "camera.h"
 #include "scene.h"
+#include "ref_trace.h"
 #include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
@@ -194,14 +198,13 @@ static vis_context *make_ctx(uint32_t threads)
 static void trace_or_fail(vis_context *ctx, vis_scene *scene, const vis_camera *cam, const vis_trace_desc *td,
                           uint32_t *ids, float *depth, const char *what, const char *name)
 {
-    if (vis_trace(ctx, scene, cam, td, ids, depth) != VIS_OK)
+    size_t n = (size_t)td->width * td->height;
+    if (vis_trace(ctx, scene, cam, td, ids, n, depth, n) != VIS_OK)
         fail_msg("%s, %s: %s", what, name, vis_context_last_error(ctx));
 }
 
-/* ties_may_slip: `stack` may differ from the oracle where the oracle's lower ID ties at the very
- * same depth (see test_checkerboard_views); the methods must still equal `stack` exactly. */
 static void check_view_ids(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
-                           uint32_t H, vis_id_mode ids_mode, int ties_may_slip, const char *what)
+                           uint32_t H, vis_id_mode ids_mode, const char *what)
 {
     size_t n = (size_t)W * H;
     uint32_t *ref_ids = malloc(n * 4), *ids = malloc(n * 4), *or_ids = malloc(n * 4);
@@ -231,11 +234,6 @@ static void check_view_ids(vis_context *ctx, vis_scene *scene, const tworld *w, 
                 size_t i = (size_t)y * W + x;
                 or_ids[i] = id;
                 or_depth[i] = t;
-                if (ties_may_slip && ref_ids[i] > id && memcmp(&ref_depth[i], &t, 4) == 0) {
-                    print_message("NOTE: %s: pixel (%u,%u): stack id %u, oracle id %u at the same depth %.9g\n", what,
-                                  x, y, ref_ids[i], id, (double)t);
-                    continue;
-                }
                 if (ref_ids[i] != id || memcmp(&ref_depth[i], &t, 4) != 0)
                     fail_msg("%s: pixel (%u,%u): stack id %u t %.9g, oracle id %u t %.9g", what, x, y, ref_ids[i],
                              (double)ref_depth[i], id, (double)t);
@@ -246,8 +244,7 @@ static void check_view_ids(vis_context *ctx, vis_scene *scene, const tworld *w, 
         td.short_stack = methods[m].n;
         memset(ids, 0xEE, n * 4);
         trace_or_fail(ctx, scene, cam, &td, ids, depth, what, methods[m].name);
-        /* Packets test every primitive that any ray of the tile can reach, so they hold to the
-         * oracle even where a per-ray walk lets a same-depth tie slip. */
+        /* Packets are held to the oracle directly (they equal it, as `stack` does). */
         int to_oracle = methods[m].traversal == VIS_TRAVERSAL_PACKET && ids_mode == VIS_IDS_OBJECT;
         const uint32_t *want_ids = to_oracle ? or_ids : ref_ids;
         const float *want_depth = to_oracle ? or_depth : ref_depth;
@@ -265,12 +262,12 @@ static void check_view_ids(vis_context *ctx, vis_scene *scene, const tworld *w, 
 static void check_view(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
                        uint32_t H, const char *what)
 {
-    check_view_ids(ctx, scene, w, cam, W, H, VIS_IDS_OBJECT, 0, what);
+    check_view_ids(ctx, scene, w, cam, W, H, VIS_IDS_OBJECT, what);
     vis_camera narrow = *cam;
     narrow.fovy_deg = 12.0;
     char label[192];
     snprintf(label, sizeof label, "%s, narrowed to 16x16 packets", what);
-    check_view_ids(ctx, scene, w, &narrow, 64, 56, VIS_IDS_OBJECT, 0, label);
+    check_view_ids(ctx, scene, w, &narrow, 64, 56, VIS_IDS_OBJECT, label);
 }
 
 static void random_camera(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
@@ -344,8 +341,8 @@ static void test_edits_between_passes(void **state)
     tworld w;
     random_world(&w, &rng, 4, 2, 3);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
-    vis_scene_info before;
-    vis_scene_get_info(scene, &before);
+    vis_scene_stats before;
+    assert_int_equal(vis_scene_get_stats(scene, &before), VIS_OK);
     const double zero[3] = {0, 0, 0};
     int rounds = vt_small() ? 3 : 8;
     for (int e = 0; e < rounds; ++e) {
@@ -377,8 +374,8 @@ static void test_edits_between_passes(void **state)
             check_view(ctx, scene, &w, &cam, 37, 29, "after edits");
         }
     }
-    vis_scene_info after;
-    vis_scene_get_info(scene, &after);
+    vis_scene_stats after;
+    assert_int_equal(vis_scene_get_stats(scene, &after), VIS_OK);
     assert_true(after.rope_bytes == before.rope_bytes); /* built once, never changed */
     vis_scene_destroy(scene);
     free_world(&w);
@@ -416,7 +413,7 @@ static void test_packet_occupancy_follows_edits(void **state)
     vis_trace_desc td;
     vis_trace_desc_defaults(&td);
     td.width = 40, td.height = 33;
-    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK); /* AUTO: packets */
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 40 * 33, NULL, 0), VIS_OK); /* AUTO: packets */
     int seen5 = 0, seen9 = 0;
     for (size_t i = 0; i < sizeof ids / sizeof ids[0]; ++i)
         seen5 |= ids[i] == 5, seen9 |= ids[i] == 9;
@@ -482,13 +479,12 @@ static void test_hard_cases(void **state)
     vis_context_destroy(ctx);
 }
 
-/* Views over the checkerboard. Where a ray passes within rounding of a chunk edge, the tree
- * walk (every method, `stack` included: they all see the same plane distances) may put it on
- * one side of the edge while the quad test of the chunk on the other side, computing the hit
- * point from another plane's distance, lands exactly on its closed edge: a hit at the very
- * same depth in a leaf the ray never enters. The depth is then still exact; only the tie rule
- * (lowest ID) can slip. Such pixels are listed as NOTEs; the methods must equal `stack` bit
- * for bit regardless. */
+/* Views over the checkerboard: rays through chunk edges and corners, where cubes of two IDs
+ * meet at the very same depth. The quad test and the tree walk decide from the same distances
+ * (docs/traversal.md, "Exactness"), so the tie rule (lowest ID) holds on every method: every
+ * pixel equals the oracle. (With a quad test that compared a rounded crossing point, the walk
+ * could put a ray on one side of an edge while the chunk on the other side took it at the same
+ * depth: 23 pixels of these views kept the higher ID.) */
 static void test_checkerboard_views(void **state)
 {
     (void)state;
@@ -508,10 +504,10 @@ static void test_checkerboard_views(void **state)
             memcpy(cam.eye, views[i], 24);
             memcpy(cam.target, views[i] + 3, 24);
             cam.fovy_deg = 90;
-            check_view_ids(ctx, scene, &w, &cam, 33, 33, VIS_IDS_OBJECT, 1, "checkerboard view");
-            check_view_ids(ctx, scene, &w, &cam, 32, 31, VIS_IDS_OBJECT, 1, "checkerboard view");
+            check_view_ids(ctx, scene, &w, &cam, 33, 33, VIS_IDS_OBJECT, "checkerboard view");
+            check_view_ids(ctx, scene, &w, &cam, 32, 31, VIS_IDS_OBJECT, "checkerboard view");
             cam.fovy_deg = 12; /* 16x16 packets */
-            check_view_ids(ctx, scene, &w, &cam, 64, 56, VIS_IDS_OBJECT, 1, "checkerboard view, 16x16 packets");
+            check_view_ids(ctx, scene, &w, &cam, 64, 56, VIS_IDS_OBJECT, "checkerboard view, 16x16 packets");
         }
         vis_scene_destroy(scene);
     }
@@ -576,7 +572,7 @@ static void test_far_origin_and_leaf_ids(void **state)
         random_camera(&cam, &rng, w.size, far_o);
         check_view(ctx, scene, &w, &cam, 32, 32, "far from the origin");
         random_camera(&cam, &rng, w.size, zero);
-        check_view_ids(ctx, shallow, &w, &cam, 40, 30, VIS_IDS_LEAF, 0, "leaf IDs");
+        check_view_ids(ctx, shallow, &w, &cam, 40, 30, VIS_IDS_LEAF, "leaf IDs");
     }
     vis_scene_destroy(scene);
     vis_scene_destroy(shallow);
@@ -636,6 +632,8 @@ static void check_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int cou
     memcpy(s.size, w->size, sizeof s.size);
     s.root = 0;
     s.leaf_count = v.leaf_count;
+    ref_scene rs;
+    ref_scene_init(&rs, w);
     for (int i = 0; i < count; ++i) {
         float o[3];
         int dir[3];
@@ -668,6 +666,14 @@ static void check_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int cou
             fail_msg("%s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g: stack id %u t %.9g, oracle id %u t %.9g", what,
                      (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2], (double)t_far, ref.id,
                      (double)ref.t, oid, (double)ot);
+        /* The conservative rule against the double-precision reference on this very ray: every
+         * face it touches (edges and corners of chunks included) counts. */
+        ref_ray rr;
+        ref_ray_from_float(r.o, r.d, r.t_near, r.t_far, &rr);
+        char why[256];
+        if (ref_check(&rs, &rr, ref.id, ref.t, NULL, why, sizeof why))
+            fail_msg("%s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g against the double-precision reference: %s", what,
+                     (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2], (double)t_far, why);
         for (size_t m = 0; m < METHOD_COUNT; ++m) {
             if (methods[m].traversal == VIS_TRAVERSAL_PACKET)
                 continue; /* a packet is a camera's tile, not one ray: the views check it */
@@ -681,6 +687,7 @@ static void check_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int cou
                          (double)t_far, h.id, (double)h.t, ref.id, (double)ref.t);
         }
     }
+    ref_scene_free(&rs);
 }
 
 static void test_degenerate_rays(void **state)
@@ -717,6 +724,117 @@ static void test_degenerate_rays(void **state)
         snprintf(what, sizeof what, "checkerboard %d, kd_depth %d", ci, checkers[ci][3]);
         check_rays(scene, &w, &rng, rays, 1, what);
         check_rays(scene, &w, &rng, rays / 2, 0, what);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
+/* Rays aimed exactly at edges and corners of the worlds' boxes -- in the checkerboard, every
+ * cube edge is a chunk edge, where leaves meet -- from random eyes: built in float to pass
+ * exactly through the point (o = P - k D, D integer, k dyadic) or aimed from an eye exact in
+ * float (d = fl(normalize(P - e))). There the tree walk meets split planes within rounding of
+ * each other and of the hit: `stack` must equal the oracle and keep the conservative rule
+ * against the double-precision reference, and every method must equal `stack`. */
+static void check_aimed_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int count, const char *what)
+{
+    vis_scene_view v = vis_scene_get_view(scene);
+    vis_ray_setup s;
+    memset(&s, 0, sizeof s);
+    memcpy(s.size, w->size, sizeof s.size);
+    s.leaf_count = v.leaf_count;
+    ref_scene rs;
+    ref_scene_init(&rs, w);
+    for (int i = 0; i < count; ++i) {
+        double p[3];
+        ref_edge_point(w, rng, p);
+        vis_ray r;
+        if (i & 1) {
+            int D[3];
+            do {
+                for (int a = 0; a < 3; ++a)
+                    D[a] = vt_rand_unit(rng) < 0.2 ? 0 : (int)(vt_rand(rng) % 9) - 4;
+            } while (D[0] == 0 && D[1] == 0 && D[2] == 0);
+            double k = (double)(8 + vt_rand(rng) % 505) / 8.0;
+            for (int a = 0; a < 3; ++a) {
+                r.o[a] = (float)(p[a] - k * D[a]); /* exact */
+                r.d[a] = (float)D[a];
+            }
+        } else {
+            double e[3], d[3], l = 0.0;
+            ref_random_eye(rng, w->size, p, e);
+            for (int a = 0; a < 3; ++a) {
+                d[a] = p[a] - e[a];
+                l += d[a] * d[a];
+            }
+            for (int a = 0; a < 3; ++a) {
+                r.o[a] = (float)e[a];
+                r.d[a] = (float)(d[a] / sqrt(l));
+            }
+        }
+        for (int a = 0; a < 3; ++a)
+            r.inv[a] = 1.0f / r.d[a];
+        r.t_near = 0.05f;
+        r.t_far = INFINITY;
+        float ot;
+        uint32_t oid;
+        oracle_ray(w, &r, &ot, &oid);
+        s.traversal = VIS_TRAVERSAL_ID_STACK;
+        vis_hit ref;
+        trace_ray(&v, &s, &r, &ref);
+        if (ref.id != oid || memcmp(&ref.t, &ot, 4) != 0)
+            fail_msg("%s: ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g): stack id %u t %.9g, oracle id %u "
+                     "t %.9g",
+                     what, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
+                     (double)r.d[2], p[0], p[1], p[2], ref.id, (double)ref.t, oid, (double)ot);
+        ref_ray rr;
+        ref_ray_from_float(r.o, r.d, r.t_near, r.t_far, &rr);
+        char why[256];
+        if (ref_check(&rs, &rr, ref.id, ref.t, NULL, why, sizeof why))
+            fail_msg("%s: ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g) against the double-precision "
+                     "reference: %s",
+                     what, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
+                     (double)r.d[2], p[0], p[1], p[2], why);
+        for (size_t m = 0; m < METHOD_COUNT; ++m) {
+            if (methods[m].traversal == VIS_TRAVERSAL_PACKET)
+                continue;
+            s.traversal = (uint32_t)methods[m].traversal - 1u;
+            s.short_stack = methods[m].n;
+            vis_hit h;
+            trace_ray(&v, &s, &r, &h);
+            if (h.id != ref.id || memcmp(&h.t, &ref.t, 4) != 0 || h.object != ref.object)
+                fail_msg("%s, %s: ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g): id %u t %.9g, stack id %u "
+                         "t %.9g",
+                         what, methods[m].name, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0],
+                         (double)r.d[1], (double)r.d[2], p[0], p[1], p[2], h.id, (double)h.t, ref.id, (double)ref.t);
+        }
+    }
+    ref_scene_free(&rs);
+}
+
+static void test_aimed_at_chunk_edges(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_ctx(1);
+    uint64_t rng = 8128;
+    int rays = vt_small() ? 2000 : 20000;
+    static const int checkers[][4] = {{4, 4, 4, 0}, {5, 3, 4, 2}, {4, 2, 6, 4}};
+    for (int ci = 0; ci < 3; ++ci) {
+        tworld w;
+        checker_world(&w, checkers[ci][0], checkers[ci][1], checkers[ci][2]);
+        vis_scene *scene = make_scene(ctx, &w, NULL, (uint32_t)checkers[ci][3]);
+        char what[64];
+        snprintf(what, sizeof what, "checkerboard %d, kd_depth %d", ci, checkers[ci][3]);
+        check_aimed_rays(scene, &w, &rng, rays, what);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    static const int shapes[][3] = {{4, 2, 4}, {3, 3, 3}};
+    for (int wi = 0; wi < 2; ++wi) {
+        tworld w;
+        random_world(&w, &rng, shapes[wi][0], shapes[wi][1], shapes[wi][2]);
+        vis_scene *scene = make_scene(ctx, &w, NULL, (uint32_t)(wi * 2));
+        check_aimed_rays(scene, &w, &rng, rays, "random world");
         vis_scene_destroy(scene);
         free_world(&w);
     }
@@ -826,8 +944,8 @@ static void check_ropes(vis_context *ctx, const float size[3], uint32_t kd_depth
         }
     }
     assert_int_equal(entries, s->rope_count);
-    vis_scene_info info;
-    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    vis_scene_stats info;
+    assert_int_equal(vis_scene_get_stats(s, &info), VIS_OK);
     assert_true(info.rope_bytes == (uint64_t)s->rope_count * sizeof(vis_rope_node) + (uint64_t)s->node_count * 4u);
     assert_true(info.rope_bytes_used[0] == (uint64_t)s->leaf_count * sizeof(vis_rope_node));
     for (uint32_t n = 1; n <= VIS_MAX_SHORT_STACK; ++n) {
@@ -876,17 +994,17 @@ static void test_desc_validation(void **state)
     td.width = td.height = 4;
     td.traversal = VIS_TRAVERSAL_SHORTSTACK;
     td.short_stack = VIS_MAX_SHORT_STACK + 1;
-    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_ERROR_INVALID_ARGUMENT);
     assert_non_null(strstr(vis_context_last_error(ctx), "short_stack"));
     td.traversal = (vis_traversal)9;
     td.short_stack = 0;
-    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_ERROR_INVALID_ARGUMENT);
     for (int i = 0; i < 16; ++i)
         assert_int_equal(ids[i], 0xABCDABCD); /* untouched */
     td.traversal = VIS_TRAVERSAL_ROPES_SHORTSTACK; /* 0 = the default N */
-    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK);
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_OK);
     td.short_stack = VIS_MAX_SHORT_STACK;
-    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK);
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_OK);
     vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -899,6 +1017,7 @@ int main(void)
         cmocka_unit_test(test_desc_validation),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_degenerate_rays),
+        cmocka_unit_test(test_aimed_at_chunk_edges),
         cmocka_unit_test(test_checkerboard_views),
         cmocka_unit_test(test_closed_room_ties_inside_solid),
         cmocka_unit_test(test_random_worlds),

@@ -391,6 +391,107 @@ static void test_dirty(void **state)
     vw_world_destroy(w);
 }
 
+/* ---- the memory budget (vw_world_desc.max_bytes) ------------------------------------- */
+
+/* A chunk table over the limit is refused before anything is allocated: by the default
+ * (2 GiB) for a 2^30-chunk world (16 GiB of table), and by an explicit small limit. */
+static void test_create_over_budget(void **state)
+{
+    (void)state;
+    vw_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.size[0] = 1 << 20;
+    d.size[1] = 1024;
+    d.size[2] = 4096; /* 65536 x 64 x 256 = 2^30 chunks: below the ID limit, 16 GiB of table */
+    vw_world *w = (vw_world *)1;
+    vw_error err;
+    err.message[0] = '\0';
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_BUDGET);
+    assert_null(w);
+    print_message("%s\n", err.message);
+    assert_non_null(strstr(err.message, "16.1 GiB")); /* 16 bytes and a dirty bit per chunk */
+    assert_non_null(strstr(err.message, "1,073,741,824 chunks"));
+    assert_non_null(strstr(err.message, "2.0 GiB"));
+
+    d.size[0] = d.size[1] = d.size[2] = 2048; /* 128^3 chunks: 32 MiB of table */
+    d.max_bytes = 1 << 20;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_ERROR_BUDGET);
+    assert_null(w);
+    assert_non_null(strstr(err.message, "1.0 MiB"));
+    d.max_bytes = 64ull << 20;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_OK);
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.max_bytes, 64ull << 20);
+    assert_true(info.bytes > 32ull << 20 && info.bytes <= info.max_bytes);
+    vw_world_destroy(w);
+}
+
+static vw_world *world_with_limit(uint64_t max_bytes)
+{
+    vw_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.size[0] = d.size[1] = d.size[2] = 64; /* 4x4x4 chunks of 16 */
+    d.max_bytes = max_bytes;
+    vw_world *w = NULL;
+    vw_error err;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_OK);
+    return w;
+}
+
+/* The world takes no more than its limit: the edit that would need one dense chunk too many
+ * fails with VW_ERROR_BUDGET and changes nothing (voxels, totals, dirty chunks); uniform
+ * chunks cost nothing, and memory freed by compaction can be used again. */
+static void test_dense_growth_over_budget(void **state)
+{
+    (void)state;
+    vw_world *w = world_with_limit(0);
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.max_bytes, VW_DEFAULT_MAX_BYTES);
+    const uint64_t table = info.bytes, chunk = 16 * 16 * 16;
+    vw_world_destroy(w);
+
+    w = world_with_limit(table + 3 * chunk);
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(vw_world_set(w, 16 * i + 1, 2, 3, 5), VW_OK);
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.bytes, table + 3 * chunk);
+    assert_int_equal(info.max_bytes, table + 3 * chunk);
+    vw_world_clear_dirty(w);
+
+    /* A fourth chunk would go over. */
+    assert_int_equal(vw_world_set(w, 49, 2, 3, 5), VW_ERROR_BUDGET);
+    assert_int_equal(vw_world_get(w, 49, 2, 3), 0);
+    const int64_t mn[3] = {40, 0, 40}, mx[3] = {56, 8, 56}; /* parts of 4 chunks, none dense */
+    assert_int_equal(vw_world_fill(w, mn, mx, 7), VW_ERROR_BUDGET);
+    for (int64_t z = 40; z < 56; z += 5)
+        for (int64_t x = 40; x < 56; x += 5)
+            assert_int_equal(vw_world_get(w, x, 3, z), 0);
+    vw_world_info after;
+    vw_world_get_info(w, &after);
+    assert_int_equal(after.bytes, info.bytes);
+    assert_int_equal(after.solid_voxels, 3);
+    assert_int_equal(after.nonempty_chunks, 3);
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+
+    /* Within the dense chunks, and whole chunks (uniform), edits still work. */
+    assert_int_equal(vw_world_set(w, 2, 2, 3, 9), VW_OK);
+    const int64_t c0[3] = {0, 48, 0}, c1[3] = {64, 64, 64}; /* 16 whole chunks */
+    assert_int_equal(vw_world_fill(w, c0, c1, 3), VW_OK);
+    vw_world_get_info(w, &after);
+    assert_int_equal(after.bytes, table + 3 * chunk);
+    assert_int_equal(after.solid_voxels, 4 + 64 * 16 * 64);
+
+    /* Emptying a dense chunk frees it for another. */
+    const int64_t e0[3] = {0, 0, 0}, e1[3] = {16, 16, 16};
+    assert_int_equal(vw_world_fill(w, e0, e1, 0), VW_OK);
+    assert_int_equal(vw_world_set(w, 49, 2, 3, 5), VW_OK);
+    vw_world_get_info(w, &after);
+    assert_int_equal(after.bytes, table + 3 * chunk);
+    vw_world_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -401,6 +502,8 @@ int main(void)
         cmocka_unit_test(test_materials),
         cmocka_unit_test(test_chunk_index),
         cmocka_unit_test(test_dirty),
+        cmocka_unit_test(test_create_over_budget),
+        cmocka_unit_test(test_dense_growth_over_budget),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

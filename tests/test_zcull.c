@@ -1022,7 +1022,7 @@ static void test_api_arguments(void **state)
     size_t n = 99;
     float depth[16];
 
-    assert_int_equal(vis_zcull_depth(zc, depth), VIS_ERROR_NOT_FOUND);
+    assert_int_equal(vis_zcull_depth(zc, depth, 16), VIS_ERROR_NOT_FOUND);
     assert_int_equal(vis_zcull_run(NULL, scene, &cam, NULL, out, 4, &n, NULL), VIS_ERROR_INVALID_ARGUMENT);
     assert_int_equal(vis_zcull_run(zc, NULL, &cam, NULL, out, 4, &n, NULL), VIS_ERROR_INVALID_ARGUMENT);
     assert_non_null(strstr(vis_context_last_error(ctx), "scene"));
@@ -1043,7 +1043,7 @@ static void test_api_arguments(void **state)
     /* outputs untouched by every failure */
     assert_int_equal(n, 99);
     assert_int_equal(out[0].id, 77);
-    assert_int_equal(vis_zcull_depth(zc, depth), VIS_ERROR_NOT_FOUND);
+    assert_int_equal(vis_zcull_depth(zc, depth, 16), VIS_ERROR_NOT_FOUND);
 
     /* capacity */
     assert_int_equal(vis_zcull_run(zc, scene, &cam, NULL, out, 0, &n, NULL), VIS_ERROR_CAPACITY);
@@ -1059,6 +1059,26 @@ static void test_api_arguments(void **state)
     assert_int_equal(st.visible, 1);
     assert_true(st.ms_total >= 0.0);
     assert_true(strlen(st.simd) > 0);
+
+    /* The depth buffer of that 512 x 512 run: a 16-float buffer is refused and untouched, the
+     * message gives the count needed; an exact one is filled and nothing past it written. */
+    for (int i = 0; i < 16; i++)
+        depth[i] = -7.0f;
+    assert_int_equal(vis_zcull_depth(zc, depth, 16), VIS_ERROR_CAPACITY);
+    assert_non_null(strstr(vis_context_last_error(ctx), "262144"));
+    for (int i = 0; i < 16; i++)
+        assert_true(depth[i] == -7.0f);
+    float *full = malloc((512 * 512 + 8) * sizeof *full);
+    assert_non_null(full);
+    for (int i = 0; i < 512 * 512 + 8; i++)
+        full[i] = -7.0f;
+    assert_int_equal(vis_zcull_depth(zc, full, 512 * 512 - 1), VIS_ERROR_CAPACITY);
+    assert_true(full[0] == -7.0f && full[512 * 512 - 2] == -7.0f);
+    assert_int_equal(vis_zcull_depth(zc, full, 512 * 512), VIS_OK);
+    assert_true(full[256 * 512 + 256] > 0.0f); /* the wall covers the centre */
+    for (int i = 512 * 512; i < 512 * 512 + 8; i++)
+        assert_true(full[i] == -7.0f);
+    free(full);
 
     /* a scene from another context */
     vis_context *ctx2 = make_ctx(NULL);
@@ -1114,7 +1134,7 @@ static void test_api_wall(void **state)
         assert_int_equal(out[1].id, 5);
         assert_int_equal(out[2].id, 9);
         float depth[96 * 64];
-        assert_int_equal(vis_zcull_depth(zc, depth), VIS_OK);
+        assert_int_equal(vis_zcull_depth(zc, depth, 96 * 64), VIS_OK);
         int covered = 0;
         for (uint32_t y = 0; y < 64; y++)
             for (uint32_t x = 0; x < 96; x++) {
@@ -1244,7 +1264,7 @@ static void test_api_random_scenes(void **state)
                 assert_true(lists[r][i - 1].id < lists[r][i].id);
             if (r < 3) {
                 depths[r] = malloc((size_t)rc.w * rc.h * sizeof(float));
-                assert_int_equal(vis_zcull_depth(zc, depths[r]), VIS_OK);
+                assert_int_equal(vis_zcull_depth(zc, depths[r], (size_t)rc.w * rc.h), VIS_OK);
             }
         }
         for (int r = 1; r < 3; r++) /* bit-identical depth on every path */
@@ -1276,7 +1296,7 @@ static void test_api_random_scenes(void **state)
         td.width = rc.w;
         td.height = rc.h;
         uint32_t *ids = malloc((size_t)rc.w * rc.h * sizeof *ids);
-        assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, NULL), VIS_OK);
+        assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, (size_t)rc.w * rc.h, NULL, 0), VIS_OK);
         for (size_t p = 0; p < (size_t)rc.w * rc.h; p++) {
             if (!ids[p])
                 continue;

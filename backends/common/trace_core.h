@@ -19,7 +19,11 @@
  *
  * Numerics: every distance is t = (plane - o[a]) * inv_d[a] with inv_d = 1/d correctly
  * rounded; directions with a +0 or -0 component never divide (parallel planes are skipped
- * explicitly), so no NaN arises. Ties in t go to the lowest object ID.
+ * explicitly), so no NaN arises. Ties in t go to the lowest object ID. The quad test is
+ * conservative -- a ray that touches the closed rectangle, within the rounding of its
+ * distances, hits it -- and decided from the tree walk's own distances with the walk's slack
+ * (vis_quad_intersect has the bound and its derivation), so every method equals the brute
+ * force.
  */
 #ifndef VIS_TRACE_CORE_H
 #define VIS_TRACE_CORE_H
@@ -101,7 +105,7 @@ typedef struct vis_flat_object {
  * node on the other side of each of its six faces (-x,+x,-y,+y,-z,+z; VIS_NO_ROPE = the
  * outside): the smallest node covering that face, never deeper than the node itself.
  * rope_index[node] gives the node's entry in `ropes`, or VIS_NO_ROPE. Every node at most
- * VIS_SHORT_STACK_MAX levels above the leaves has one; entry i < leaf count is leaf i
+ * VIS_MAX_SHORT_STACK levels above the leaves has one; entry i < leaf count is leaf i
  * (libvis/src/kdtree.c builds them, once, with the tree). */
 typedef struct vis_rope_node {
     float lo[3], hi[3];
@@ -111,7 +115,10 @@ typedef struct vis_rope_node {
 } vis_rope_node;
 
 #define VIS_NO_ROPE 0xFFFFFFFFu
-#define VIS_SHORT_STACK_MAX 16u /* deepest short stack (and rope level) a pass may ask for  */
+/* Deepest short stack (and rope level) a pass may ask for. vis.h defines the same name with
+ * the same tokens (the device compiler cannot include vis.h); backends/backend.h asserts
+ * that the two agree. */
+#define VIS_MAX_SHORT_STACK 16u
 
 #define VIS_META_AXIS(m) ((m) & 3u)
 #define VIS_META_FLAGS(m) (((m) >> 2) & 63u)
@@ -131,7 +138,7 @@ typedef struct vis_ray_setup {
     uint32_t traversal;  /* vis_traversal                                                  */
     uint32_t root;       /* root node index (0)                                            */
     uint32_t leaf_count;
-    uint32_t short_stack; /* N of shortstack / ropes-shortstack, 1..VIS_SHORT_STACK_MAX       */
+    uint32_t short_stack; /* N of shortstack / ropes-shortstack, 1..VIS_MAX_SHORT_STACK       */
 } vis_ray_setup;
 
 /* The scene arrays, as separate parameters because OpenCL 1.2 kernels cannot take structs
@@ -186,9 +193,82 @@ VIS_INLINE int vis_hit_better(float t, uint32_t id, const vis_hit *h)
     return t < h->t || (t == h->t && id < h->id);
 }
 
-/* Exact closed-interval test of an axis-aligned quad. Returns the distance through *t_out.
- * The same expression is used for every quad on a plane, so two quads sharing an edge or a
- * T-junction see the same crossing point and no ray slips between them. */
+/* Distance slack: two distances computed independently (each within 3 ulps of the exact
+ * distance of the float ray: t = fl(fl(c - o[a]) * fl(1/d[a])), 3 roundings) are taken to
+ * coincide when they are within 2^-20 relative of each other. 2^-20 = 16 units of 2^-24,
+ * against at most 6 for two such distances. Used, with the same expressions, by the quad
+ * test, by every decision of the tree walk and by the termination test. */
+VIS_INLINE float vis_t_limit(float t)
+{
+    return t + t * 9.5367431640625e-07f; /* 2^-20 */
+}
+
+/* Two distances that coincide within the slack. */
+VIS_INLINE int vis_t_tie(float x, float y)
+{
+    return x <= vis_t_limit(y) && y <= vis_t_limit(x);
+}
+
+/* Narrows [*t_in, *t_out] to where the ray lies in the slab lo <= x[a] <= hi, with the
+ * expressions of the tree walk's split distances. A ray parallel to the slab (d[a] = +-0)
+ * lies in it or not: returns 0 when it does not. */
+VIS_INLINE int vis_slab(const vis_ray *r, uint32_t a, float lo, float hi, float *t_in, float *t_out)
+{
+    float o = r->o[a], d = r->d[a];
+    if (d == 0.0f)
+        return o >= lo && o <= hi;
+    float t_lo = (lo - o) * r->inv[a], t_hi = (hi - o) * r->inv[a];
+    float t0 = d > 0.0f ? t_lo : t_hi, t1 = d > 0.0f ? t_hi : t_lo;
+    if (t0 > *t_in)
+        *t_in = t0;
+    if (t1 < *t_out)
+        *t_out = t1;
+    return 1;
+}
+
+/* The quad test, conservative where rounding decides a touch (DESIGN.md, "Numerics").
+ *
+ * A ray through a convex voxel edge touches both faces that meet there. Testing where the
+ * ray crosses each face's plane (o + t d in float, compared with the rectangle) decides each
+ * face from its own rounded point, and both can fall outside: the ray slips through the edge
+ * and sees what lies behind. (A test that widens that point by its rounding bound, a few ulps
+ * of |o| + |t d|, fixes the slip but reaches past the leaf that holds the quad, where the
+ * tree walk, deciding from split distances, does not go: the per-ray methods would no longer
+ * equal the brute force.)
+ *
+ * So the quad is tested as the slab test of its box [plane, plane] x [u0, u1] x [v0, v1]:
+ * the distances at which the ray enters and leaves each slab, t = (c - o[a]) * inv[a], hit
+ * when the latest entry is no later than the earliest exit, within vis_t_limit. Those are the
+ * very expressions of the tree walk's split distances (vis_node_decide), the leaf boxes and
+ * the scene box (vis_clip_scene), compared with the same slack, so whatever the quad test
+ * hits lies in a leaf that the walk enters (docs/traversal.md, "Exactness").
+ *
+ * The bound. Let t* be the exact distances of the float ray (o, d). Each computed distance is
+ * t* (1 + e) with |e| <= 3u + O(u^2), u = 2^-24 (the subtraction, 1/d, the product; no FMA).
+ * Where the exact ray touches the rectangle (on an edge or a corner, entry = exit), the
+ * computed entry and exit differ by at most 6u t; the slack is 16u t (less 1u for computing
+ * it), so every touch of the closed rectangle is a hit. The remaining 9u is what a camera
+ * aimed at the point adds: the centre pixel of an odd-sized image has d = fl(F / |F|), F =
+ * fl(f), whose ratios d[u] / d[a] are within 4u of f's, so its distances to the two planes
+ * of an edge differ by at most 4u more (with the eye representable in float). What the ray
+ * misses by more than the slack is no hit: a ray passing a quad's edge at distance x (along
+ * the u axis) is a hit only while x <= 2^-20 |t d[u]| (0.0005 voxel at 512 voxels' reach).
+ * tests/test_trace.c holds this to a double-precision reference on rays aimed at edges and
+ * corners. Two quads sharing an edge see the same distance to it, so no ray slips between
+ * them.
+ *
+ * vis_quad_slab: the test for the quad's rectangle on axes u, v, given the distance t to its
+ * plane (the walk of a leaf's planes has it already). */
+VIS_INLINE int vis_quad_slab(const vis_ray *r, uint32_t u, uint32_t v, float t, float u0, float v0, float u1,
+                             float v1)
+{
+    float t_in = t, t_out = t;
+    if (!vis_slab(r, u, u0, u1, &t_in, &t_out) || !vis_slab(r, v, v0, v1, &t_in, &t_out))
+        return 0;
+    return t_in <= vis_t_limit(t_out);
+}
+
+/* The quad test from scratch; the distance to the plane through *t_out. */
 VIS_INLINE int vis_quad_intersect(const vis_ray *r, uint32_t axis, float plane, float u0, float v0,
                                   float u1, float v1, float *t_out)
 {
@@ -197,10 +277,8 @@ VIS_INLINE int vis_quad_intersect(const vis_ray *r, uint32_t axis, float plane, 
     uint32_t u = axis == 2u ? 0u : axis + 1u;
     uint32_t v = axis == 0u ? 2u : axis - 1u;
     float t = (plane - r->o[axis]) * r->inv[axis];
-    float pu = r->o[u] + t * r->d[u];
-    float pv = r->o[v] + t * r->d[v];
     *t_out = t;
-    return pu >= u0 && pu <= u1 && pv >= v0 && pv <= v1;
+    return vis_quad_slab(r, u, v, t, u0, v0, u1, v1);
 }
 
 VIS_INLINE void vis_test_quad(const vis_ray *r, const VIS_GLOBAL vis_flat_quad *q,
@@ -389,15 +467,31 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
         if (t >= r->t_near) {
             uint32_t b = (uint32_t)(base[a] + k[a]);
             uint32_t end = bk[b + 1u];
-            /* A bucket's quads are sorted by u0 (scene.c), and pu is the crossing point's u
-             * exactly as vis_quad_intersect computes it: a quad starting beyond pu cannot
-             * hold the point, nor can any after it. */
+            /* A bucket's quads are sorted by u0 (scene.c). With vis_quad_intersect's own
+             * distances (t is its t), a quad whose u0 alone puts it out -- the ray enters
+             * u >= u0 after vis_t_limit(t) (d[u] > 0), or leaves it before t by more than the
+             * slack (d[u] < 0), or a parallel ray lies below u0 -- is missed, and so is every
+             * quad after it: the distance to u = u0 is monotone in u0. */
             uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
-            float pu = r->o[u] + t * r->d[u];
+            uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
+            float ou = r->o[u], du = r->d[u], iu = r->inv[u], tl = vis_t_limit(t);
             for (uint32_t i = bk[b]; i < end; ++i) {
-                if (quads[qbase + i].u0 > pu)
+                const VIS_GLOBAL vis_flat_quad *q = &quads[qbase + i];
+                float c = q->u0;
+                if (du > 0.0f ? (c - ou) * iu > tl : du < 0.0f ? t > vis_t_limit((c - ou) * iu) : c > ou)
                     break;
-                vis_test_quad(r, &quads[qbase + i], objects, h);
+                /* vis_test_quad, with what this walk already knows: the plane's distance t
+                 * (vis_quad_intersect's t for each quad of the bucket), within [t_near,
+                 * t_far] and no farther than the best hit. */
+                if (!vis_quad_slab(r, u, v, t, q->u0, q->v0, q->u1, q->v1))
+                    continue;
+                uint32_t obj = VIS_META_OBJECT(q->meta);
+                uint32_t id = objects[obj].id;
+                if (vis_hit_better(t, id, h)) {
+                    h->t = t;
+                    h->object = obj;
+                    h->id = id;
+                }
             }
         }
         if (k[a] == kend[a]) {
@@ -411,12 +505,8 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
 
 /* ---- traversal ---------------------------------------------------------------------- */
 
-/* Termination slack: a node is skipped only when it starts beyond the best hit by more than
- * the rounding of two independently computed distances (a few ulps, relative). */
-VIS_INLINE float vis_t_limit(float t)
-{
-    return t + t * 9.5367431640625e-07f; /* 2^-20 */
-}
+/* Termination: a node is skipped only when it starts beyond the best hit by more than
+ * vis_t_limit's slack (the quad test and the walk's decisions use the same). */
 
 /* Clips the ray to the scene box [0, size] (closed, with the same slack). */
 VIS_INLINE int vis_clip_scene(const vis_ray *r, const float *size, float *t0, float *t1)
@@ -459,7 +549,7 @@ VIS_INLINE uint32_t vis_near_child(float o, float d, float split, uint32_t first
  * traversal so that they all visit the same leaves with the same intervals. */
 #define VIS_GO_NEAR 0
 #define VIS_GO_FAR 1
-#define VIS_GO_BOTH 2          /* near over [t_min, *t_split], then far over [*t_split, t_max]  */
+#define VIS_GO_BOTH 2          /* near over [t_min, min(*t_split, t_max)], far from there to t_max */
 #define VIS_GO_BOTH_IN_PLANE 3 /* a ray lying in the split plane: both over [t_min, t_max]      */
 
 VIS_INLINE int vis_node_decide(const vis_ray *r, uint32_t a, float split, uint32_t first, float t_min,
@@ -473,10 +563,15 @@ VIS_INLINE int vis_node_decide(const vis_ray *r, uint32_t a, float split, uint32
         return o == split ? VIS_GO_BOTH_IN_PLANE : VIS_GO_NEAR;
     float t_split = (split - o) * r->inv[a];
     *t_split_out = t_split;
-    /* t_split <= 0: the ray starts on or past the plane and moves into near_child. */
-    if (t_split > t_max || t_split <= 0.0f)
+    /* t_split <= 0: the ray starts on or past the plane and moves into near_child. Otherwise
+     * a child is entered when the ray's part in it is non-empty within vis_t_limit's slack:
+     * far when t_split <= lim(t_max), near when t_min <= lim(t_split). A leaf is thus entered
+     * exactly when its box passes the slab test with that slack (the latest entry distance
+     * no later than lim of the earliest exit, pair by pair down the path), the test that
+     * vis_quad_intersect makes of each quad's box inside it. */
+    if (t_split <= 0.0f || t_split > vis_t_limit(t_max))
         return VIS_GO_NEAR;
-    if (t_split < t_min)
+    if (t_min > vis_t_limit(t_split))
         return VIS_GO_FAR;
     return VIS_GO_BOTH;
 }
@@ -509,7 +604,7 @@ VIS_INLINE uint32_t vis_descend(const vis_ray *r, const VIS_GLOBAL vis_kd_node *
         stack[*sp].t_max = go == VIS_GO_BOTH_IN_PLANE ? *t_min : *t_max;
         ++*sp;
     }
-    if (go == VIS_GO_BOTH)
+    if (go == VIS_GO_BOTH && t_split < *t_max)
         *t_max = t_split;
     return near_child;
 }
@@ -618,7 +713,7 @@ VIS_INLINE uint32_t vis_top_bit(vis_u64 m)
 }
 
 /* kd-restart (Foley & Sugerman 2005), pushdown (Horn et al. 2007) and restart with a short
- * ring stack of ring_n <= VIS_SHORT_STACK_MAX entries (Horn et al. 2007), over [t_min, t_max]
+ * ring stack of ring_n <= VIS_MAX_SHORT_STACK entries (Horn et al. 2007), over [t_min, t_max]
  * from node `root`.
  *
  * Plain kd-restart only keeps t_min, which is not enough to be exact: a node that the stack
@@ -639,13 +734,13 @@ VIS_INLINE uint32_t vis_top_bit(vis_u64 m)
 VIS_INLINE void vis_traverse_restart_range(const vis_ray *r, uint32_t root, float t_min, float t_max, uint32_t ring_n,
                                            int pushdown, VIS_SCENE_PARAMS, vis_hit *h)
 {
-    vis_stack_entry ring[VIS_SHORT_STACK_MAX];
+    vis_stack_entry ring[VIS_MAX_SHORT_STACK];
     uint32_t top = 0u, count = 0u;
     vis_u64 trail = 0u, pending = 0u, inplane = 0u;
     float ip_t[2];
     uint32_t ip_n = 0u;
-    if (ring_n > VIS_SHORT_STACK_MAX)
-        ring_n = VIS_SHORT_STACK_MAX;
+    if (ring_n > VIS_MAX_SHORT_STACK)
+        ring_n = VIS_MAX_SHORT_STACK;
     uint32_t start = root, start_level = 0u;
     float start_t_max = t_max;
     uint32_t node = root, level = 0u;
@@ -682,7 +777,7 @@ VIS_INLINE void vis_traverse_restart_range(const vis_ray *r, uint32_t root, floa
                             ++count;
                     }
                     node = near_child;
-                    if (!in_plane)
+                    if (!in_plane && t_split < t_max)
                         t_max = t_split;
                 }
             }
@@ -755,17 +850,17 @@ VIS_INLINE void vis_traverse_restart(const vis_ray *r, const vis_ray_setup *s, u
 }
 
 /* The stack method over one subtree and interval (the short stack of ropes-shortstack: a
- * subtree at most VIS_SHORT_STACK_MAX levels high never needs more entries). Returns 1 when
+ * subtree at most VIS_MAX_SHORT_STACK levels high never needs more entries). Returns 1 when
  * the ray is finished (the next node starts beyond the best hit). */
 VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min, float t_max, VIS_SCENE_PARAMS,
                                     vis_hit *h)
 {
-    vis_stack_entry stack[VIS_SHORT_STACK_MAX];
+    vis_stack_entry stack[VIS_MAX_SHORT_STACK];
     int sp = 0;
     for (;;) {
         uint32_t info = nodes[node].info;
         while ((info & 3u) != VIS_NODE_LEAF) {
-            node = vis_descend(r, nodes, node, info, &t_min, &t_max, stack, &sp, (int)VIS_SHORT_STACK_MAX);
+            node = vis_descend(r, nodes, node, info, &t_min, &t_max, stack, &sp, (int)VIS_MAX_SHORT_STACK);
             info = nodes[node].info;
         }
         vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
@@ -809,13 +904,14 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
  * across, descending to the region that holds the ray just after e by comparing e with each
  * split's distance.
  *
- * That is exactly the stack method's sequence as long as every plane crossing is strict. It
- * is not when the ray enters a region through several faces at once, leaves through an edge
- * or corner (two exit distances equal), meets a split plane at the very distance it enters
- * (the stack method then visits a leaf with an empty interval [e, e] as well), or lies in a
- * face of the region (the stack method walks both sides). Each of these is detected, on
- * computed distances, and the rest of the ray [b, t_max] goes to vis_traverse_restart_range
- * from the root (with the same short stack): exact, and rare. */
+ * That is exactly the stack method's sequence as long as every plane crossing is strict --
+ * clear of the others by more than vis_t_limit's slack, with which the stack method enters a
+ * node. It is not when the ray enters a region through several faces at once, leaves through
+ * an edge or corner (two exit distances within the slack), meets a split plane within the
+ * slack of the distance it enters at (the stack method then visits a leaf with an empty
+ * interval as well), or lies in a face of the region (the stack method walks both sides).
+ * Each of these is detected, on computed distances, and the rest of the ray [b, t_max] goes
+ * to vis_traverse_restart_range from the root (with the same short stack): exact, and rare. */
 VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uint32_t n, VIS_SCENE_PARAMS, vis_hit *h)
 {
     float t0, t1;
@@ -853,8 +949,8 @@ VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uin
                 side = o < split ? 0u : 1u;
             } else {
                 float t_split = (split - o) * r->inv[a];
-                if (t_split == b) {
-                    degenerate = 1; /* meets the plane where it enters */
+                if (vis_t_tie(t_split, b)) {
+                    degenerate = 1; /* meets the plane where it enters (within the slack) */
                     break;
                 }
                 side = (b < t_split) == (d > 0.0f) ? 0u : 1u;
@@ -863,9 +959,13 @@ VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uin
         }
         const VIS_GLOBAL vis_rope_node *rn = &ropes[entry];
         /* The region's slab distances. */
-        float e = VIS_INF;
+        float e = VIS_INF, t_exit[3];
         uint32_t exit_face = 6u;
-        int exit_tie = 0, exit_inside = 0;
+        int exit_tie = 0, exit_inside = 0, inside[3];
+        for (uint32_t a = 0u; a < 3u; ++a) {
+            t_exit[a] = VIS_INF;
+            inside[a] = 0;
+        }
         for (uint32_t a = 0u; a < 3u && !degenerate; ++a) {
             float lo = rn->lo[a], hi = rn->hi[a];
             float o = r->o[a], d = r->d[a];
@@ -877,25 +977,31 @@ VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uin
             float t_lo = (lo - o) * r->inv[a], t_hi = (hi - o) * r->inv[a];
             float t_in = d > 0.0f ? t_lo : t_hi, t_out = d > 0.0f ? t_hi : t_lo;
             float c_in = d > 0.0f ? lo : hi, c_out = d > 0.0f ? hi : lo;
-            /* Entered through this face too (or the distances disagree): only the face it came
-             * through, or the scene's own boundary, may start exactly at b. */
-            if (t_in > b || (t_in == b && a != came && c_in != 0.0f && c_in != s->size[a]))
+            /* Entered through this face too, within the slack (or the distances disagree):
+             * only the face it came through, or the scene's own boundary, may start at b. */
+            if (t_in > b || (b <= vis_t_limit(t_in) && a != came && c_in != 0.0f && c_in != s->size[a]))
                 degenerate = 1;
+            t_exit[a] = t_out;
+            inside[a] = c_out != 0.0f && c_out != s->size[a];
             if (t_out < e) {
                 e = t_out;
                 exit_face = 2u * a + (d > 0.0f ? 1u : 0u);
-                exit_tie = 0;
-                exit_inside = c_out != 0.0f && c_out != s->size[a];
-            } else if (t_out == e) {
-                exit_tie = 1;
-                exit_inside |= c_out != 0.0f && c_out != s->size[a];
             }
         }
+        /* Out through an edge or corner: another face within the slack of the exit. */
+        for (uint32_t a = 0u; a < 3u; ++a)
+            if (t_exit[a] <= vis_t_limit(e)) {
+                exit_tie |= a != exit_face >> 1;
+                exit_inside |= inside[a];
+            }
         if (degenerate || !(e > b)) {
             vis_traverse_restart_range(r, s->root, b, t1, n, 0, VIS_SCENE_ARGS, h);
             return;
         }
-        int last = e > t1 || (e == t1 && !exit_inside);
+        /* The last region: it ends past the ray's end by more than the slack, or at the scene's
+         * boundary. (Within the slack of t1 through an inner face, the region across is next;
+         * it finds itself entered past b and hands over to the restart loop.) */
+        int last = e > vis_t_limit(t1) || (e >= t1 && !exit_inside);
         float t_end = e < t1 ? e : t1;
         if (n == 0u || rn->height == 0u) {
             vis_leaf_intersect(r, &leaves[n == 0u ? entry : nodes[rn->node].info >> 2], buckets, quads, tris,

@@ -6,7 +6,6 @@
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. */
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -18,7 +17,10 @@
 #define TILE 8u
 
 typedef struct cpu_backend {
+    vis_allocator alloc; /* the context's: every host allocation of this backend */
     vis_pool *pool;
+    vis_parallel_for_fn parallel_for; /* the caller's job system, or NULL: the pool */
+    void *parallel_for_user;
 } cpu_backend;
 
 typedef struct cpu_job {
@@ -64,43 +66,51 @@ static void trace_tile(void *user, uint32_t tile)
         }
 }
 
+/* The job system's argument order. */
+static void trace_tile_job(uint32_t tile, void *arg) { trace_tile(arg, tile); }
+
 static void cpu_destroy(void *impl)
 {
     cpu_backend *b = impl;
     if (!b)
         return;
     vis_pool_destroy(b->pool);
-    free(b);
+    vis_allocator a = b->alloc;
+    vis_host_free(&a, b);
 }
 
-static int cpu_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
-                          char *err, size_t err_size)
+static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_view *view,
+                                 const vis_scene_changes *changes, char *err, size_t err_size)
 {
-    (void)impl;
+    cpu_backend *b = impl;
     vis_occupancy *occ = *scene_data;
-    if (!occ && !(occ = calloc(1, sizeof *occ))) {
-        snprintf(err, err_size, "out of memory");
-        return 2; /* VIS_ERROR_OUT_OF_MEMORY */
+    if (!occ) {
+        if (!(occ = vis_host_calloc(&b->alloc, 1, sizeof *occ))) {
+            snprintf(err, err_size, "out of memory");
+            return VIS_ERROR_OUT_OF_MEMORY;
+        }
+        occ->alloc = &b->alloc;
     }
     *scene_data = occ; /* the host arrays are the scene: only the occupancy is ours */
-    if (vis_occupancy_sync(occ, view, changes) != 0) {
+    vis_status st = vis_occupancy_sync(occ, view, changes);
+    if (st != VIS_OK) {
         snprintf(err, err_size, "out of memory for the occupancy of %u kd nodes", view->node_count);
-        return 2;
+        return st;
     }
-    return 0;
+    return VIS_OK;
 }
 
 static void cpu_scene_release(void *impl, void *scene_data)
 {
-    (void)impl;
+    cpu_backend *b = impl;
     vis_occupancy *occ = scene_data;
     if (!occ)
         return;
     vis_occupancy_free(occ);
-    free(occ);
+    vis_host_free(&b->alloc, occ);
 }
 
-static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+static vis_status cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                      uint32_t *ids, float *depth, char *err, size_t err_size)
 {
     (void)err, (void)err_size;
@@ -110,8 +120,18 @@ static int cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, c
     cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
                    setup->traversal == VIS_TRAVERSAL_ID_PACKET && vis_packet_wide(setup)};
     uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
-    vis_pool_run(b->pool, tiles, trace_tile, &job);
-    return 0;
+    if (b->parallel_for)
+        b->parallel_for(tiles, trace_tile_job, &job, b->parallel_for_user);
+    else
+        vis_pool_run(b->pool, tiles, trace_tile, &job);
+    return VIS_OK;
+}
+
+void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn parallel_for, void *user)
+{
+    cpu_backend *b = backend->impl;
+    b->parallel_for = parallel_for;
+    b->parallel_for_user = user;
 }
 
 static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
@@ -124,25 +144,30 @@ static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_
                                         cpu_last_upload_bytes, NULL /* trace_batch: libvis loops */,
                                         NULL /* last_kernel_ms: libvis times the pass */};
 
-int vis_cpu_backend_create(uint32_t threads, vis_backend *out, uint32_t *out_threads, char *err, size_t err_size)
+vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, vis_backend *out,
+                                  uint32_t *out_threads, char *err, size_t err_size)
 {
     if (threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         threads = n > 0 ? (uint32_t)n : 1u;
     }
-    cpu_backend *b = calloc(1, sizeof *b);
+    cpu_backend *b = vis_host_calloc(alloc, 1, sizeof *b);
     if (!b) {
         snprintf(err, err_size, "out of memory");
-        return 2; /* VIS_ERROR_OUT_OF_MEMORY */
+        return VIS_ERROR_OUT_OF_MEMORY;
     }
-    b->pool = vis_pool_create(threads);
-    if (!b->pool) {
-        free(b);
-        snprintf(err, err_size, "could not start %u threads", threads);
-        return 4; /* VIS_ERROR_BACKEND */
+    b->alloc = *alloc;
+    vis_status st = vis_pool_create(threads, &b->alloc, &b->pool);
+    if (st != VIS_OK) {
+        vis_host_free(alloc, b);
+        if (st == VIS_ERROR_OUT_OF_MEMORY)
+            snprintf(err, err_size, "out of memory for a pool of %u threads", threads);
+        else
+            snprintf(err, err_size, "could not start %u threads", threads);
+        return st;
     }
     out->ops = &cpu_ops;
     out->impl = b;
     *out_threads = threads;
-    return 0;
+    return VIS_OK;
 }

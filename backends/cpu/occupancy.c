@@ -1,6 +1,4 @@
 /* occupancy.c — see occupancy.h. */
-#include <stdlib.h>
-
 #include "cpu/occupancy.h"
 
 static int leaf_has_primitives(const vis_flat_leaf *lf)
@@ -10,9 +8,9 @@ static int leaf_has_primitives(const vis_flat_leaf *lf)
 
 void vis_occupancy_free(vis_occupancy *occ)
 {
-    free(occ->parent);
-    free(occ->leaf_node);
-    free(occ->occupied);
+    vis_host_free(occ->alloc, occ->parent);
+    vis_host_free(occ->alloc, occ->leaf_node);
+    vis_host_free(occ->alloc, occ->occupied);
     occ->parent = occ->leaf_node = NULL;
     occ->occupied = NULL;
     occ->node_count = occ->leaf_count = 0;
@@ -20,16 +18,16 @@ void vis_occupancy_free(vis_occupancy *occ)
 
 /* Parent links and leaf nodes, and every node's flag from its leaves. kdtree.c allocates
  * children after their parent, so one backward sweep sees children before parents. */
-static int rebuild(vis_occupancy *occ, const vis_scene_view *view)
+static vis_status rebuild(vis_occupancy *occ, const vis_scene_view *view)
 {
     vis_occupancy_free(occ);
     uint32_t n = view->node_count;
-    occ->parent = malloc((size_t)n * sizeof *occ->parent);
-    occ->leaf_node = malloc((size_t)(view->leaf_count ? view->leaf_count : 1u) * sizeof *occ->leaf_node);
-    occ->occupied = malloc(n ? n : 1u);
+    occ->parent = vis_host_alloc(occ->alloc, (size_t)n * sizeof *occ->parent);
+    occ->leaf_node = vis_host_alloc(occ->alloc, (size_t)view->leaf_count * sizeof *occ->leaf_node);
+    occ->occupied = vis_host_alloc(occ->alloc, n);
     if (!occ->parent || !occ->leaf_node || !occ->occupied) {
         vis_occupancy_free(occ);
-        return 2;
+        return VIS_ERROR_OUT_OF_MEMORY;
     }
     occ->node_count = n;
     occ->leaf_count = view->leaf_count;
@@ -51,10 +49,10 @@ static int rebuild(vis_occupancy *occ, const vis_scene_view *view)
         else
             occ->occupied[i] = occ->occupied[info >> 2] | occ->occupied[(info >> 2) + 1u];
     }
-    return 0;
+    return VIS_OK;
 }
 
-int vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes)
+vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes)
 {
     if (changes->full || !occ->occupied || occ->node_count != view->node_count ||
         occ->leaf_count != view->leaf_count)
@@ -72,5 +70,5 @@ int vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis
             flag = occ->occupied[first] | occ->occupied[first + 1u];
         }
     }
-    return 0;
+    return VIS_OK;
 }

@@ -12,6 +12,7 @@
 #include "backend.h"
 
 typedef struct vis_occupancy {
+    const vis_allocator *alloc; /* set by the owner before the first sync                  */
     uint32_t node_count, leaf_count;
     uint32_t *parent;    /* node -> parent; the root's is UINT32_MAX                      */
     uint32_t *leaf_node; /* leaf -> its node                                                */
@@ -19,9 +20,9 @@ typedef struct vis_occupancy {
 } vis_occupancy;
 
 /* Brings *occ up to date with the view: everything when `changes->full` or the tree's size
- * differs, else the changed leaves and their ancestors. Returns 0, or 2 (out of memory)
- * with *occ emptied. */
-int vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes);
+ * differs, else the changed leaves and their ancestors. VIS_ERROR_OUT_OF_MEMORY leaves *occ
+ * emptied. */
+vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes);
 
 void vis_occupancy_free(vis_occupancy *occ);
 

@@ -46,7 +46,12 @@
 #define ALL_UNITS (UNITS == 32 ? 0xFFFFFFFFu : (1u << UNITS) - 1u)
 
 /* Relative widening of t bounds computed from intervals (the exact per-ray distances differ
- * from them by a few ulps) and of rectangles (by more than any rounding of a crossing point). */
+ * from them by a few ulps) and of rectangles (by more than any rounding of a crossing point).
+ * The quad test is conservative (vis_quad_intersect): it takes a quad whose box the exact
+ * float ray misses by up to about 2^-19 of |t d| (the slack of 2^-20 on distances, plus their
+ * rounding); the rectangles here are widened by 2^-16 of at least |t d[u]|, and boxes by
+ * 2^-15 of the scene's extent (|t d| to a hit is at most twice that), so both still cover
+ * every quad a lane can take. */
 #define T_SLACK 9.5367431640625e-07f  /* 2^-20 */
 #define XY_SLACK 1.52587890625e-05f   /* 2^-16 */
 
@@ -54,7 +59,7 @@ typedef struct packet {
     float d[3][LANES], inv[3][LANES]; /* per ray, exactly as vis_ray_for_pixel makes them     */
     float best_t[LANES];
     uint32_t best_id[LANES], best_obj[LANES];
-    float plane_t[LANES], plane_u[LANES], plane_v[LANES]; /* crossing of the current plane */
+    float plane_t[LANES];    /* distance to the current plane                              */
     float o[3];
     float t_near, t_far;
     int sign[3];             /* +1: every ray has d > 0 on that axis, -1: every d < 0, 0: mixed */
@@ -288,33 +293,48 @@ PK_INLINE uint32_t packet_box_units(const packet *p, const float *lo, const floa
     return units;
 }
 
-/* The crossing of `plane` on axis a by the lanes of the units in `units`, with
- * vis_quad_intersect's expressions. */
+/* The distance to `plane` on axis a of the lanes of the units in `units`, with
+ * vis_quad_intersect's expression. */
 PK_INLINE void packet_cross_plane(packet *p, int a, float plane, uint32_t units)
 {
-    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
-    float c = plane - p->o[a], ou = p->o[u], ov = p->o[v];
+    float c = plane - p->o[a];
     for (; units; units &= units - 1u)
-        for (int i = __builtin_ctz(units) * UNIT, e = i + UNIT; i < e; ++i) {
-            float t = c * p->inv[a][i];
-            p->plane_t[i] = t;
-            p->plane_u[i] = ou + t * p->d[u][i];
-            p->plane_v[i] = ov + t * p->d[v][i];
-        }
+        for (int i = __builtin_ctz(units) * UNIT, e = i + UNIT; i < e; ++i)
+            p->plane_t[i] = c * p->inv[a][i];
+}
+
+/* vis_slab for one lane: narrows [*t_in, *t_out] to the slab [lo, hi] of an axis (cl = lo - o,
+ * ch = hi - o, the lane's d and 1/d on it); 0 when a ray parallel to it lies outside. */
+static inline int pk_slab(float cl, float ch, float d, float inv, float *t_in, float *t_out)
+{
+    float t_lo = cl * inv, t_hi = ch * inv;
+    float t0 = d > 0.0f ? t_lo : t_hi, t1 = d > 0.0f ? t_hi : t_lo;
+    int par = d == 0.0f;
+    t0 = par ? -INFINITY : t0;
+    t1 = par ? INFINITY : t1;
+    *t_in = t0 > *t_in ? t0 : *t_in;
+    *t_out = t1 < *t_out ? t1 : *t_out;
+    return (par == 0) | ((cl <= 0.0f) & (ch >= 0.0f));
 }
 
 /* vis_test_quad for the lanes of the units in `units` (bit j: lanes 8j..8j+7), with the
- * crossing from packet_cross_plane. Returns whether a lane took the quad. */
+ * distance from packet_cross_plane: the slab test of the quad's box, operation for operation
+ * (a parallel ray's slab is all or nothing, as in vis_slab). Returns whether a lane took the
+ * quad. */
 PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_t id, uint32_t units)
 {
-    float u0 = q->u0, v0 = q->v0, u1 = q->u1, v1 = q->v1, tn = p->t_near, tf = p->t_far;
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float cu0 = q->u0 - p->o[u], cu1 = q->u1 - p->o[u], cv0 = q->v0 - p->o[v], cv1 = q->v1 - p->o[v];
+    float tn = p->t_near, tf = p->t_far;
     uint32_t obj = VIS_META_OBJECT(q->meta);
     int any = 0, first_hits = 0;
     for (; units; units &= units - 1u) {
         int first = __builtin_ctz(units) * UNIT;
         for (int i = first; i < first + UNIT; ++i) {
-            float t = p->plane_t[i], pu = p->plane_u[i], pv = p->plane_v[i], bt = p->best_t[i];
-            int m = (p->d[a][i] != 0.0f) & (pu >= u0) & (pu <= u1) & (pv >= v0) & (pv <= v1) & (t >= tn) & (t <= tf) &
+            float t = p->plane_t[i], bt = p->best_t[i], t_in = t, t_out = t;
+            int in_u = pk_slab(cu0, cu1, p->d[u][i], p->inv[u][i], &t_in, &t_out);
+            int in_v = pk_slab(cv0, cv1, p->d[v][i], p->inv[v][i], &t_in, &t_out);
+            int m = (p->d[a][i] != 0.0f) & in_u & in_v & (t_in <= vis_t_limit(t_out)) & (t >= tn) & (t <= tf) &
                     ((t < bt) | ((t == bt) & (id < p->best_id[i])));
             p->best_t[i] = m ? t : bt;
             p->best_id[i] = m ? id : p->best_id[i];

@@ -4,9 +4,9 @@
 
 #include <pthread.h>
 #include <stdatomic.h>
-#include <stdlib.h>
 
 struct vis_pool {
+    const vis_allocator *alloc;
     uint32_t threads;
     pthread_t *workers;
     pthread_mutex_t lock;
@@ -52,36 +52,38 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
-vis_pool *vis_pool_create(uint32_t threads)
+vis_status vis_pool_create(uint32_t threads, const vis_allocator *alloc, vis_pool **out)
 {
     if (threads < 1)
         threads = 1;
-    vis_pool *p = calloc(1, sizeof *p);
+    vis_pool *p = vis_host_calloc(alloc, 1, sizeof *p);
     if (!p)
-        return NULL;
+        return VIS_ERROR_OUT_OF_MEMORY;
+    p->alloc = alloc;
     p->threads = threads;
     atomic_init(&p->next, 0u);
     if (pthread_mutex_init(&p->lock, NULL) != 0) {
-        free(p);
-        return NULL;
+        vis_host_free(alloc, p);
+        return VIS_ERROR_BACKEND;
     }
     pthread_cond_init(&p->wake, NULL);
     pthread_cond_init(&p->done, NULL);
     if (threads > 1) {
-        p->workers = calloc(threads - 1, sizeof *p->workers);
+        p->workers = vis_host_calloc(alloc, threads - 1, sizeof *p->workers);
         if (!p->workers) {
             vis_pool_destroy(p);
-            return NULL;
+            return VIS_ERROR_OUT_OF_MEMORY;
         }
         for (uint32_t i = 0; i + 1 < threads; ++i) {
             if (pthread_create(&p->workers[i], NULL, worker_main, p) != 0) {
                 p->threads = i + 1; /* destroy joins only the ones started */
                 vis_pool_destroy(p);
-                return NULL;
+                return VIS_ERROR_BACKEND;
             }
         }
     }
-    return p;
+    *out = p;
+    return VIS_OK;
 }
 
 void vis_pool_destroy(vis_pool *p)
@@ -95,12 +97,12 @@ void vis_pool_destroy(vis_pool *p)
         pthread_mutex_unlock(&p->lock);
         for (uint32_t i = 0; i + 1 < p->threads; ++i)
             pthread_join(p->workers[i], NULL);
-        free(p->workers);
+        vis_host_free(p->alloc, p->workers);
     }
     pthread_cond_destroy(&p->wake);
     pthread_cond_destroy(&p->done);
     pthread_mutex_destroy(&p->lock);
-    free(p);
+    vis_host_free(p->alloc, p);
 }
 
 uint32_t vis_pool_threads(const vis_pool *p) { return p->threads; }

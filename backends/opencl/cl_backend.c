@@ -59,15 +59,15 @@ int vis_cl_status(cl_int e)
 {
     if (e == CL_MEM_OBJECT_ALLOCATION_FAILURE || e == CL_OUT_OF_RESOURCES || e == CL_OUT_OF_HOST_MEMORY ||
         e == CL_INVALID_BUFFER_SIZE)
-        return VIS_CL_OUT_OF_MEMORY;
-    return VIS_CL_BACKEND;
+        return VIS_ERROR_OUT_OF_MEMORY;
+    return VIS_ERROR_BACKEND;
 }
 
 int vis_cl_fail(cl_int e, const char *what, char *err, size_t err_size)
 {
     int st = vis_cl_status(e);
     snprintf(err, err_size, "%s: %s (%d)%s", what, vis_cl_error_name(e), (int)e,
-             st == VIS_CL_OUT_OF_MEMORY ? ": out of device memory" : "");
+             st == VIS_ERROR_OUT_OF_MEMORY ? ": out of device memory" : "");
     return st;
 }
 
@@ -105,10 +105,11 @@ static void cl_destroy(void *impl)
         clReleaseCommandQueue(b->queue);
     if (b->context)
         clReleaseContext(b->context);
-    free(b);
+    vis_allocator a = b->alloc;
+    vis_host_free(&a, b);
 }
 
-static int cl_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
+static vis_status cl_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
                          char *err, size_t err_size)
 {
     return vis_cl_scene_sync(impl, (vis_cl_scene **)scene_data, view, changes, err, err_size);
@@ -119,7 +120,7 @@ static void cl_scene_release(void *impl, void *scene_data)
     vis_cl_backend *b = impl;
     if (b->queue)
         clFinish(b->queue);
-    vis_cl_scene_release(scene_data);
+    vis_cl_scene_release(b, scene_data);
 }
 
 static uint64_t cl_last_upload_bytes(void *impl, void *scene_data)
@@ -136,11 +137,11 @@ static int ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t nee
                          const char *what, char *err, size_t err_size)
 {
     if (*mem && *cap >= need)
-        return VIS_CL_OK;
+        return VIS_OK;
     if ((cl_ulong)need * elem > b->caps.max_alloc) {
         snprintf(err, err_size, "%s of %zu bytes exceed the device's largest allocation (%llu bytes)", what,
                  need * elem, (unsigned long long)b->caps.max_alloc);
-        return VIS_CL_OUT_OF_MEMORY;
+        return VIS_ERROR_OUT_OF_MEMORY;
     }
     if (*mem)
         clReleaseMemObject(*mem);
@@ -155,7 +156,7 @@ static int ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t nee
     }
     *mem = m;
     *cap = need;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 static int set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
@@ -202,14 +203,14 @@ static int launch(vis_cl_backend *b, cl_kernel k, uint32_t width, uint32_t heigh
         clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL) == CL_SUCCESS && t1 >= t0)
         b->last_kernel_ms += (double)(t1 - t0) * 1e-6;
     clReleaseEvent(ev);
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, char *err, size_t err_size)
 {
     int st = ensure_buffer(b, &b->ids, &b->out_cap, pixels, sizeof(uint32_t), CL_MEM_WRITE_ONLY, "ID buffer", err,
                            err_size);
-    if (st == VIS_CL_OK && want_depth)
+    if (st == VIS_OK && want_depth)
         st = ensure_buffer(b, &b->depth, &b->depth_cap, pixels, sizeof(float), CL_MEM_WRITE_ONLY, "depth buffer",
                            err, err_size);
     return st;
@@ -228,7 +229,7 @@ static const char *traversal_options(uint32_t traversal)
     return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
 }
 
-static int cl_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                     uint32_t *ids, float *depth, char *err, size_t err_size)
 {
     (void)view;
@@ -237,10 +238,10 @@ static int cl_trace(void *impl, void *scene_data, const vis_scene_view *view, co
     b->last_kernel_ms = 0.0;
     vis_cl_program *p = NULL;
     int st = vis_cl_program_get(b, traversal_options(setup->traversal), &p, err, err_size);
-    if (st != VIS_CL_OK)
+    if (st != VIS_OK)
         return st;
     size_t pixels = (size_t)setup->width * setup->height;
-    if ((st = prepare_outputs(b, pixels, depth != NULL, err, err_size)) != VIS_CL_OK)
+    if ((st = prepare_outputs(b, pixels, depth != NULL, err, err_size)) != VIS_OK)
         return st;
     cl_uint write_depth = depth != NULL;
     cl_mem depth_mem = depth ? b->depth : b->dummy; /* never written when write_depth = 0 */
@@ -258,7 +259,7 @@ static int cl_trace(void *impl, void *scene_data, const vis_scene_view *view, co
     return launch(b, p->trace, setup->width, setup->height, 1, ids, depth, err, err_size);
 }
 
-static int cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
+static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
                           uint32_t count, uint32_t *ids, float *depth, char *err, size_t err_size)
 {
     (void)view;
@@ -266,14 +267,14 @@ static int cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *vi
     const vis_cl_scene *sc = scene_data;
     b->last_kernel_ms = 0.0;
     if (count == 0)
-        return VIS_CL_OK;
+        return VIS_OK;
     uint32_t traversal = setups[0].traversal; /* one program when every camera shares it */
     for (uint32_t i = 1; i < count; ++i)
         if (setups[i].traversal != traversal)
             traversal = UINT32_MAX;
     vis_cl_program *p = NULL;
     int st = vis_cl_program_get(b, traversal_options(traversal), &p, err, err_size);
-    if (st != VIS_CL_OK)
+    if (st != VIS_OK)
         return st;
     uint32_t W = setups[0].width, H = setups[0].height;
     size_t pixels = (size_t)W * H;
@@ -285,10 +286,10 @@ static int cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *vi
         per = 1; /* one view larger than the limit: ensure_buffer says whether it fits */
     if (per > count)
         per = count;
-    if ((st = prepare_outputs(b, per * pixels, depth != NULL, err, err_size)) != VIS_CL_OK)
+    if ((st = prepare_outputs(b, per * pixels, depth != NULL, err, err_size)) != VIS_OK)
         return st;
     if ((st = ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
-                            "camera buffer", err, err_size)) != VIS_CL_OK)
+                            "camera buffer", err, err_size)) != VIS_OK)
         return st;
     cl_uint write_depth = depth != NULL;
     cl_mem depth_mem = depth ? b->depth : b->dummy;
@@ -311,10 +312,10 @@ static int cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *vi
             return vis_cl_fail(e, "clEnqueueWriteBuffer (cameras)", err, err_size);
         st = launch(b, p->batch, W, H, n, ids + (size_t)first * pixels, depth ? depth + (size_t)first * pixels : NULL,
                     err, err_size);
-        if (st != VIS_CL_OK)
+        if (st != VIS_OK)
             return st;
     }
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 static const vis_backend_ops cl_ops = {
@@ -328,19 +329,28 @@ static const vis_backend_ops cl_ops = {
     .last_kernel_ms = cl_last_kernel_ms,
 };
 
-int vis_opencl_backend_create(const char *selector, vis_backend *out, char *device_name, size_t name_size,
-                              int *is_gpu, vis_backend_log_fn log, void *log_user, char *err, size_t err_size)
+vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const vis_allocator *alloc,
+                                     vis_backend *out, char *device_name, size_t name_size, int *is_gpu,
+                                     vis_backend_log_fn log, void *log_user, char *err, size_t err_size)
 {
-    vis_cl_backend *b = calloc(1, sizeof *b);
+    /* A GPU is all AUTO wants: where only CPU implementations are installed, the loader is not
+     * even opened (it would load them all; cl_loader.c). */
+    if (gpu_only && vis_cl_icds_cpu_only(err, err_size))
+        return VIS_ERROR_UNSUPPORTED;
+    int st = vis_cl_load(err, err_size);
+    if (st != VIS_OK)
+        return st;
+    vis_cl_backend *b = vis_host_calloc(alloc, 1, sizeof *b);
     if (!b) {
         snprintf(err, err_size, "out of host memory");
-        return VIS_CL_OUT_OF_MEMORY;
+        return VIS_ERROR_OUT_OF_MEMORY;
     }
+    b->alloc = *alloc;
     b->log = log;
     b->log_user = log_user;
-    int st = vis_cl_device_pick(selector, &b->platform, &b->device, &b->caps, err, err_size);
-    if (st != VIS_CL_OK) {
-        free(b);
+    st = vis_cl_device_pick(selector, gpu_only, &b->platform, &b->device, &b->caps, err, err_size);
+    if (st != VIS_OK) {
+        vis_host_free(alloc, b);
         return st;
     }
     cl_int e = CL_SUCCESS;
@@ -370,7 +380,7 @@ int vis_opencl_backend_create(const char *selector, vis_backend *out, char *devi
     }
     vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
     st = vis_cl_program_get(b, traversal_options(0u), &p, err, err_size);
-    if (st != VIS_CL_OK) {
+    if (st != VIS_OK) {
         cl_destroy(b);
         return st;
     }
@@ -385,5 +395,5 @@ int vis_opencl_backend_create(const char *selector, vis_backend *out, char *devi
     *is_gpu = b->caps.is_gpu;
     out->ops = &cl_ops;
     out->impl = b;
-    return VIS_CL_OK;
+    return VIS_OK;
 }

@@ -9,7 +9,11 @@
  * square root: the ray setup divides and takes a square root, and the CPU does both in IEEE
  * arithmetic, so a device without them would produce different rays. The selectors "gpu",
  * "cpu" and "accelerator" take the first device of that type; a substring also matches the
- * platform vendor ("pocl" finds PoCL, whose device names changed between versions). */
+ * platform vendor ("pocl" finds PoCL, whose device names changed between versions).
+ *
+ * `gpu_only` (AUTO with nothing named) asks for GPUs alone, and platforms that only ever offer
+ * CPU devices (PoCL with its CPU drivers, vis_cl_pocl_cpu_only) are not asked for devices at
+ * all: PoCL's first device query starts its worker threads, for a device AUTO would refuse. */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
 #include <stdio.h>
@@ -57,26 +61,12 @@ static int equals_nocase(const char *a, const char *b)
     return *a == *b;
 }
 
-static int has_extension(cl_device_id d, const char *ext)
+/* Double precision (cl_khr_fp64) is there when its config is not 0 (OpenCL 1.2, 4.2: the
+ * minimum double capability of a device without it is 0); read without allocating. */
+static int has_fp64(cl_device_id d)
 {
-    size_t size = 0;
-    if (clGetDeviceInfo(d, CL_DEVICE_EXTENSIONS, 0, NULL, &size) != CL_SUCCESS || size == 0)
-        return 0;
-    char *s = malloc(size + 1);
-    if (!s)
-        return 0;
-    int found = 0;
-    if (clGetDeviceInfo(d, CL_DEVICE_EXTENSIONS, size, s, NULL) == CL_SUCCESS) {
-        s[size] = '\0';
-        size_t n = strlen(ext);
-        for (const char *p = s; (p = strstr(p, ext)) != NULL; p += n)
-            if ((p == s || p[-1] == ' ') && (p[n] == '\0' || p[n] == ' ')) {
-                found = 1;
-                break;
-            }
-    }
-    free(s);
-    return found;
+    cl_device_fp_config fp = 0;
+    return clGetDeviceInfo(d, CL_DEVICE_DOUBLE_FP_CONFIG, sizeof fp, &fp, NULL) == CL_SUCCESS && fp != 0;
 }
 
 int vis_cl_device_check(cl_platform_id platform, cl_device_id d, vis_cl_device_caps *caps, char *err, size_t err_size)
@@ -92,7 +82,7 @@ int vis_cl_device_check(cl_platform_id platform, cl_device_id d, vis_cl_device_c
     cl_device_type type = 0;
     clGetDeviceInfo(d, CL_DEVICE_TYPE, sizeof type, &type, NULL);
     caps->is_gpu = (type & CL_DEVICE_TYPE_GPU) != 0;
-    caps->fp64 = has_extension(d, "cl_khr_fp64");
+    caps->fp64 = has_fp64(d);
     cl_device_fp_config fp = 0;
     clGetDeviceInfo(d, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
     caps->denorms = (fp & CL_FP_DENORM) != 0;
@@ -106,31 +96,45 @@ int vis_cl_device_check(cl_platform_id platform, cl_device_id d, vis_cl_device_c
     clGetDeviceInfo(d, CL_DEVICE_COMPILER_AVAILABLE, sizeof compiler, &compiler, NULL);
     if (!available) {
         snprintf(err, err_size, "device '%s' is not available", caps->name);
-        return VIS_CL_UNSUPPORTED;
+        return VIS_ERROR_UNSUPPORTED;
     }
     if (!compiler) {
         snprintf(err, err_size, "device '%s' has no OpenCL C compiler", caps->name);
-        return VIS_CL_UNSUPPORTED;
+        return VIS_ERROR_UNSUPPORTED;
     }
     if (!(fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT)) {
         snprintf(err, err_size,
                  "device '%s' lacks correctly rounded single-precision divide and sqrt "
                  "(CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT), which bit-identical rays need",
                  caps->name);
-        return VIS_CL_UNSUPPORTED;
+        return VIS_ERROR_UNSUPPORTED;
     }
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
-/* All devices of all platforms, in loader order. Returns a vis_status value. */
-static int list_devices(dev_entry *out, uint32_t *out_count, char *err, size_t err_size)
+/* A platform that offers CPU devices only, known from its name alone: PoCL without a GPU
+ * driver. Reading the platform's strings does not start PoCL's devices. */
+static int platform_cpu_only(cl_platform_id p)
+{
+    char name[128] = "", vendor[128] = "";
+    clGetPlatformInfo(p, CL_PLATFORM_NAME, sizeof name, name, NULL);
+    clGetPlatformInfo(p, CL_PLATFORM_VENDOR, sizeof vendor, vendor, NULL);
+    name[sizeof name - 1] = '\0';
+    vendor[sizeof vendor - 1] = '\0';
+    int pocl = contains_nocase(vendor, "pocl") || contains_nocase(name, "Portable Computing Language");
+    return pocl && vis_cl_pocl_cpu_only(NULL);
+}
+
+/* All devices of all platforms (GPUs of platforms that may have one, when gpu_only), in
+ * loader order. Returns a vis_status value. */
+static int list_devices(int gpu_only, dev_entry *out, uint32_t *out_count, char *err, size_t err_size)
 {
     cl_platform_id plats[MAX_PLATFORMS];
     cl_uint np = 0;
     cl_int e = clGetPlatformIDs(MAX_PLATFORMS, plats, &np);
     if (e == CL_PLATFORM_NOT_FOUND_KHR || (e == CL_SUCCESS && np == 0)) {
         snprintf(err, err_size, "no OpenCL platform found (is an ICD installed under /etc/OpenCL/vendors?)");
-        return VIS_CL_NOT_FOUND;
+        return VIS_ERROR_NOT_FOUND;
     }
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clGetPlatformIDs", err, err_size);
@@ -140,8 +144,11 @@ static int list_devices(dev_entry *out, uint32_t *out_count, char *err, size_t e
     for (cl_uint p = 0; p < np && n < MAX_DEVICES; ++p) {
         cl_device_id devs[MAX_DEVICES];
         cl_uint nd = 0;
-        if (clGetDeviceIDs(plats[p], CL_DEVICE_TYPE_ALL, MAX_DEVICES, devs, &nd) != CL_SUCCESS)
-            continue; /* CL_DEVICE_NOT_FOUND: a platform without devices */
+        if (gpu_only && platform_cpu_only(plats[p]))
+            continue;
+        if (clGetDeviceIDs(plats[p], gpu_only ? CL_DEVICE_TYPE_GPU : CL_DEVICE_TYPE_ALL, MAX_DEVICES, devs, &nd) !=
+            CL_SUCCESS)
+            continue; /* CL_DEVICE_NOT_FOUND: a platform without devices (of that type) */
         if (nd > MAX_DEVICES)
             nd = MAX_DEVICES;
         for (cl_uint i = 0; i < nd && n < MAX_DEVICES; ++i) {
@@ -151,11 +158,12 @@ static int list_devices(dev_entry *out, uint32_t *out_count, char *err, size_t e
         }
     }
     if (n == 0) {
-        snprintf(err, err_size, "no OpenCL device found on %u platform%s", np, np == 1 ? "" : "s");
-        return VIS_CL_NOT_FOUND;
+        snprintf(err, err_size, "no OpenCL %s found on %u platform%s", gpu_only ? "GPU" : "device", np,
+                 np == 1 ? "" : "s");
+        return VIS_ERROR_NOT_FOUND;
     }
     *out_count = n;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 /* "0: NAME (PLATFORM), 1: ..." for error messages. */
@@ -175,15 +183,17 @@ static void describe(const dev_entry *devs, uint32_t n, char *out, size_t size)
     }
 }
 
-int vis_cl_device_pick(const char *selector, cl_platform_id *out_platform, cl_device_id *out_device,
+int vis_cl_device_pick(const char *selector, int gpu_only, cl_platform_id *out_platform, cl_device_id *out_device,
                        vis_cl_device_caps *caps, char *err, size_t err_size)
 {
     dev_entry devs[MAX_DEVICES];
     uint32_t n = 0;
-    int st = list_devices(devs, &n, err, err_size);
-    if (st != VIS_CL_OK)
+    if (gpu_only)
+        selector = NULL;
+    int st = list_devices(gpu_only, devs, &n, err, err_size);
+    if (st != VIS_OK)
         return st;
-    if (!selector || !*selector)
+    if (!gpu_only && (!selector || !*selector))
         selector = getenv("VIS_OPENCL_DEVICE");
     char list[768];
 
@@ -197,7 +207,7 @@ int vis_cl_device_pick(const char *selector, cl_platform_id *out_platform, cl_de
             if (v >= (long)n) {
                 describe(devs, n, list, sizeof list);
                 snprintf(err, err_size, "OpenCL device index %ld out of range; devices: %s", v, list);
-                return VIS_CL_NOT_FOUND;
+                return VIS_ERROR_NOT_FOUND;
             }
             index = (int)v;
         } else {
@@ -231,19 +241,19 @@ int vis_cl_device_pick(const char *selector, cl_platform_id *out_platform, cl_de
             if (index < 0) {
                 describe(devs, n, list, sizeof list);
                 snprintf(err, err_size, "no OpenCL device matches '%s'; devices: %s", selector, list);
-                return VIS_CL_NOT_FOUND;
+                return VIS_ERROR_NOT_FOUND;
             }
         }
         /* An explicit choice is kept or refused, never silently replaced. */
         char why[512] = "";
         st = vis_cl_device_check(devs[index].platform, devs[index].device, caps, why, sizeof why);
-        if (st != VIS_CL_OK) {
+        if (st != VIS_OK) {
             snprintf(err, err_size, "%s", why);
             return st;
         }
         *out_platform = devs[index].platform;
         *out_device = devs[index].device;
-        return VIS_CL_OK;
+        return VIS_OK;
     }
 
     /* No selector: GPUs first, then the rest, each in loader order; the first usable wins. */
@@ -256,14 +266,14 @@ int vis_cl_device_pick(const char *selector, cl_platform_id *out_platform, cl_de
             if (gpu != (pass == 0))
                 continue;
             char why[512] = "";
-            if (vis_cl_device_check(devs[i].platform, devs[i].device, caps, why, sizeof why) == VIS_CL_OK) {
+            if (vis_cl_device_check(devs[i].platform, devs[i].device, caps, why, sizeof why) == VIS_OK) {
                 *out_platform = devs[i].platform;
                 *out_device = devs[i].device;
-                return VIS_CL_OK;
+                return VIS_OK;
             }
             if (!first_why[0])
                 snprintf(first_why, sizeof first_why, "%s", why);
         }
     snprintf(err, err_size, "no usable OpenCL device: %s", first_why);
-    return VIS_CL_UNSUPPORTED;
+    return VIS_ERROR_UNSUPPORTED;
 }

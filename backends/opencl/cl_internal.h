@@ -16,17 +16,96 @@
 #  define CL_PLATFORM_NOT_FOUND_KHR -1001 /* cl_khr_icd: the loader found no platform */
 #endif
 
-#include "backend.h"
+/* ---- cl_loader.c: the ICD loader, opened at run time ---------------------------------------
+ *
+ * libvis does not link libOpenCL (a CPU-only program needs neither the loader nor a driver);
+ * every OpenCL entry point the backend calls is listed here once, read from the loader with
+ * dlsym into vis_cl_api, and the cl* names below are mapped onto that table, so the backend's
+ * code reads as plain OpenCL. cl_loader.c checks each entry against the prototype in CL/cl.h
+ * at compile time. Nothing may call a cl* function before vis_cl_load() succeeded. */
+#define VIS_CL_FUNCTIONS(X)                                                                                      \
+    X(cl_int, BuildProgram,                                                                                     \
+      (cl_program, cl_uint, const cl_device_id *, const char *, void(CL_CALLBACK *)(cl_program, void *), void *)) \
+    X(cl_mem, CreateBuffer, (cl_context, cl_mem_flags, size_t, void *, cl_int *))                               \
+    X(cl_command_queue, CreateCommandQueue, (cl_context, cl_device_id, cl_command_queue_properties, cl_int *))  \
+    X(cl_context, CreateContext,                                                                                \
+      (const cl_context_properties *, cl_uint, const cl_device_id *,                                            \
+       void(CL_CALLBACK *)(const char *, const void *, size_t, void *), void *, cl_int *))                      \
+    X(cl_kernel, CreateKernel, (cl_program, const char *, cl_int *))                                            \
+    X(cl_program, CreateProgramWithSource, (cl_context, cl_uint, const char **, const size_t *, cl_int *))      \
+    X(cl_int, EnqueueCopyBuffer,                                                                                \
+      (cl_command_queue, cl_mem, cl_mem, size_t, size_t, size_t, cl_uint, const cl_event *, cl_event *))       \
+    X(cl_int, EnqueueNDRangeKernel,                                                                             \
+      (cl_command_queue, cl_kernel, cl_uint, const size_t *, const size_t *, const size_t *, cl_uint,           \
+       const cl_event *, cl_event *))                                                                           \
+    X(cl_int, EnqueueReadBuffer,                                                                                \
+      (cl_command_queue, cl_mem, cl_bool, size_t, size_t, void *, cl_uint, const cl_event *, cl_event *))      \
+    X(cl_int, EnqueueWriteBuffer,                                                                               \
+      (cl_command_queue, cl_mem, cl_bool, size_t, size_t, const void *, cl_uint, const cl_event *, cl_event *))\
+    X(cl_int, Finish, (cl_command_queue))                                                                       \
+    X(cl_int, GetDeviceIDs, (cl_platform_id, cl_device_type, cl_uint, cl_device_id *, cl_uint *))               \
+    X(cl_int, GetDeviceInfo, (cl_device_id, cl_device_info, size_t, void *, size_t *))                          \
+    X(cl_int, GetEventProfilingInfo, (cl_event, cl_profiling_info, size_t, void *, size_t *))                   \
+    X(cl_int, GetPlatformIDs, (cl_uint, cl_platform_id *, cl_uint *))                                           \
+    X(cl_int, GetPlatformInfo, (cl_platform_id, cl_platform_info, size_t, void *, size_t *))                    \
+    X(cl_int, GetProgramBuildInfo, (cl_program, cl_device_id, cl_program_build_info, size_t, void *, size_t *)) \
+    X(cl_int, ReleaseCommandQueue, (cl_command_queue))                                                          \
+    X(cl_int, ReleaseContext, (cl_context))                                                                     \
+    X(cl_int, ReleaseEvent, (cl_event))                                                                         \
+    X(cl_int, ReleaseKernel, (cl_kernel))                                                                       \
+    X(cl_int, ReleaseMemObject, (cl_mem))                                                                       \
+    X(cl_int, ReleaseProgram, (cl_program))                                                                     \
+    X(cl_int, SetKernelArg, (cl_kernel, cl_uint, size_t, const void *))
 
-/* vis_status values (backend.h: backends return the ints). */
-enum {
-    VIS_CL_OK = 0,
-    VIS_CL_INVALID_ARGUMENT = 1,
-    VIS_CL_OUT_OF_MEMORY = 2,
-    VIS_CL_UNSUPPORTED = 3,
-    VIS_CL_BACKEND = 4,
-    VIS_CL_NOT_FOUND = 5
-};
+typedef struct vis_cl_api {
+#define VIS_CL_MEMBER(ret, fn, params) ret(CL_API_CALL *fn) params;
+    VIS_CL_FUNCTIONS(VIS_CL_MEMBER)
+#undef VIS_CL_MEMBER
+} vis_cl_api;
+
+/* Opens the loader ($VIS_OPENCL_LIBRARY, else libOpenCL.so.1, else libOpenCL.so) once per
+ * process and fills the table. Thread-safe; a failure (UNSUPPORTED, the reason in err) is not
+ * remembered. Returns a vis_status value. */
+int vis_cl_load(char *err, size_t err_size);
+/* The table; valid after a successful vis_cl_load(). */
+const vis_cl_api *vis_cl_api_table(void);
+
+/* 1 when every OpenCL implementation the ICD loader would open (the .icd files it reads, by
+ * its environment variables) is a CPU-only one, with a sentence saying so in `why`; 0 when
+ * any may offer a GPU, nothing is listed, or the list cannot be read. Opens nothing. */
+int vis_cl_icds_cpu_only(char *why, size_t why_size);
+/* 1 when PoCL (its library `library`, a path or a bare name; may be NULL) offers CPU devices
+ * only: $POCL_DEVICES names CPU drivers only, or else no GPU driver module is installed. */
+int vis_cl_pocl_cpu_only(const char *library);
+
+#ifndef VIS_CL_LOADER_NO_NAMES
+#  define clBuildProgram (vis_cl_api_table()->BuildProgram)
+#  define clCreateBuffer (vis_cl_api_table()->CreateBuffer)
+#  define clCreateCommandQueue (vis_cl_api_table()->CreateCommandQueue)
+#  define clCreateContext (vis_cl_api_table()->CreateContext)
+#  define clCreateKernel (vis_cl_api_table()->CreateKernel)
+#  define clCreateProgramWithSource (vis_cl_api_table()->CreateProgramWithSource)
+#  define clEnqueueCopyBuffer (vis_cl_api_table()->EnqueueCopyBuffer)
+#  define clEnqueueNDRangeKernel (vis_cl_api_table()->EnqueueNDRangeKernel)
+#  define clEnqueueReadBuffer (vis_cl_api_table()->EnqueueReadBuffer)
+#  define clEnqueueWriteBuffer (vis_cl_api_table()->EnqueueWriteBuffer)
+#  define clFinish (vis_cl_api_table()->Finish)
+#  define clGetDeviceIDs (vis_cl_api_table()->GetDeviceIDs)
+#  define clGetDeviceInfo (vis_cl_api_table()->GetDeviceInfo)
+#  define clGetEventProfilingInfo (vis_cl_api_table()->GetEventProfilingInfo)
+#  define clGetPlatformIDs (vis_cl_api_table()->GetPlatformIDs)
+#  define clGetPlatformInfo (vis_cl_api_table()->GetPlatformInfo)
+#  define clGetProgramBuildInfo (vis_cl_api_table()->GetProgramBuildInfo)
+#  define clReleaseCommandQueue (vis_cl_api_table()->ReleaseCommandQueue)
+#  define clReleaseContext (vis_cl_api_table()->ReleaseContext)
+#  define clReleaseEvent (vis_cl_api_table()->ReleaseEvent)
+#  define clReleaseKernel (vis_cl_api_table()->ReleaseKernel)
+#  define clReleaseMemObject (vis_cl_api_table()->ReleaseMemObject)
+#  define clReleaseProgram (vis_cl_api_table()->ReleaseProgram)
+#  define clSetKernelArg (vis_cl_api_table()->SetKernelArg)
+#endif
+
+#include "backend.h"
 
 /* Kernels built per option set and kept for the backend's life (DESIGN.md: a scene without
  * an effect pays nothing for it, so each effect set gets its own program). */
@@ -46,7 +125,7 @@ typedef struct vis_cl_device_caps {
     char driver[64];
     char version[128];
     int is_gpu;
-    int fp64;                 /* cl_khr_fp64 */
+    int fp64;                 /* CL_DEVICE_DOUBLE_FP_CONFIG != 0 (cl_khr_fp64) */
     int denorms;              /* CL_FP_DENORM in the single-precision config */
     size_t max_wg;            /* CL_DEVICE_MAX_WORK_GROUP_SIZE */
     size_t max_item[3];       /* CL_DEVICE_MAX_WORK_ITEM_SIZES */
@@ -62,6 +141,7 @@ typedef struct vis_cl_backend {
     vis_cl_device_caps caps;
     vis_backend_log_fn log;
     void *log_user;
+    vis_allocator alloc;      /* the context's: every host allocation of the backend */
 
     vis_cl_program programs[VIS_CL_MAX_PROGRAMS];
     uint32_t program_count;
@@ -96,9 +176,10 @@ typedef struct vis_cl_scene {
 
 /* Picks a device by selector (NULL/"" = $VIS_OPENCL_DEVICE, else the first usable GPU, else
  * the first usable device; "N" = the N-th device over all platforms; otherwise a
- * case-insensitive substring of the device, vendor or platform name). Fills the caps.
- * Returns a vis_status value with the reason in err. */
-int vis_cl_device_pick(const char *selector, cl_platform_id *out_platform, cl_device_id *out_device,
+ * case-insensitive substring of the device, vendor or platform name). gpu_only: no selector,
+ * the first usable GPU or none, and CPU-only platforms are not asked for devices. Fills the
+ * caps. Returns a vis_status value with the reason in err. */
+int vis_cl_device_pick(const char *selector, int gpu_only, cl_platform_id *out_platform, cl_device_id *out_device,
                        vis_cl_device_caps *caps, char *err, size_t err_size);
 
 /* Reads a device's capabilities and checks what bit-identical rays need (correctly rounded
@@ -116,7 +197,7 @@ void vis_cl_programs_release(vis_cl_backend *b);
 
 int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_view *view,
                       const vis_scene_changes *changes, char *err, size_t err_size);
-void vis_cl_scene_release(vis_cl_scene *scene);
+void vis_cl_scene_release(vis_cl_backend *b, vis_cl_scene *scene);
 
 /* ---- helpers (cl_backend.c) ------------------------------------------------------------ */
 

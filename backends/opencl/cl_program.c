@@ -50,7 +50,7 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
     size_t log_size = 0;
     char *log = NULL;
     if (clGetProgramBuildInfo(p->program, b->device, CL_PROGRAM_BUILD_LOG, 0, NULL, &log_size) == CL_SUCCESS &&
-        log_size > 1 && (log = malloc(log_size + 1)) != NULL) {
+        log_size > 1 && (log = vis_host_alloc(&b->alloc, log_size + 1)) != NULL) {
         if (clGetProgramBuildInfo(p->program, b->device, CL_PROGRAM_BUILD_LOG, log_size, log, NULL) != CL_SUCCESS)
             log[0] = '\0';
         log[log_size] = '\0';
@@ -58,15 +58,15 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
     if (e != CL_SUCCESS) {
         snprintf(err, err_size, "kernel build failed (%s, options \"%s\"): %s", vis_cl_error_name(e), opts,
                  log && log[0] ? log : "no build log");
-        free(log);
-        int st = e == CL_OUT_OF_HOST_MEMORY || e == CL_OUT_OF_RESOURCES ? VIS_CL_OUT_OF_MEMORY : VIS_CL_BACKEND;
+        vis_host_free(&b->alloc, log);
+        int st = e == CL_OUT_OF_HOST_MEMORY || e == CL_OUT_OF_RESOURCES ? VIS_ERROR_OUT_OF_MEMORY : VIS_ERROR_BACKEND;
         clReleaseProgram(p->program);
         p->program = NULL;
         return st;
     }
     if (log && log[0] && log[0] != '\n')
         vis_cl_log(b, 0, "opencl: kernel build log: %s", log);
-    free(log);
+    vis_host_free(&b->alloc, log);
 
     p->trace = clCreateKernel(p->program, "vis_trace_kernel", &e);
     if (e == CL_SUCCESS)
@@ -79,7 +79,7 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
         memset(p, 0, sizeof *p);
         return st;
     }
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 int vis_cl_program_get(vis_cl_backend *b, const char *options, vis_cl_program **out, char *err, size_t err_size)
@@ -89,25 +89,25 @@ int vis_cl_program_get(vis_cl_backend *b, const char *options, vis_cl_program **
     for (uint32_t i = 0; i < b->program_count; ++i)
         if (strcmp(b->programs[i].options, options) == 0) {
             *out = &b->programs[i];
-            return VIS_CL_OK;
+            return VIS_OK;
         }
     if (b->program_count == VIS_CL_MAX_PROGRAMS) {
         snprintf(err, err_size, "more than %d kernel option sets", VIS_CL_MAX_PROGRAMS);
-        return VIS_CL_BACKEND;
+        return VIS_ERROR_BACKEND;
     }
     if (strlen(options) >= sizeof b->programs[0].options) {
         snprintf(err, err_size, "kernel options too long");
-        return VIS_CL_INVALID_ARGUMENT;
+        return VIS_ERROR_INVALID_ARGUMENT;
     }
     vis_cl_program *p = &b->programs[b->program_count];
     memset(p, 0, sizeof *p);
     snprintf(p->options, sizeof p->options, "%s", options);
     int st = build(b, p, err, err_size);
-    if (st != VIS_CL_OK)
+    if (st != VIS_OK)
         return st;
     ++b->program_count;
     *out = p;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 void vis_cl_programs_release(vis_cl_backend *b)

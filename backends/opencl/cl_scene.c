@@ -51,7 +51,7 @@ static int array_alloc(upload_state *u, vis_cl_array *a, size_t cap, const char 
         snprintf(u->err, u->err_size,
                  "device '%s' cannot hold the scene's %s: %zu bytes exceed its largest allocation (%llu bytes)",
                  u->b->caps.name, what, bytes, (unsigned long long)u->b->caps.max_alloc);
-        return VIS_CL_OUT_OF_MEMORY;
+        return VIS_ERROR_OUT_OF_MEMORY;
     }
     cl_int e = CL_SUCCESS;
     cl_mem m = clCreateBuffer(u->b->context, CL_MEM_READ_ONLY, bytes, NULL, &e);
@@ -62,18 +62,18 @@ static int array_alloc(upload_state *u, vis_cl_array *a, size_t cap, const char 
     }
     a->mem = m;
     a->cap = cap;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 static int write_range(upload_state *u, vis_cl_array *a, const void *host, size_t first, size_t count,
                        const char *what)
 {
     if (count == 0)
-        return VIS_CL_OK;
+        return VIS_OK;
     if (first + count > a->cap) {
         snprintf(u->err, u->err_size, "internal: %s range [%zu, %zu) beyond the device buffer (%zu)", what, first,
                  first + count, a->cap);
-        return VIS_CL_BACKEND;
+        return VIS_ERROR_BACKEND;
     }
     size_t off = first * a->elem, bytes = count * a->elem;
     cl_int e = clEnqueueWriteBuffer(u->b->queue, a->mem, CL_FALSE, off, bytes, (const char *)host + off, 0, NULL,
@@ -81,7 +81,7 @@ static int write_range(upload_state *u, vis_cl_array *a, const void *host, size_
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clEnqueueWriteBuffer", u->err, u->err_size);
     u->bytes += bytes;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 /* Whole array: (re)allocated with headroom when too small, then written [0, count). */
@@ -91,13 +91,13 @@ static int upload_all(upload_state *u, vis_cl_array *a, const void *host, size_t
     if (!a->mem || a->cap < count) {
         vis_cl_array fresh = {NULL, 0, 0, a->elem};
         int st = array_alloc(u, &fresh, count + headroom, what);
-        if (st != VIS_CL_OK)
+        if (st != VIS_OK)
             return st;
         array_release(a);
         *a = fresh;
     }
-    int st = host ? write_range(u, a, host, 0, count, what) : VIS_CL_OK;
-    if (st == VIS_CL_OK)
+    int st = host ? write_range(u, a, host, 0, count, what) : VIS_OK;
+    if (st == VIS_OK)
         a->valid = host ? count : 0;
     return st;
 }
@@ -106,14 +106,14 @@ static int upload_all(upload_state *u, vis_cl_array *a, const void *host, size_t
 static int ensure(upload_state *u, vis_cl_array *a, size_t count, vis_cl_scene *sc, const char *what)
 {
     if (count <= a->cap)
-        return VIS_CL_OK;
+        return VIS_OK;
     size_t cap = count + count / 2 + HEADROOM_MIN;
     vis_cl_array fresh = {NULL, 0, 0, a->elem};
     int st = array_alloc(u, &fresh, cap, what);
-    if (st != VIS_CL_OK) {
+    if (st != VIS_OK) {
         /* Headroom is a convenience: retry with the exact size before giving up. */
         st = array_alloc(u, &fresh, count, what);
-        if (st != VIS_CL_OK)
+        if (st != VIS_OK)
             return st;
     }
     if (a->valid) {
@@ -130,7 +130,7 @@ static int ensure(upload_state *u, vis_cl_array *a, size_t count, vis_cl_scene *
     array_release(a);
     *a = fresh;
     ++sc->reallocations;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
 static uint32_t bucket_entries(const vis_flat_leaf *lf)
@@ -144,14 +144,14 @@ static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *
 {
     if (li >= v->leaf_count) {
         snprintf(u->err, u->err_size, "internal: changed leaf %u of %u", li, v->leaf_count);
-        return VIS_CL_BACKEND;
+        return VIS_ERROR_BACKEND;
     }
     const vis_flat_leaf *lf = &v->leaves[li];
     int st = write_range(u, &sc->leaves, v->leaves, li, 1, "leaf");
     uint32_t nb = bucket_entries(lf);
-    if (st == VIS_CL_OK && nb && lf->bucket_offset < v->bucket_count && lf->bucket_offset + nb <= v->bucket_count)
+    if (st == VIS_OK && nb && lf->bucket_offset < v->bucket_count && lf->bucket_offset + nb <= v->bucket_count)
         st = write_range(u, &sc->buckets, v->buckets, lf->bucket_offset, nb, "bucket table");
-    if (st != VIS_CL_OK)
+    if (st != VIS_OK)
         return st;
     /* Bucketed quads then loose ones: one range when they are adjacent (they are, by layout). */
     size_t q0 = lf->quad_offset, q1 = (size_t)lf->quad_offset + lf->quad_count;
@@ -161,10 +161,10 @@ static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *
     } else {
         if (lf->quad_count)
             st = write_range(u, &sc->quads, v->quads, q0, q1 - q0, "quads");
-        if (st == VIS_CL_OK && lf->loose_count)
+        if (st == VIS_OK && lf->loose_count)
             st = write_range(u, &sc->quads, v->quads, l0, l1 - l0, "quads");
     }
-    if (st == VIS_CL_OK && lf->tri_count)
+    if (st == VIS_OK && lf->tri_count)
         st = write_range(u, &sc->tris, v->tris, lf->tri_offset, lf->tri_count, "triangles");
     return st;
 }
@@ -175,21 +175,21 @@ static int sync_full(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v)
     size_t hq = v->quad_count / 4 + HEADROOM_MIN, ht = v->tri_count / 4 + HEADROOM_MIN;
     size_t ho = v->object_count / 4 + HEADROOM_MIN, hb = v->bucket_count / 4 + HEADROOM_MIN;
     int st = upload_all(u, &sc->nodes, v->nodes, v->node_count, 0, "nodes");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->leaves, v->leaves, v->leaf_count, 0, "leaves");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->buckets, v->buckets, v->bucket_count, hb, "bucket tables");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->quads, v->quads, v->quad_count, hq, "quads");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->tris, v->tris, v->tri_count, ht, "triangles");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->objects, v->objects, v->object_count, ho, "objects");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->object_leaves, v->object_leaves, v->object_leaf_count, ho, "object leaf lists");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->ropes, v->ropes, v->ropes ? v->rope_count : 0, 0, "ropes");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = upload_all(u, &sc->rope_index, v->rope_index, v->rope_index ? v->node_count : 0, 0, "rope index");
     return st;
 }
@@ -202,39 +202,39 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
         return sync_full(u, sc, v);
     /* Ropes are built with the tree and never change; if they appeared since the last sync
      * (built on first use), they are sent once, whole. */
-    int st = VIS_CL_OK;
+    int st = VIS_OK;
     size_t ropes = v->ropes ? v->rope_count : 0, rope_index = v->rope_index ? v->node_count : 0;
     if (ropes != sc->ropes.valid || rope_index != sc->rope_index.valid) {
         st = upload_all(u, &sc->ropes, v->ropes, ropes, 0, "ropes");
-        if (st == VIS_CL_OK)
+        if (st == VIS_OK)
             st = upload_all(u, &sc->rope_index, v->rope_index, rope_index, 0, "rope index");
     }
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = ensure(u, &sc->buckets, v->bucket_count, sc, "bucket tables");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = ensure(u, &sc->quads, v->quad_count, sc, "quads");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = ensure(u, &sc->tris, v->tri_count, sc, "triangles");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = ensure(u, &sc->objects, v->object_count, sc, "objects");
-    if (st == VIS_CL_OK)
+    if (st == VIS_OK)
         st = ensure(u, &sc->object_leaves, v->object_leaf_count, sc, "object leaf lists");
-    for (uint32_t i = 0; i < ch->leaf_count && st == VIS_CL_OK; ++i)
+    for (uint32_t i = 0; i < ch->leaf_count && st == VIS_OK; ++i)
         st = upload_leaf(u, sc, v, ch->leaves[i]);
-    for (uint32_t i = 0; i < ch->object_count && st == VIS_CL_OK; ++i) {
+    for (uint32_t i = 0; i < ch->object_count && st == VIS_OK; ++i) {
         if (ch->objects[i] >= v->object_count) {
             snprintf(u->err, u->err_size, "internal: changed object slot %u of %u", ch->objects[i], v->object_count);
-            return VIS_CL_BACKEND;
+            return VIS_ERROR_BACKEND;
         }
         st = write_range(u, &sc->objects, v->objects, ch->objects[i], 1, "objects");
     }
-    if (st == VIS_CL_OK && ch->object_leaf_hi > ch->object_leaf_lo) {
+    if (st == VIS_OK && ch->object_leaf_hi > ch->object_leaf_lo) {
         uint32_t hi = ch->object_leaf_hi < v->object_leaf_count ? ch->object_leaf_hi : v->object_leaf_count;
         if (hi > ch->object_leaf_lo)
             st = write_range(u, &sc->object_leaves, v->object_leaves, ch->object_leaf_lo, hi - ch->object_leaf_lo,
                              "object leaf lists");
     }
-    if (st == VIS_CL_OK) {
+    if (st == VIS_OK) {
         /* Everything below the used counts now mirrors the host. */
         sc->buckets.valid = v->bucket_count;
         sc->quads.valid = v->quad_count;
@@ -251,10 +251,10 @@ int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_v
     vis_cl_scene *sc = *scene;
     int fresh = 0;
     if (!sc) {
-        sc = calloc(1, sizeof *sc);
+        sc = vis_host_calloc(&b->alloc, 1, sizeof *sc);
         if (!sc) {
             snprintf(err, err_size, "out of host memory for a scene");
-            return VIS_CL_OUT_OF_MEMORY;
+            return VIS_ERROR_OUT_OF_MEMORY;
         }
         sc->nodes.elem = sizeof(vis_kd_node);
         sc->leaves.elem = sizeof(vis_flat_leaf);
@@ -270,21 +270,21 @@ int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_v
     upload_state u = {b, 0, err, err_size};
     int st = fresh || changes->full ? sync_full(&u, sc, view) : sync_partial(&u, sc, view, changes);
     cl_int e = clFinish(b->queue);
-    if (st == VIS_CL_OK && e != CL_SUCCESS)
+    if (st == VIS_OK && e != CL_SUCCESS)
         st = vis_cl_fail(e, "clFinish (scene upload)", err, err_size);
-    if (st != VIS_CL_OK) {
+    if (st != VIS_OK) {
         /* A half-updated copy must not be traced: drop it; the next sync starts afresh. */
-        vis_cl_scene_release(sc);
+        vis_cl_scene_release(b, sc);
         *scene = NULL;
         return st;
     }
     sc->last_upload_bytes = u.bytes;
     sc->total_upload_bytes += u.bytes;
     *scene = sc;
-    return VIS_CL_OK;
+    return VIS_OK;
 }
 
-void vis_cl_scene_release(vis_cl_scene *sc)
+void vis_cl_scene_release(vis_cl_backend *b, vis_cl_scene *sc)
 {
     if (!sc)
         return;
@@ -292,5 +292,5 @@ void vis_cl_scene_release(vis_cl_scene *sc)
                               &sc->objects, &sc->object_leaves, &sc->ropes,   &sc->rope_index};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         array_release(arrays[i]);
-    free(sc);
+    vis_host_free(&b->alloc, sc);
 }

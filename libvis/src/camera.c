@@ -48,8 +48,12 @@ vis_status vis_camera_validate(vis_context *ctx, const vis_camera *camera)
 {
     if (!ctx)
         return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
     double fovy = 0.0, n = 0.0, f = 0.0;
-    return check_camera(ctx, camera, &fovy, &n, &f);
+    vis_status st = check_camera(ctx, camera, &fovy, &n, &f);
+    vis_leave(ctx);
+    return st;
 }
 
 vis_status vis_camera_frame_make(vis_context *ctx, const vis_camera *c, const double origin[3], uint32_t width,

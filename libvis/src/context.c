@@ -15,6 +15,8 @@ const char *vis_status_string(vis_status status)
     case VIS_ERROR_BACKEND: return "backend error";
     case VIS_ERROR_NOT_FOUND: return "not found";
     case VIS_ERROR_CAPACITY: return "output too small";
+    case VIS_ERROR_BUDGET: return "over budget";
+    case VIS_ERROR_BUSY: return "context busy on another thread";
     }
     return "unknown status";
 }
@@ -111,6 +113,17 @@ void vis_log(vis_context *ctx, vis_log_level level, const char *fmt, ...)
 
 void vis_clear_error(vis_context *ctx) { ctx->last_error[0] = '\0'; }
 
+vis_status vis_enter(vis_context *ctx)
+{
+    int expected = 0;
+    return atomic_compare_exchange_strong_explicit(&ctx->busy, &expected, 1, memory_order_acquire,
+                                                   memory_order_relaxed)
+               ? VIS_OK
+               : VIS_ERROR_BUSY;
+}
+
+void vis_leave(vis_context *ctx) { atomic_store_explicit(&ctx->busy, 0, memory_order_release); }
+
 void vis_context_desc_defaults(vis_context_desc *desc)
 {
     memset(desc, 0, sizeof *desc);
@@ -126,26 +139,36 @@ static vis_status create_cpu(vis_context *ctx)
 {
     char err[512] = "";
     uint32_t threads = 0;
-    int st = vis_cpu_backend_create(ctx->desc.threads, &ctx->backend, &threads, err, sizeof err);
+    /* With the caller's job system the pool has one thread, the caller: it starts none. */
+    int st = vis_cpu_backend_create(ctx->desc.parallel_for ? 1u : ctx->desc.threads, &ctx->alloc, &ctx->backend,
+                                    &threads, err, sizeof err);
     if (st != VIS_OK)
         return vis_fail(ctx, (vis_status)st, "cpu backend: %s", err);
+    if (ctx->desc.parallel_for) {
+        vis_cpu_backend_set_parallel_for(&ctx->backend, ctx->desc.parallel_for, ctx->desc.parallel_for_user);
+        threads = 0;
+    }
     ctx->info.kind = VIS_BACKEND_CPU;
     ctx->info.threads = threads;
     snprintf(ctx->info.name, sizeof ctx->info.name, "cpu");
-    snprintf(ctx->info.device, sizeof ctx->info.device, "%u thread%s", threads, threads == 1 ? "" : "s");
+    if (ctx->desc.parallel_for)
+        snprintf(ctx->info.device, sizeof ctx->info.device, "the caller's parallel_for");
+    else
+        snprintf(ctx->info.device, sizeof ctx->info.device, "%u thread%s", threads, threads == 1 ? "" : "s");
     return VIS_OK;
 }
 
-/* Tries OpenCL; returns its status and leaves the reason in `why`. */
-static vis_status create_opencl(vis_context *ctx, char *why, size_t why_size, int *is_gpu)
+/* Tries OpenCL; returns its status and leaves the reason in `why`. gpu_only (AUTO with no
+ * device named): a GPU or nothing, without starting a CPU-only implementation (PoCL). */
+static vis_status create_opencl(vis_context *ctx, int gpu_only, char *why, size_t why_size, int *is_gpu)
 {
 #ifdef VIS_HAVE_OPENCL
     char err[1024] = "";
     const char *sel = ctx->desc.opencl_device;
     if (!sel || !*sel)
         sel = getenv("VIS_OPENCL_DEVICE");
-    int st = vis_opencl_backend_create(sel, &ctx->backend, ctx->info.device, sizeof ctx->info.device, is_gpu,
-                                       backend_log_thunk, ctx, err, sizeof err);
+    int st = vis_opencl_backend_create(sel, gpu_only, &ctx->alloc, &ctx->backend, ctx->info.device, sizeof ctx->info.device,
+                                       is_gpu, backend_log_thunk, ctx, err, sizeof err);
     if (st != VIS_OK) {
         snprintf(why, why_size, "%s", err);
         return (vis_status)st;
@@ -156,6 +179,7 @@ static vis_status create_opencl(vis_context *ctx, char *why, size_t why_size, in
     return VIS_OK;
 #else
     (void)ctx;
+    (void)gpu_only;
     (void)is_gpu;
     (void)backend_log_thunk;
     snprintf(why, why_size, "this build has no OpenCL backend (configure with -DVIS_WITH_OPENCL=ON)");
@@ -199,6 +223,8 @@ vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_co
     if (!ctx)
         return VIS_ERROR_OUT_OF_MEMORY;
     memset(ctx, 0, sizeof *ctx);
+    atomic_init(&ctx->busy, 0);
+    atomic_init(&ctx->foreign_copies, 0u);
     ctx->desc = d;
     ctx->alloc = alloc;
 
@@ -210,12 +236,12 @@ vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_co
         st = create_cpu(ctx);
         break;
     case VIS_BACKEND_OPENCL:
-        st = create_opencl(ctx, why, sizeof why, &is_gpu);
+        st = create_opencl(ctx, 0, why, sizeof why, &is_gpu);
         if (st != VIS_OK)
             vis_fail(ctx, st, "opencl backend: %s", why);
         break;
     default: /* AUTO: an OpenCL GPU (or any device named), else the CPU backend */
-        st = create_opencl(ctx, why, sizeof why, &is_gpu);
+        st = create_opencl(ctx, !opencl_device_named(ctx), why, sizeof why, &is_gpu);
         if (st == VIS_OK && !is_gpu && !opencl_device_named(ctx)) {
             /* An OpenCL CPU device (PoCL): the CPU backend traces packets on the same cores,
              * 10-75x faster than the per-ray kernel there (docs/performance.md). */
@@ -247,15 +273,32 @@ vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_co
     return VIS_OK;
 }
 
-void vis_context_destroy(vis_context *ctx)
+vis_status vis_context_destroy(vis_context *ctx)
 {
     if (!ctx)
-        return;
+        return VIS_OK;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    unsigned foreign = atomic_load(&ctx->foreign_copies);
+    if (foreign) {
+        vis_status st = vis_fail(ctx, VIS_ERROR_BUSY,
+                                 "vis_context_destroy: the context still holds copies of %u scene(s) of other "
+                                 "contexts; destroy those scenes first",
+                                 foreign);
+        vis_leave(ctx);
+        return st;
+    }
+    vis_leave(ctx); /* the destroy functions below are calls on the context */
+    while (ctx->zculls)
+        vis_zcull_destroy(ctx->zculls);
+    while (ctx->scenes)
+        vis_scene_destroy(ctx->scenes);
     if (ctx->backend.ops)
         ctx->backend.ops->destroy(ctx->backend.impl);
     vis_free(ctx, ctx->scratch);
     vis_allocator a = ctx->alloc;
     a.free(ctx, a.user);
+    return VIS_OK;
 }
 
 const char *vis_context_last_error(const vis_context *ctx) { return ctx ? ctx->last_error : "no context"; }

@@ -3,6 +3,7 @@
 #define VIS_CONTEXT_H
 
 #include <stdarg.h>
+#include <stdatomic.h>
 
 #include "backend.h"
 #include "vis/vis.h"
@@ -17,6 +18,10 @@ struct vis_context {
     size_t scratch_size;
     vis_timing timing;    /* of the last successful vis_trace / vis_trace_batch              */
     int have_timing;
+    atomic_int busy;      /* 1 while a thread is inside a call that uses the fields above    */
+    atomic_uint foreign_copies; /* backend copies this context holds of other contexts' scenes */
+    struct vis_scene *scenes;   /* created here, newest first (vis_context_destroy frees them) */
+    struct vis_zcull *zculls;
 };
 
 /* Records the message as the context's last error, logs it, and returns `status`. */
@@ -31,6 +36,11 @@ void vis_log(vis_context *ctx, vis_log_level level, const char *fmt, ...)
 #endif
     ;
 void vis_clear_error(vis_context *ctx);
+
+/* Takes the context for one call: VIS_ERROR_BUSY (and no message: the last error belongs
+ * to the thread inside) when another thread is in a call on it. vis_leave gives it back. */
+vis_status vis_enter(vis_context *ctx);
+void vis_leave(vis_context *ctx);
 
 /* Host memory through the context's allocator; 64-byte aligned. vis_realloc keeps the
  * first min(old_size, new_size) bytes. All return NULL on failure (no message). */

@@ -33,15 +33,19 @@ static void sort_entries(vis_draw_entry *e, size_t n)
     }
 }
 
-size_t vis_drawlist_bound(const vis_scene *scene) { return scene ? scene->object_live : 0; }
-
-vis_status vis_drawlist_build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width,
-                              uint32_t height, vis_id_mode mode, vis_draw_entry *out, size_t capacity,
-                              size_t *out_count)
+size_t vis_drawlist_bound(const vis_scene *scene)
 {
-    if (!ctx)
-        return VIS_ERROR_INVALID_ARGUMENT;
-    vis_clear_error(ctx);
+    if (!scene)
+        return 0;
+    vis_scene_begin_read(scene);
+    size_t n = scene->object_live;
+    vis_scene_end_read(scene);
+    return n;
+}
+
+static vis_status build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width, uint32_t height,
+                        vis_id_mode mode, vis_draw_entry *out, size_t capacity, size_t *out_count)
+{
     if (!s || !ids || !out_count || (capacity && !out))
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_drawlist_build: NULL argument");
     if (mode != VIS_IDS_OBJECT && mode != VIS_IDS_LEAF)
@@ -102,4 +106,22 @@ vis_status vis_drawlist_build(vis_context *ctx, const vis_scene *s, const uint32
     sort_entries(out, k);
     *out_count = k;
     return VIS_OK;
+}
+
+vis_status vis_drawlist_build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width,
+                              uint32_t height, vis_id_mode mode, vis_draw_entry *out, size_t capacity,
+                              size_t *out_count)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(ctx);
+    if (s)
+        vis_scene_begin_read(s);
+    vis_status st = build(ctx, s, ids, width, height, mode, out, capacity, out_count);
+    if (s)
+        vis_scene_end_read(s);
+    vis_leave(ctx);
+    return st;
 }

@@ -9,6 +9,7 @@
 #include "kdtree.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 static uint32_t ceil_log2(uint32_t n)
@@ -24,23 +25,36 @@ uint32_t vis_kdtree_full_depth(const uint32_t cells[3])
     return ceil_log2(cells[0]) + ceil_log2(cells[1]) + ceil_log2(cells[2]);
 }
 
+/* The split rule: the axis with the most cells (the lowest such axis on ties). A node whose
+ * largest extent is one cell, or that lies at the fixed depth, is a leaf. The build and the
+ * plan both use it, so the plan's counts are the build's. */
+static uint32_t split_axis(const uint32_t ext[3])
+{
+    uint32_t axis = 0;
+    if (ext[1] > ext[axis])
+        axis = 1;
+    if (ext[2] > ext[axis])
+        axis = 2;
+    return axis;
+}
+
 typedef struct build_state {
     vis_scene *s;
-    uint32_t next_node;
-    uint32_t next_leaf;
-    uint32_t cells[3];
+    uint32_t next_node, node_cap;
+    uint32_t next_leaf, leaf_cap;
+    int overflow; /* the tree outgrew the plan's counts (never, by construction) */
 } build_state;
 
 static void build_node(build_state *b, uint32_t node, const uint32_t c0[3], const uint32_t c1[3], uint32_t depth)
 {
     vis_scene *s = b->s;
     uint32_t ext[3] = {c1[0] - c0[0], c1[1] - c0[1], c1[2] - c0[2]};
-    uint32_t axis = 0;
-    if (ext[1] > ext[axis])
-        axis = 1;
-    if (ext[2] > ext[axis])
-        axis = 2;
+    uint32_t axis = split_axis(ext);
     if (depth >= s->kd_depth || ext[axis] <= 1) {
+        if (b->next_leaf >= b->leaf_cap) {
+            b->overflow = 1;
+            return;
+        }
         uint32_t li = b->next_leaf++;
         s->nodes[node].split = 0.0f;
         s->nodes[node].info = VIS_NODE_LEAF | (li << 2);
@@ -67,6 +81,10 @@ static void build_node(build_state *b, uint32_t node, const uint32_t c0[3], cons
         return;
     }
     uint32_t mid = c0[axis] + ext[axis] / 2;
+    if ((uint64_t)b->next_node + 2 > b->node_cap) {
+        b->overflow = 1;
+        return;
+    }
     uint32_t first = b->next_node;
     b->next_node += 2;
     s->nodes[node].split = (float)mid * s->desc.cell_size;
@@ -79,27 +97,93 @@ static void build_node(build_state *b, uint32_t node, const uint32_t c0[3], cons
     build_node(b, first + 1, rc0, c1, depth + 1);
 }
 
-/* Counts nodes and leaves of the tree the build would make. */
-static void count_nodes(const vis_scene *s, const uint32_t c0[3], const uint32_t c1[3], uint32_t depth,
-                        uint64_t *nodes, uint64_t *leaves)
+/* ---- the plan: the tree's counts without building it ------------------------------------
+ *
+ * A node's subtree depends only on its extent in cells and its depth (the split rule reads
+ * nothing else), so the tree is counted a level at a time over the distinct extents of the
+ * level, each with the number of nodes that have it. Halving an axis of n cells k times
+ * leaves floor(n / 2^k) or ceil(n / 2^k) cells, and it is always the largest axis that is
+ * halved, so a level holds few distinct extents (never more than 16 in a sweep of random
+ * sizes up to 2^30 cells per axis; nothing here depends on that bound) where it may hold
+ * billions of nodes: the work grows with the depth, not with the node count, and a scene too
+ * big to build is refused without being walked.
+ */
+
+typedef struct plan_entry {
+    uint32_t ext[3];
+    uint32_t child[2]; /* entry indices; UINT32_MAX for a leaf */
+    uint32_t height;   /* levels down to the deepest leaf below */
+    uint64_t count;    /* nodes of this level with this extent  */
+} plan_entry;
+
+vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vis_kdtree_plan *out)
 {
-    uint32_t ext[3] = {c1[0] - c0[0], c1[1] - c0[1], c1[2] - c0[2]};
-    uint32_t axis = 0;
-    if (ext[1] > ext[axis])
-        axis = 1;
-    if (ext[2] > ext[axis])
-        axis = 2;
-    ++*nodes;
-    if (depth >= s->kd_depth || ext[axis] <= 1) {
-        ++*leaves;
-        return;
+    memset(out, 0, sizeof *out);
+    for (int a = 0; a < 3; ++a) {
+        double n = ceil((double)desc->size[a] / (double)desc->cell_size);
+        if (!(n <= (double)VIS_KD_MAX_CELLS))
+            return vis_fail(ctx, VIS_ERROR_BUDGET,
+                            "scene size[%d] / cell_size = %.0f cells, over the limit of %u cells per axis; use a "
+                            "larger cell_size",
+                            a, n, VIS_KD_MAX_CELLS);
+        out->cells[a] = n < 1.0 ? 1u : (uint32_t)n;
     }
-    uint32_t mid = c0[axis] + ext[axis] / 2;
-    uint32_t lc1[3] = {c1[0], c1[1], c1[2]}, rc0[3] = {c0[0], c0[1], c0[2]};
-    lc1[axis] = mid;
-    rc0[axis] = mid;
-    count_nodes(s, c0, lc1, depth + 1, nodes, leaves);
-    count_nodes(s, rc0, c1, depth + 1, nodes, leaves);
+    uint32_t full = vis_kdtree_full_depth(out->cells);
+    out->kd_depth = desc->kd_depth == 0 || desc->kd_depth > full ? full : desc->kd_depth;
+
+    uint32_t cap = 64, n = 1;
+    plan_entry *e = vis_alloc(ctx, cap * sizeof *e);
+    if (!e)
+        return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory planning a kd-tree");
+    memset(&e[0], 0, sizeof e[0]);
+    memcpy(e[0].ext, out->cells, sizeof e[0].ext);
+    e[0].count = 1;
+    for (uint32_t lo = 0, hi = 1, depth = 0; lo < hi; lo = hi, hi = n, ++depth) {
+        for (uint32_t i = lo; i < hi; ++i) {
+            uint32_t axis = split_axis(e[i].ext);
+            out->nodes = vis_sat_add(out->nodes, e[i].count);
+            e[i].child[0] = e[i].child[1] = UINT32_MAX;
+            if (depth >= out->kd_depth || e[i].ext[axis] <= 1) {
+                out->leaves = vis_sat_add(out->leaves, e[i].count);
+                continue;
+            }
+            for (uint32_t c = 0; c < 2; ++c) {
+                uint32_t ext[3] = {e[i].ext[0], e[i].ext[1], e[i].ext[2]};
+                ext[axis] = c == 0 ? ext[axis] / 2 : ext[axis] - ext[axis] / 2;
+                uint32_t j = hi;
+                while (j < n && memcmp(e[j].ext, ext, sizeof ext) != 0)
+                    ++j;
+                if (j == n) {
+                    if (n == cap) {
+                        plan_entry *g = vis_realloc(ctx, e, cap * sizeof *e, 2 * cap * sizeof *e);
+                        if (!g) {
+                            vis_free(ctx, e);
+                            return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory planning a kd-tree");
+                        }
+                        e = g;
+                        cap *= 2;
+                    }
+                    memset(&e[n], 0, sizeof e[n]);
+                    memcpy(e[n].ext, ext, sizeof ext);
+                    ++n;
+                }
+                e[j].count = vis_sat_add(e[j].count, e[i].count);
+                e[i].child[c] = j;
+            }
+        }
+    }
+    /* Children come after their parents: heights from the last entry up. */
+    for (uint32_t i = n; i-- > 0;) {
+        if (e[i].child[0] != UINT32_MAX) {
+            uint32_t hl = e[e[i].child[0]].height, hr = e[e[i].child[1]].height;
+            e[i].height = 1 + (hl > hr ? hl : hr);
+        }
+        if (e[i].height <= VIS_MAX_SHORT_STACK)
+            out->ropes = vis_sat_add(out->ropes, e[i].count);
+    }
+    vis_free(ctx, e);
+    out->bytes = vis_scene_tree_bytes(out->nodes, out->leaves, out->ropes);
+    return VIS_OK;
 }
 
 /* ---- ropes ----------------------------------------------------------------------------
@@ -113,7 +197,7 @@ static void count_nodes(const vis_scene *s, const uint32_t c0[3], const uint32_t
  *
  * The tree never changes after creation, so neither do the ropes: they are built once here.
  * N is chosen per pass (vis_trace_desc.short_stack), so every node up to
- * VIS_ROPE_MAX_HEIGHT levels above the leaves gets an entry: a pass with N uses the highest
+ * VIS_MAX_SHORT_STACK levels above the leaves gets an entry: a pass with N uses the highest
  * nodes of height <= N on each path (exactly the nodes N levels up when all leaves are at one
  * depth) and never reads the others. Entry i < leaf_count is leaf i, so plain ropes index
  * `ropes` by leaf without rope_index.
@@ -132,7 +216,7 @@ typedef struct rope_target {
 
 typedef struct rope_state {
     vis_scene *s;
-    uint8_t *height;
+    uint32_t *height; /* per node, until rope_fill overwrites it (build_ropes) */
     uint32_t next_inner; /* next free entry for inner nodes */
 } rope_state;
 
@@ -142,7 +226,7 @@ static uint32_t node_mid(uint32_t axis, const uint32_t c0[3], const uint32_t c1[
     return c0[axis] + (c1[axis] - c0[axis]) / 2;
 }
 
-static uint32_t compute_heights(const vis_scene *s, uint32_t node, uint8_t *height)
+static uint32_t compute_heights(const vis_scene *s, uint32_t node, uint32_t *height)
 {
     uint32_t info = s->nodes[node].info;
     uint32_t h = 0;
@@ -151,7 +235,7 @@ static uint32_t compute_heights(const vis_scene *s, uint32_t node, uint8_t *heig
         uint32_t hl = compute_heights(s, first, height), hr = compute_heights(s, first + 1, height);
         h = 1 + (hl > hr ? hl : hr);
     }
-    height[node] = (uint8_t)(h > 255 ? 255 : h);
+    height[node] = h;
     return h;
 }
 
@@ -199,8 +283,9 @@ static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const
         rope_descend(s, &link[f], lo, hi, depth);
     }
     uint32_t info = s->nodes[node].info;
+    uint32_t height = rs->height[node]; /* read before the entry below overwrites it */
     uint32_t e = VIS_NO_ROPE;
-    if (rs->height[node] <= VIS_ROPE_MAX_HEIGHT)
+    if (height <= VIS_MAX_SHORT_STACK)
         e = (info & 3u) == VIS_NODE_LEAF ? info >> 2 : rs->next_inner++;
     s->rope_index[node] = e;
     if (e != VIS_NO_ROPE) {
@@ -215,7 +300,7 @@ static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const
         for (uint32_t f = 0; f < 6; ++f)
             rn->link[f] = link[f].node;
         rn->node = node;
-        rn->height = rs->height[node];
+        rn->height = height;
     }
     if ((info & 3u) == VIS_NODE_LEAF)
         return;
@@ -242,21 +327,20 @@ static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const
 static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
 {
     rope_state rs = {s, NULL, 0};
-    rs.height = vis_calloc(s->ctx, s->node_count, 1);
     s->rope_index = vis_calloc(s->ctx, s->node_count, sizeof *s->rope_index);
-    if (!rs.height || !s->rope_index) {
-        vis_free(s->ctx, rs.height);
+    if (!s->rope_index)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the ropes of %u nodes", s->node_count);
-    }
+    /* The heights live in rope_index until rope_fill replaces each with the node's entry: it
+     * reads a node's height before it writes the node's entry, and its children's after.
+     * That keeps the build within the bytes the plan counted (no array of its own). */
+    rs.height = s->rope_index;
     compute_heights(s, 0, rs.height);
     uint32_t count = 0;
     for (uint32_t i = 0; i < s->node_count; ++i)
-        count += rs.height[i] <= VIS_ROPE_MAX_HEIGHT;
+        count += rs.height[i] <= VIS_MAX_SHORT_STACK;
     s->ropes = vis_calloc(s->ctx, count, sizeof *s->ropes);
-    if (!s->ropes) {
-        vis_free(s->ctx, rs.height);
+    if (!s->ropes)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for %u rope nodes", count);
-    }
     s->rope_count = count;
     rs.next_inner = s->leaf_count;
     rope_target none[6];
@@ -264,37 +348,31 @@ static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
         none[f].node = VIS_NO_ROPE; /* the root's faces are the scene's */
     uint32_t zero[3] = {0, 0, 0};
     rope_fill(&rs, 0, zero, cells, 0, none);
-    vis_free(s->ctx, rs.height);
     return VIS_OK;
 }
 
-vis_status vis_kdtree_build(vis_scene *s)
+vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)
 {
-    uint32_t cells[3];
-    for (int a = 0; a < 3; ++a) {
-        double n = ceil((double)s->desc.size[a] / (double)s->desc.cell_size);
-        cells[a] = n < 1.0 ? 1u : (uint32_t)n;
-    }
-    uint32_t full = vis_kdtree_full_depth(cells);
-    s->kd_depth = s->desc.kd_depth == 0 || s->desc.kd_depth > full ? full : s->desc.kd_depth;
-    uint32_t zero[3] = {0, 0, 0};
-    uint64_t nodes = 0, leaves = 0;
-    count_nodes(s, zero, cells, 0, &nodes, &leaves);
-    if (nodes > (1u << 26))
-        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT,
-                        "kd-tree would need %llu nodes (%ux%ux%u cells); use a larger cell_size or kd_depth",
-                        (unsigned long long)nodes, cells[0], cells[1], cells[2]);
-    s->nodes = vis_calloc(s->ctx, (size_t)nodes, sizeof *s->nodes);
-    s->leaves = vis_calloc(s->ctx, (size_t)leaves, sizeof *s->leaves);
-    s->leaf_host = vis_calloc(s->ctx, (size_t)leaves, sizeof *s->leaf_host);
+    s->kd_depth = plan->kd_depth;
+    if (plan->nodes > VIS_MAX_KD_NODES || plan->leaves > plan->nodes)
+        return vis_fail(s->ctx, VIS_ERROR_BUDGET, "kd-tree would have %llu nodes, over the limit of %u",
+                        (unsigned long long)plan->nodes, VIS_MAX_KD_NODES);
+    s->nodes = vis_calloc(s->ctx, (size_t)plan->nodes, sizeof *s->nodes);
+    s->leaves = vis_calloc(s->ctx, (size_t)plan->leaves, sizeof *s->leaves);
+    s->leaf_host = vis_calloc(s->ctx, (size_t)plan->leaves, sizeof *s->leaf_host);
     if (!s->nodes || !s->leaves || !s->leaf_host)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for a kd-tree of %llu nodes",
-                        (unsigned long long)nodes);
-    build_state b = {s, 1, 0, {cells[0], cells[1], cells[2]}};
-    build_node(&b, 0, zero, cells, 0);
+                        (unsigned long long)plan->nodes);
+    build_state b = {s, 1, (uint32_t)plan->nodes, 0, (uint32_t)plan->leaves, 0};
+    uint32_t zero[3] = {0, 0, 0};
+    build_node(&b, 0, zero, plan->cells, 0);
     s->node_count = b.next_node;
     s->leaf_count = b.next_leaf;
-    return build_ropes(s, cells);
+    if (b.overflow || b.next_node != plan->nodes || b.next_leaf != plan->leaves)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT,
+                        "internal: the kd-tree build does not match its plan (%llu nodes, %llu leaves)",
+                        (unsigned long long)plan->nodes, (unsigned long long)plan->leaves);
+    return build_ropes(s, plan->cells);
 }
 
 /* Leaves whose closed box overlaps the object's box. A box touching a split plane only from

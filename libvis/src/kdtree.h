@@ -6,14 +6,32 @@
 
 #define VIS_KD_MAX_BUCKET_EXTENT 4096u
 #define VIS_KD_NO_BUCKETS 0xFFFFFFFFu
-#define VIS_ROPE_MAX_HEIGHT VIS_SHORT_STACK_MAX /* nodes up to this height get ropes */
+
+#define VIS_KD_MAX_CELLS (1u << 30) /* cells per axis, at most                              */
 
 /* Depth at which every leaf is a single cell. */
 uint32_t vis_kdtree_full_depth(const uint32_t cells[3]);
 
-/* Builds nodes and (empty) leaves over s->desc, and the ropes (never changed afterwards);
- * sets s->kd_depth, node, leaf and rope counts. */
-vis_status vis_kdtree_build(vis_scene *s);
+/* What the tree over a desc (defaults filled in) will be, computed without building it.
+ * Counts saturate at UINT64_MAX. */
+typedef struct vis_kdtree_plan {
+    uint32_t cells[3];
+    uint32_t kd_depth;  /* the depth the build will use                                     */
+    uint64_t nodes;     /* inner nodes + leaves                                             */
+    uint64_t leaves;
+    uint64_t ropes;     /* nodes at most VIS_MAX_SHORT_STACK levels above their deepest leaf */
+    uint64_t bytes;     /* what vis_scene_info.bytes reports for the empty scene            */
+} vis_kdtree_plan;
+
+/* Fills *out from the desc's size, cell_size and kd_depth alone: its work grows with the
+ * tree's depth, not its node count. VIS_ERROR_BUDGET when an axis has more than
+ * VIS_KD_MAX_CELLS cells; VIS_ERROR_OUT_OF_MEMORY for its small scratch. Checks no limit on
+ * nodes or bytes (the caller does). */
+vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vis_kdtree_plan *out);
+
+/* Builds nodes and (empty) leaves of the plan over s->desc, and the ropes (never changed
+ * afterwards); sets s->kd_depth, node, leaf and rope counts. */
+vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan);
 
 /* Leaf indices overlapped by the box (see kdtree.c for the boundary rule). Writes at most
  * `cap` and returns the total count. */

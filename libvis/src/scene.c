@@ -3,9 +3,11 @@
  * The tree never changes after vis_scene_create (kdtree.c). An edit replaces one object's
  * primitives and rewrites only the leaves that reference it: each leaf owns a slot in the
  * primitive pools with spare capacity (desc.leaf_slack); a leaf that outgrows its slot moves
- * to a new slot at the end of the pool (counted in `relocations`) — the tree is untouched.
+ * to a new slot at the end of the pool (vis_scene_stats.relocations) — the tree is untouched.
  * Within a slot, quads on integer planes are sorted into (axis, plane) buckets so the
- * traversal can visit planes in ray order (trace_core.h).
+ * traversal can visit planes in ray order (trace_core.h). An edit's growth in bytes is
+ * computed before anything changes (set_object_growth) and held to desc.max_bytes, so a
+ * refused edit leaves the scene as it was.
  */
 #include "scene.h"
 
@@ -16,16 +18,38 @@
 
 /* ---- small dynamic arrays ----------------------------------------------------------- */
 
-static int grow(vis_context *ctx, void **ptr, uint32_t *cap, uint32_t need, size_t elem)
+/* The capacity grow() gives an array of capacity cap that must hold need: cap when it
+ * suffices, else the first of cap, cap * 3/2 + 16, ... (from 16 when cap is 0) that does;
+ * 0 when need is beyond 32-bit counts. Growing one array several times ends where growing it
+ * once to the largest need ends: every growth steps along the same sequence. */
+static uint64_t grown_cap(uint32_t cap, uint64_t need)
 {
-    if (need <= *cap)
-        return 1;
-    uint64_t n = *cap ? *cap : 16;
+    if (need <= cap)
+        return cap;
+    uint64_t n = cap ? cap : 16;
     while (n < need)
         n = n * 3 / 2 + 16;
     if (n > 0xFFFFFFF0u)
         n = 0xFFFFFFF0u;
-    if (n < need)
+    return n < need ? 0 : n;
+}
+
+/* Bytes that growing an array of `elem`-byte elements from cap to hold need adds;
+ * UINT64_MAX when it cannot grow that far. */
+static uint64_t growth(uint32_t cap, uint64_t need, uint64_t elem)
+{
+    if (need <= cap)
+        return 0;
+    uint64_t n = grown_cap(cap, need);
+    return n == 0 ? UINT64_MAX : (n - cap) * elem;
+}
+
+static int grow(vis_context *ctx, void **ptr, uint32_t *cap, uint32_t need, size_t elem)
+{
+    if (need <= *cap)
+        return 1;
+    uint64_t n = grown_cap(*cap, need);
+    if (n == 0)
         return 0;
     void *p = vis_realloc(ctx, *ptr, (size_t)*cap * elem, (size_t)n * elem);
     if (!p)
@@ -154,13 +178,34 @@ void vis_scene_desc_defaults(vis_scene_desc *desc)
     memset(desc, 0, sizeof *desc);
     desc->cell_size = 16.0f;
     desc->leaf_slack = 0.25f;
+    desc->max_bytes = VIS_DEFAULT_SCENE_MAX_BYTES;
 }
 
-vis_status vis_scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_scene **out_scene)
+/* Per node: the node and its rope index. Per leaf: the flat leaf, its host bookkeeping and
+ * its entry in the dirty list. Per rope entry: the rope node. For the default 16-voxel cells
+ * the leaf headers (64 + 40 + 4 bytes) and the ropes (56 bytes per node, about two nodes per
+ * leaf) make up nine tenths of an empty scene. */
+uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes)
 {
-    if (!ctx)
-        return VIS_ERROR_INVALID_ARGUMENT;
-    vis_clear_error(ctx);
+    uint64_t b = sizeof(vis_scene);
+    b = vis_sat_add(b, vis_sat_mul(nodes, sizeof(vis_kd_node) + sizeof(uint32_t)));
+    b = vis_sat_add(b, vis_sat_mul(leaves, sizeof(vis_flat_leaf) + sizeof(vis_leaf_host) + sizeof(uint32_t)));
+    return vis_sat_add(b, vis_sat_mul(ropes, sizeof(vis_rope_node)));
+}
+
+uint64_t vis_scene_bytes(const vis_scene *s)
+{
+    return vis_scene_tree_bytes(s->node_count, s->leaf_count, s->rope_count) +
+           (uint64_t)s->bucket_cap * sizeof(uint32_t) + (uint64_t)s->quad_cap * sizeof *s->quads +
+           (uint64_t)s->tri_cap * sizeof *s->tris +
+           (uint64_t)s->object_cap * (sizeof *s->objects + sizeof *s->object_host + 1) +
+           (uint64_t)s->object_leaf_cap * sizeof(uint32_t) + (uint64_t)s->id_map_cap * sizeof(uint32_t) +
+           (uint64_t)s->free_cap * sizeof(uint32_t) + (uint64_t)s->dirty_object_cap * sizeof(uint32_t) +
+           s->leaf_list_bytes + s->object_prim_bytes;
+}
+
+static vis_status scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_scene **out_scene)
+{
     if (!desc || !out_scene)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_scene_create: desc and out_scene must not be NULL");
     vis_scene_desc d = *desc;
@@ -168,6 +213,8 @@ vis_status vis_scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_sc
         d.cell_size = 16.0f;
     if (d.leaf_slack == 0.0f)
         d.leaf_slack = 0.25f;
+    if (d.max_bytes == 0)
+        d.max_bytes = VIS_DEFAULT_SCENE_MAX_BYTES;
     for (int a = 0; a < 3; ++a) {
         if (!isfinite(d.origin[a]))
             return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene origin[%d] is not finite", a);
@@ -180,13 +227,41 @@ vis_status vis_scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_sc
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene leaf_slack %g must be in [0, 16]", (double)d.leaf_slack);
     if (d.kd_depth > 48)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "kd_depth %u exceeds 48", d.kd_depth);
+    if (d.commit != VIS_COMMIT_AUTO && d.commit != VIS_COMMIT_EXPLICIT)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "scene commit mode %d is not a vis_commit_mode", (int)d.commit);
+
+    /* The tree's size from arithmetic on the desc, checked before anything is allocated. */
+    vis_kdtree_plan plan;
+    vis_status st = vis_kdtree_plan_make(ctx, &d, &plan);
+    if (st != VIS_OK)
+        return st;
+    if (plan.nodes > VIS_MAX_KD_NODES)
+        return vis_fail(ctx, VIS_ERROR_BUDGET,
+                        "kd-tree would have %llu nodes (%ux%ux%u cells, depth %u), over the limit of %u nodes; use a "
+                        "larger cell_size or a smaller kd_depth",
+                        (unsigned long long)plan.nodes, plan.cells[0], plan.cells[1], plan.cells[2], plan.kd_depth,
+                        VIS_MAX_KD_NODES);
+    if (plan.bytes > d.max_bytes)
+        return vis_fail(ctx, VIS_ERROR_BUDGET,
+                        "the empty scene would hold %llu bytes (%llu nodes, %llu leaves, depth %u), over max_bytes "
+                        "%llu; use a larger cell_size, a smaller kd_depth or a larger max_bytes",
+                        (unsigned long long)plan.bytes, (unsigned long long)plan.nodes,
+                        (unsigned long long)plan.leaves, plan.kd_depth, (unsigned long long)d.max_bytes);
 
     vis_scene *s = vis_calloc(ctx, 1, sizeof *s);
     if (!s)
         return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for a scene");
     s->ctx = ctx;
     s->desc = d;
-    vis_status st = vis_kdtree_build(s);
+    s->ctx_next = ctx->scenes; /* linked first: vis_scene_destroy unlinks on every path */
+    if (ctx->scenes)
+        ctx->scenes->ctx_prev = s;
+    ctx->scenes = s;
+    st = vis_scene_lock_init(s);
+    if (st != VIS_OK)
+        st = vis_fail(ctx, st, "could not create the scene's lock");
+    if (st == VIS_OK)
+        st = vis_kdtree_build(s, &plan);
     if (st == VIS_OK) {
         s->dirty_leaves = vis_calloc(ctx, s->leaf_count, sizeof *s->dirty_leaves);
         if (!s->dirty_leaves)
@@ -202,11 +277,31 @@ vis_status vis_scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_sc
     return VIS_OK;
 }
 
+vis_status vis_scene_create(vis_context *ctx, const vis_scene_desc *desc, vis_scene **out_scene)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(ctx);
+    vis_status st = scene_create(ctx, desc, out_scene);
+    vis_leave(ctx);
+    return st;
+}
+
 void vis_scene_destroy(vis_scene *s)
 {
     if (!s)
         return;
     vis_context *ctx = s->ctx;
+    vis_scene_lock_free(s);
+    vis_scene_share_free(s);
+    if (s->ctx_prev)
+        s->ctx_prev->ctx_next = s->ctx_next;
+    else if (ctx->scenes == s)
+        ctx->scenes = s->ctx_next;
+    if (s->ctx_next)
+        s->ctx_next->ctx_prev = s->ctx_prev;
     if (s->backend_data && ctx->backend.ops && ctx->backend.ops->scene_release)
         ctx->backend.ops->scene_release(ctx->backend.impl, s->backend_data);
     if (s->leaf_host)
@@ -259,23 +354,32 @@ static uint32_t quad_bucket(const vis_flat_leaf *lf, const vis_flat_quad *q)
     return base + (uint32_t)k;
 }
 
-static int quad_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_quad *q)
+static int quad_in_leaf(const vis_flat_leaf *lf, uint32_t a, float plane, float u0, float v0, float u1, float v1)
 {
-    uint32_t a = VIS_META_AXIS(q->meta);
     uint32_t u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
-    return q->plane >= lf->lo[a] && q->plane <= lf->hi[a] && q->u1 >= lf->lo[u] && q->u0 <= lf->hi[u] &&
-           q->v1 >= lf->lo[v] && q->v0 <= lf->hi[v];
+    return plane >= lf->lo[a] && plane <= lf->hi[a] && u1 >= lf->lo[u] && u0 <= lf->hi[u] && v1 >= lf->lo[v] &&
+           v0 <= lf->hi[v];
 }
 
-static int tri_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_tri *t)
+static int quad_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_quad *q)
+{
+    return quad_in_leaf(lf, VIS_META_AXIS(q->meta), q->plane, q->u0, q->v0, q->u1, q->v1);
+}
+
+static int tri_in_leaf(const vis_flat_leaf *lf, const float *v0, const float *v1, const float *v2)
 {
     for (int a = 0; a < 3; ++a) {
-        float lo = fminf(t->v0[a], fminf(t->v1[a], t->v2[a]));
-        float hi = fmaxf(t->v0[a], fmaxf(t->v1[a], t->v2[a]));
+        float lo = fminf(v0[a], fminf(v1[a], v2[a]));
+        float hi = fmaxf(v0[a], fmaxf(v1[a], v2[a]));
         if (hi < lf->lo[a] || lo > lf->hi[a])
             return 0;
     }
     return 1;
+}
+
+static int tri_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_tri *t)
+{
+    return tri_in_leaf(lf, t->v0, t->v1, t->v2);
 }
 
 /* Reserves `need` entries for a leaf slot in a pool, moving the slot to the end when it is
@@ -419,8 +523,10 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li)
 static int leaf_add_object(vis_scene *s, uint32_t li, uint32_t slot)
 {
     vis_leaf_host *lh = &s->leaf_host[li];
+    uint32_t cap = lh->object_cap;
     if (!grow(s->ctx, (void **)&lh->objects, &lh->object_cap, lh->object_count + 1, sizeof(uint32_t)))
         return 0;
+    s->leaf_list_bytes += (uint64_t)(lh->object_cap - cap) * sizeof(uint32_t);
     uint32_t i = lh->object_count;
     while (i > 0 && lh->objects[i - 1] > slot) {
         lh->objects[i] = lh->objects[i - 1];
@@ -510,6 +616,105 @@ static vis_status alloc_slot(vis_scene *s, uint32_t *out)
     return VIS_OK;
 }
 
+/* ---- budget ------------------------------------------------------------------------- */
+
+/* Refuses an edit that would take the scene past max_bytes, before anything changes. */
+static vis_status check_growth(vis_scene *s, uint64_t add, const char *what, uint32_t id)
+{
+    uint64_t now = vis_scene_bytes(s), after = vis_sat_add(now, add);
+    if (after <= s->desc.max_bytes)
+        return VIS_OK;
+    if (add == UINT64_MAX)
+        return vis_fail(s->ctx, VIS_ERROR_BUDGET, "%s of object %u would grow the scene's arrays past their 32-bit "
+                        "counts (max_bytes %llu)", what, id, (unsigned long long)s->desc.max_bytes);
+    return vis_fail(s->ctx, VIS_ERROR_BUDGET, "%s of object %u would grow the scene from %llu to %llu bytes, over "
+                    "max_bytes %llu", what, id, (unsigned long long)now, (unsigned long long)after,
+                    (unsigned long long)s->desc.max_bytes);
+}
+
+/* The bytes vis_scene_set_object(id, mesh) will add, walking its allocations step by step
+ * without making them: the slot and ID map of a new object, the object's copy of the mesh,
+ * the object lists of the leaves it joins, its leaf list, the leaves' new slots in the
+ * primitive pools (rebuild_leaf's reserve_slot, from the primitive counts each leaf will
+ * hold), first-time bucket tables and the dirty list. Pools that move several slots grow
+ * as if once to their final need (grown_cap). `leaves` are the n leaves of the new mesh. */
+static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
+                                  uint32_t n)
+{
+    uint64_t add = 0;
+    uint32_t quad_cap = 0, tri_cap = 0;
+    int dirty = 0;
+    const vis_object_host *oh = NULL;
+    uint32_t old_count = 0;
+    const uint32_t *old = NULL;
+    if (slot == VIS_NO_OBJECT) {
+        add = vis_sat_add(add, growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t)));
+        if (s->free_count) { /* alloc_slot reuses the last free slot, capacities and all */
+            uint32_t reuse = s->free_slots[s->free_count - 1];
+            quad_cap = s->object_host[reuse].quad_cap;
+            tri_cap = s->object_host[reuse].tri_cap;
+            dirty = s->object_dirty_flag[reuse];
+        } else {
+            add = vis_sat_add(add, growth(s->object_cap, (uint64_t)s->object_slots + 1,
+                                          sizeof *s->objects + sizeof *s->object_host + 1));
+        }
+        if ((uint64_t)(s->object_live + 1) * 2 > s->id_map_cap)
+            add = vis_sat_add(add, ((uint64_t)(s->id_map_cap ? s->id_map_cap * 2ull : 1024u) - s->id_map_cap) *
+                                       sizeof(uint32_t));
+    } else {
+        oh = &s->object_host[slot];
+        quad_cap = oh->quad_cap;
+        tri_cap = oh->tri_cap;
+        dirty = s->object_dirty_flag[slot];
+        old_count = s->objects[slot].leaf_count;
+        old = old_count ? &s->object_leaves[s->objects[slot].leaf_offset] : NULL;
+    }
+    add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
+    add = vis_sat_add(add, growth(tri_cap, mesh->triangle_count, sizeof(vis_flat_tri)));
+    if ((n > old_count || old_count == 0) && n)
+        add = vis_sat_add(add, growth(s->object_leaf_cap, (uint64_t)s->object_leaf_used + n, sizeof(uint32_t)));
+    /* Leaves the object leaves only shrink; every leaf of the new set is rebuilt. */
+    uint64_t q_used = s->quad_used, t_used = s->tri_used, b_used = s->bucket_count;
+    for (uint32_t i = 0; i < n; ++i) {
+        uint32_t li = leaves[i];
+        const vis_flat_leaf *lf = &s->leaves[li];
+        const vis_leaf_host *lh = &s->leaf_host[li];
+        int was_in = old && contains(old, old_count, li);
+        if (!was_in)
+            add = vis_sat_add(add, growth(lh->object_cap, (uint64_t)lh->object_count + 1, sizeof(uint32_t)));
+        uint64_t nq = (uint64_t)lf->quad_count + lf->loose_count, nt = lf->tri_count;
+        if (was_in) {
+            for (uint32_t q = 0; q < oh->quad_count; ++q)
+                nq -= old_count == 1 || quad_overlaps_leaf(lf, &oh->quads[q]);
+            for (uint32_t t = 0; t < oh->tri_count; ++t)
+                nt -= old_count == 1 || tri_overlaps_leaf(lf, &oh->tris[t]);
+        }
+        for (uint32_t q = 0; q < mesh->quad_count; ++q) {
+            const vis_quad *mq = &mesh->quads[q];
+            nq += n == 1 || quad_in_leaf(lf, mq->axis, mq->plane, mq->u0, mq->v0, mq->u1, mq->v1);
+        }
+        for (uint32_t t = 0; t < mesh->triangle_count; ++t) {
+            const vis_triangle *mt = &mesh->triangles[t];
+            nt += n == 1 || tri_in_leaf(lf, mt->v[0], mt->v[1], mt->v[2]);
+        }
+        /* reserve_slot's rule */
+        if (nq > lh->quad_cap)
+            q_used += nq + (uint64_t)((double)nq * s->desc.leaf_slack) + 4u;
+        if (nt > lh->tri_cap)
+            t_used += nt + (uint64_t)((double)nt * s->desc.leaf_slack) + 4u;
+        if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && nq)
+            b_used += bucket_table_size(lf);
+    }
+    if (q_used > 0xFFFFFF00u || t_used > 0xFFFFFF00u)
+        return UINT64_MAX;
+    add = vis_sat_add(add, growth(s->quad_cap, q_used, sizeof(vis_flat_quad)));
+    add = vis_sat_add(add, growth(s->tri_cap, t_used, sizeof(vis_flat_tri)));
+    add = vis_sat_add(add, growth(s->bucket_cap, b_used, sizeof(uint32_t)));
+    if (!dirty)
+        add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
+    return add;
+}
+
 /* Moves an object to a new leaf set: the leaves it leaves and the leaves it joins (and, when
  * its primitives changed, the leaves it stays in) are rebuilt. */
 static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves, uint32_t new_count, int content_changed)
@@ -556,22 +761,12 @@ static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves
     return st;
 }
 
-vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
+/* vis_scene_set_object once the mesh is validated, located (its box and leaves) and known
+ * to fit the budget. */
+static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, const vis_mesh *mesh,
+                                     const float lo[3], const float hi[3], const uint32_t *leaves, uint32_t n)
 {
-    if (!s)
-        return VIS_ERROR_INVALID_ARGUMENT;
-    vis_clear_error(s->ctx);
-    if (id == 0 || id > VIS_MAX_OBJECT_ID)
-        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "object ID %u is outside 1..%u", id, VIS_MAX_OBJECT_ID);
-    if (!mesh)
-        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "mesh is NULL (pass an empty mesh to remove)");
-    vis_status st = validate_mesh(s, mesh);
-    if (st != VIS_OK)
-        return st;
-    uint32_t slot = vis_scene_find(s, id);
-    if (mesh->quad_count == 0 && mesh->triangle_count == 0)
-        return slot == VIS_NO_OBJECT ? VIS_OK : vis_scene_remove_object(s, id);
-
+    vis_status st;
     if (slot == VIS_NO_OBJECT) {
         if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)))
             return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for objects");
@@ -588,12 +783,15 @@ vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
             s->max_id = id;
     }
     vis_object_host *oh = &s->object_host[slot];
-    if (!grow(s->ctx, (void **)&oh->quads, &oh->quad_cap, mesh->quad_count, sizeof *oh->quads) ||
-        !grow(s->ctx, (void **)&oh->tris, &oh->tri_cap, mesh->triangle_count, sizeof *oh->tris))
+    uint64_t prim_bytes = (uint64_t)oh->quad_cap * sizeof *oh->quads + (uint64_t)oh->tri_cap * sizeof *oh->tris;
+    int copied = grow(s->ctx, (void **)&oh->quads, &oh->quad_cap, mesh->quad_count, sizeof *oh->quads) &&
+                 grow(s->ctx, (void **)&oh->tris, &oh->tri_cap, mesh->triangle_count, sizeof *oh->tris);
+    s->object_prim_bytes += (uint64_t)oh->quad_cap * sizeof *oh->quads + (uint64_t)oh->tri_cap * sizeof *oh->tris -
+                            prim_bytes;
+    if (!copied)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory copying a mesh");
     s->quad_total -= oh->quad_count;
     s->tri_total -= oh->tri_count;
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t i = 0; i < mesh->quad_count; ++i) {
         const vis_quad *q = &mesh->quads[i];
         vis_flat_quad *fq = &oh->quads[i];
@@ -603,13 +801,6 @@ vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
         fq->u1 = q->u1;
         fq->v1 = q->v1;
         fq->meta = (slot << 8) | (q->flags << 2) | q->axis;
-        uint32_t a = q->axis, u = (a + 1) % 3, v = (a + 2) % 3;
-        lo[a] = fminf(lo[a], q->plane);
-        hi[a] = fmaxf(hi[a], q->plane);
-        lo[u] = fminf(lo[u], q->u0);
-        hi[u] = fmaxf(hi[u], q->u1);
-        lo[v] = fminf(lo[v], q->v0);
-        hi[v] = fmaxf(hi[v], q->v1);
     }
     for (uint32_t i = 0; i < mesh->triangle_count; ++i) {
         const vis_triangle *t = &mesh->triangles[i];
@@ -618,33 +809,17 @@ vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
             ft->v0[a] = t->v[0][a];
             ft->v1[a] = t->v[1][a];
             ft->v2[a] = t->v[2][a];
-            for (int k = 0; k < 3; ++k) {
-                lo[a] = fminf(lo[a], t->v[k][a]);
-                hi[a] = fmaxf(hi[a], t->v[k][a]);
-            }
         }
         ft->meta = (slot << 8) | (t->flags << 2);
     }
     oh->quad_count = mesh->quad_count;
     oh->tri_count = mesh->triangle_count;
     oh->id = id;
-    memcpy(oh->box_lo, lo, sizeof lo);
-    memcpy(oh->box_hi, hi, sizeof hi);
+    memcpy(oh->box_lo, lo, sizeof oh->box_lo);
+    memcpy(oh->box_hi, hi, sizeof oh->box_hi);
     s->quad_total += oh->quad_count;
     s->tri_total += oh->tri_count;
-
-    uint32_t leaves_buf[64];
-    uint32_t n = vis_kdtree_leaves_of_box(s, lo, hi, leaves_buf, 64);
-    uint32_t *leaves = leaves_buf;
-    if (n > 64) {
-        leaves = vis_alloc(s->ctx, (size_t)n * sizeof *leaves);
-        if (!leaves)
-            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory locating an object");
-        vis_kdtree_leaves_of_box(s, lo, hi, leaves, n);
-    }
     st = relink(s, slot, leaves, n, 1);
-    if (leaves != leaves_buf)
-        vis_free(s->ctx, leaves);
     if (st != VIS_OK)
         return st;
     if (!mark_object(s, slot))
@@ -654,14 +829,71 @@ vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
     return VIS_OK;
 }
 
-vis_status vis_scene_remove_object(vis_scene *s, uint32_t id)
+vis_status vis_scene_check_mesh(vis_scene *s, uint32_t id, const vis_mesh *mesh)
 {
-    if (!s)
-        return VIS_ERROR_INVALID_ARGUMENT;
-    vis_clear_error(s->ctx);
+    if (id == 0 || id > VIS_MAX_OBJECT_ID)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "object ID %u is outside 1..%u", id, VIS_MAX_OBJECT_ID);
+    if (!mesh)
+        return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "mesh is NULL (pass an empty mesh to remove)");
+    return validate_mesh(s, mesh);
+}
+
+vis_status vis_scene_apply_set(vis_scene *s, uint32_t id, const vis_mesh *mesh)
+{
+    vis_status st = vis_scene_check_mesh(s, id, mesh);
+    if (st != VIS_OK)
+        return st;
+    uint32_t slot = vis_scene_find(s, id);
+    if (mesh->quad_count == 0 && mesh->triangle_count == 0)
+        return slot == VIS_NO_OBJECT ? VIS_OK : vis_scene_apply_remove(s, id);
+
+    /* The box and the leaves first: the budget needs them before anything changes. */
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t i = 0; i < mesh->quad_count; ++i) {
+        const vis_quad *q = &mesh->quads[i];
+        uint32_t a = q->axis, u = (a + 1) % 3, v = (a + 2) % 3;
+        lo[a] = fminf(lo[a], q->plane);
+        hi[a] = fmaxf(hi[a], q->plane);
+        lo[u] = fminf(lo[u], q->u0);
+        hi[u] = fmaxf(hi[u], q->u1);
+        lo[v] = fminf(lo[v], q->v0);
+        hi[v] = fmaxf(hi[v], q->v1);
+    }
+    for (uint32_t i = 0; i < mesh->triangle_count; ++i)
+        for (int a = 0; a < 3; ++a)
+            for (int k = 0; k < 3; ++k) {
+                lo[a] = fminf(lo[a], mesh->triangles[i].v[k][a]);
+                hi[a] = fmaxf(hi[a], mesh->triangles[i].v[k][a]);
+            }
+    uint32_t leaves_buf[64];
+    uint32_t n = vis_kdtree_leaves_of_box(s, lo, hi, leaves_buf, 64);
+    uint32_t *leaves = leaves_buf;
+    if (n > 64) {
+        leaves = vis_alloc(s->ctx, (size_t)n * sizeof *leaves);
+        if (!leaves)
+            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory locating an object");
+        vis_kdtree_leaves_of_box(s, lo, hi, leaves, n);
+    }
+    st = check_growth(s, set_object_growth(s, slot, mesh, leaves, n), "setting the mesh", id);
+    if (st == VIS_OK)
+        st = set_object_located(s, id, slot, mesh, lo, hi, leaves, n);
+    if (leaves != leaves_buf)
+        vis_free(s->ctx, leaves);
+    return st;
+}
+
+vis_status vis_scene_apply_remove(vis_scene *s, uint32_t id)
+{
     uint32_t slot = vis_scene_find(s, id);
     if (slot == VIS_NO_OBJECT)
         return vis_fail(s->ctx, VIS_ERROR_NOT_FOUND, "no object with ID %u", id);
+    /* The free list and the dirty list may grow; the leaves only shrink. */
+    uint64_t add = growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t));
+    if (!s->object_dirty_flag[slot])
+        add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
+    vis_status st = check_growth(s, add, "removing", id);
+    if (st != VIS_OK)
+        return st;
     if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)) ||
         !mark_object(s, slot))
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory removing an object");
@@ -670,7 +902,7 @@ vis_status vis_scene_remove_object(vis_scene *s, uint32_t id)
     s->tri_total -= oh->tri_count;
     oh->quad_count = 0;
     oh->tri_count = 0;
-    vis_status st = relink(s, slot, NULL, 0, 1);
+    st = relink(s, slot, NULL, 0, 1);
     if (st != VIS_OK)
         return st;
     map_remove(s, id);
@@ -691,43 +923,8 @@ vis_status vis_scene_remove_object(vis_scene *s, uint32_t id)
 
 /* ---- queries ------------------------------------------------------------------------- */
 
-/* Bytes of the rope nodes a pass with short stack N walks (N = 0: plain ropes): on each
- * root-to-leaf path the highest node of height <= N, i.e. the nodes of height <= N whose
- * parent is higher than N. */
-static void rope_usage(const vis_scene *s, uint64_t used[VIS_MAX_SHORT_STACK + 1])
+static vis_status get_info_locked(const vis_scene *s, vis_scene_info *out)
 {
-    memset(used, 0, (VIS_MAX_SHORT_STACK + 1) * sizeof *used);
-    if (!s->rope_index || s->node_count == 0)
-        return;
-    struct {
-        uint32_t node, parent_height;
-    } stack[2 * 64];
-    uint32_t sp = 0;
-    stack[sp].node = 0;
-    stack[sp].parent_height = VIS_MAX_SHORT_STACK + 1; /* the root has no parent */
-    ++sp;
-    while (sp > 0) {
-        --sp;
-        uint32_t node = stack[sp].node, parent_h = stack[sp].parent_height;
-        uint32_t e = s->rope_index[node];
-        uint32_t h = e == VIS_NO_ROPE ? VIS_MAX_SHORT_STACK + 1 : s->ropes[e].height;
-        for (uint32_t n = h; n < parent_h && n <= VIS_MAX_SHORT_STACK; ++n)
-            used[n] += sizeof(vis_rope_node);
-        uint32_t info = s->nodes[node].info;
-        if ((info & 3u) == VIS_NODE_LEAF || sp + 2 > sizeof stack / sizeof stack[0])
-            continue;
-        for (uint32_t c = 0; c < 2; ++c) {
-            stack[sp].node = (info >> 2) + c;
-            stack[sp].parent_height = h;
-            ++sp;
-        }
-    }
-}
-
-vis_status vis_scene_get_info(const vis_scene *s, vis_scene_info *out)
-{
-    if (!s || !out)
-        return VIS_ERROR_INVALID_ARGUMENT;
     memset(out, 0, sizeof *out);
     memcpy(out->origin, s->desc.origin, sizeof out->origin);
     memcpy(out->size, s->desc.size, sizeof out->size);
@@ -740,33 +937,24 @@ vis_status vis_scene_get_info(const vis_scene *s, vis_scene_info *out)
     out->quads = s->quad_total;
     out->triangles = s->tri_total;
     out->edits = s->edits;
-    out->relocations = s->relocations;
-    uint64_t b = sizeof *s + (uint64_t)s->node_count * sizeof *s->nodes +
-                 (uint64_t)s->leaf_count * (sizeof *s->leaves + sizeof *s->leaf_host + sizeof(uint32_t)) +
-                 (uint64_t)s->bucket_cap * sizeof(uint32_t) + (uint64_t)s->quad_cap * sizeof *s->quads +
-                 (uint64_t)s->tri_cap * sizeof *s->tris +
-                 (uint64_t)s->object_cap * (sizeof *s->objects + sizeof *s->object_host + 1) +
-                 (uint64_t)s->object_leaf_cap * sizeof(uint32_t) + (uint64_t)s->id_map_cap * sizeof(uint32_t) +
-                 (uint64_t)s->free_cap * sizeof(uint32_t) + (uint64_t)s->dirty_object_cap * sizeof(uint32_t);
-    for (uint32_t i = 0; i < s->leaf_count; ++i)
-        b += (uint64_t)s->leaf_host[i].object_cap * sizeof(uint32_t);
-    for (uint32_t i = 0; i < s->object_slots; ++i)
-        b += (uint64_t)s->object_host[i].quad_cap * sizeof(vis_flat_quad) +
-             (uint64_t)s->object_host[i].tri_cap * sizeof(vis_flat_tri);
-    /* Ropes (kdtree.c): entries of the nodes up to VIS_MAX_SHORT_STACK levels high, an index
-     * per node. */
-    out->rope_bytes = (uint64_t)s->rope_count * sizeof *s->ropes + (uint64_t)s->node_count * sizeof *s->rope_index;
-    rope_usage(s, out->rope_bytes_used);
-    b += out->rope_bytes;
-    out->bytes = b;
+    out->bytes = vis_scene_bytes(s); /* ropes included */
+    out->max_bytes = s->desc.max_bytes;
     return VIS_OK;
 }
 
-vis_status vis_scene_leaf_objects(const vis_scene *s, uint32_t leaf_id, uint32_t *out_ids, uint32_t capacity,
-                                  uint32_t *out_count)
+vis_status vis_scene_get_info(const vis_scene *s, vis_scene_info *out)
 {
-    if (!s || !out_count)
+    if (!s || !out)
         return VIS_ERROR_INVALID_ARGUMENT;
+    vis_scene_begin_read(s);
+    vis_status st = get_info_locked(s, out);
+    vis_scene_end_read(s);
+    return st;
+}
+
+static vis_status leaf_objects_locked(const vis_scene *s, uint32_t leaf_id, uint32_t *out_ids, uint32_t capacity,
+                                      uint32_t *out_count)
+{
     if (leaf_id == 0 || leaf_id > s->leaf_count)
         return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT, "leaf ID %u is outside 1..%u", leaf_id, s->leaf_count);
     const vis_leaf_host *lh = &s->leaf_host[leaf_id - 1];
@@ -788,6 +976,21 @@ vis_status vis_scene_leaf_objects(const vis_scene *s, uint32_t leaf_id, uint32_t
         out_ids[j] = x;
     }
     return VIS_OK;
+}
+
+vis_status vis_scene_leaf_objects(const vis_scene *s, uint32_t leaf_id, uint32_t *out_ids, uint32_t capacity,
+                                  uint32_t *out_count)
+{
+    if (!s || !out_count)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(s->ctx) != VIS_OK) /* its errors go to the scene's context */
+        return VIS_ERROR_BUSY;
+    vis_clear_error(s->ctx);
+    vis_scene_begin_read(s);
+    vis_status st = leaf_objects_locked(s, leaf_id, out_ids, capacity, out_count);
+    vis_scene_end_read(s);
+    vis_leave(s->ctx);
+    return st;
 }
 
 vis_scene_view vis_scene_get_view(const vis_scene *s)
@@ -814,36 +1017,4 @@ vis_scene_view vis_scene_get_view(const vis_scene *s)
     memcpy(v.size, s->desc.size, sizeof v.size);
     v.kd_depth = s->kd_depth;
     return v;
-}
-
-vis_status vis_scene_sync_backend(vis_scene *s)
-{
-    vis_context *ctx = s->ctx;
-    if (s->synced_generation == s->generation && s->backend_data)
-        return VIS_OK;
-    vis_scene_view view = vis_scene_get_view(s);
-    vis_scene_changes ch;
-    memset(&ch, 0, sizeof ch);
-    ch.generation = s->generation;
-    ch.full = s->dirty_full || !s->backend_data;
-    ch.leaves = s->dirty_leaves;
-    ch.leaf_count = s->dirty_leaf_count;
-    ch.objects = s->dirty_objects;
-    ch.object_count = s->dirty_object_count;
-    ch.object_leaf_lo = s->dirty_ol_lo;
-    ch.object_leaf_hi = s->dirty_ol_hi;
-    char err[1024] = "";
-    int st = ctx->backend.ops->scene_sync(ctx->backend.impl, &s->backend_data, &view, &ch, err, sizeof err);
-    if (st != VIS_OK)
-        return vis_fail(ctx, (vis_status)st, "%s backend: scene upload failed: %s", ctx->backend.ops->name, err);
-    for (uint32_t i = 0; i < s->dirty_leaf_count; ++i)
-        s->leaf_host[s->dirty_leaves[i]].dirty = 0;
-    for (uint32_t i = 0; i < s->dirty_object_count; ++i)
-        s->object_dirty_flag[s->dirty_objects[i]] = 0;
-    s->dirty_leaf_count = 0;
-    s->dirty_object_count = 0;
-    s->dirty_ol_lo = s->dirty_ol_hi = 0;
-    s->dirty_full = 0;
-    s->synced_generation = s->generation;
-    return VIS_OK;
 }

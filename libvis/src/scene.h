@@ -5,6 +5,22 @@
 #include "backend.h"
 #include "context.h"
 
+/* Another context's backend copy of the scene (scene_share.c). */
+typedef struct vis_scene_copy {
+    vis_context *ctx;
+    void *data;
+    uint64_t synced_generation;
+    struct vis_scene_copy *next;
+} vis_scene_copy;
+
+/* An edit staged for vis_scene_commit (VIS_COMMIT_EXPLICIT); the mesh is the scene's copy,
+ * NULL arrays for a removal. */
+typedef struct vis_staged_edit {
+    uint32_t id;
+    int remove;
+    vis_mesh mesh;
+} vis_staged_edit;
+
 /* An object as the host keeps it: its primitives ready to copy into leaves. */
 typedef struct vis_object_host {
     uint32_t id;              /* 0: free slot                                              */
@@ -59,6 +75,8 @@ struct vis_scene {
     uint32_t max_id;
 
     uint64_t quad_total, tri_total, edits, relocations;
+    uint64_t leaf_list_bytes;   /* sum of the leaves' object list capacities, in bytes       */
+    uint64_t object_prim_bytes; /* sum of the objects' quad and triangle capacities, in bytes */
 
     /* Changes since the backend's last sync. */
     uint64_t generation;
@@ -72,12 +90,50 @@ struct vis_scene {
 
     void *backend_data;       /* the context backend's copy of this scene                    */
     uint64_t synced_generation;
+
+    /* Sharing (scene_share.c): traces hold `lock` shared, edits that change the arrays above
+     * and commits hold it exclusive. Staged edits and the context list belong to the owning
+     * context (changed only by calls on it). */
+    struct vis_scene_lock *lock; /* a pthread rwlock, behind a pointer so that files built
+                                    with an older _POSIX_C_SOURCE need not see its type   */
+    vis_scene_copy *copies;   /* other contexts' backend copies                               */
+    vis_staged_edit *staged;
+    uint32_t staged_count, staged_cap;
+    vis_scene *ctx_prev, *ctx_next; /* ctx->scenes                                            */
 };
 
 vis_scene_view vis_scene_get_view(const vis_scene *scene);
 
-/* Brings the context backend's copy up to date (no-op when nothing changed). */
-vis_status vis_scene_sync_backend(vis_scene *scene);
+/* Saturating arithmetic for sizes that may not fit (plans of trees too big to build). */
+static inline uint64_t vis_sat_add(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
+static inline uint64_t vis_sat_mul(uint64_t a, uint64_t b) { return b && a > UINT64_MAX / b ? UINT64_MAX : a * b; }
+
+/* Bytes of an empty scene whose tree has these counts (vis_scene_info.bytes right after
+ * vis_scene_create); saturates at UINT64_MAX. */
+uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes);
+
+/* Host memory the scene holds now (vis_scene_info.bytes), from its capacities. */
+uint64_t vis_scene_bytes(const vis_scene *scene);
+
+/* The edits themselves, applied at once to the arrays (the caller holds the scene's lock
+ * exclusive and its context). */
+vis_status vis_scene_apply_set(vis_scene *scene, uint32_t id, const vis_mesh *mesh);
+vis_status vis_scene_apply_remove(vis_scene *scene, uint32_t id);
+/* Argument checks of vis_scene_set_object that need no lock (ID, mesh, bounds). */
+vis_status vis_scene_check_mesh(vis_scene *scene, uint32_t id, const vis_mesh *mesh);
+
+/* For a pass of `ctx` over the scene: takes the scene's lock shared, with ctx's backend copy
+ * up to date, and gives the copy's data. vis_scene_end_read releases the lock. */
+vis_status vis_scene_begin_trace(vis_context *ctx, vis_scene *scene, void **backend_data, uint64_t *upload_bytes);
+void vis_scene_begin_read(const vis_scene *scene);
+void vis_scene_end_read(const vis_scene *scene);
+
+/* The scene's lock (vis_scene_create); vis_scene_lock_free waits for the traces in flight. */
+vis_status vis_scene_lock_init(vis_scene *scene);
+void vis_scene_lock_free(vis_scene *scene);
+
+/* Releases the other contexts' copies and the staged edits (vis_scene_destroy). */
+void vis_scene_share_free(vis_scene *scene);
 
 /* Object slot of an ID, or VIS_NO_OBJECT. */
 uint32_t vis_scene_find(const vis_scene *scene, uint32_t id);

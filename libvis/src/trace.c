@@ -46,23 +46,25 @@ static vis_status check_args(vis_context *ctx, const vis_scene *scene, const voi
 {
     if (!scene || !out_ids)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "%s: scene and out_ids must not be NULL", fn);
-    if (scene->ctx != ctx)
-        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "%s: the scene belongs to another context", fn);
-    return VIS_OK;
+    return VIS_OK; /* a scene of any context: each context keeps its own backend copy */
 }
 
-/* Syncs the scene; *bytes = what this sync sent (0 when nothing had changed). */
-static vis_status sync_scene(vis_context *ctx, vis_scene *scene, uint64_t *bytes)
+/* Output capacities, in elements, against `needed` (count * W * H, at most 2^60: no
+ * overflow in 64 bits). */
+static vis_status check_capacity(vis_context *ctx, uint64_t needed, size_t ids_capacity, const float *out_depth,
+                                 size_t depth_capacity, const char *fn, uint32_t count, const vis_trace_desc *d)
 {
-    int had_changes = !(scene->synced_generation == scene->generation && scene->backend_data);
-    vis_status st = vis_scene_sync_backend(scene);
-    if (st != VIS_OK)
-        return st;
-    *bytes = 0;
-    if (had_changes && ctx->backend.ops->last_upload_bytes)
-        *bytes = ctx->backend.ops->last_upload_bytes(ctx->backend.impl, scene->backend_data);
-    return VIS_OK;
+    if (!out_depth && depth_capacity)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "%s: out_depth is NULL but depth_capacity is %zu", fn,
+                        depth_capacity);
+    int ids_short = (uint64_t)ids_capacity < needed;
+    if (!ids_short && !(out_depth && (uint64_t)depth_capacity < needed))
+        return VIS_OK;
+    return vis_fail(ctx, VIS_ERROR_CAPACITY, "%s: %u view(s) of %ux%u need %llu elements, %s is %zu", fn, count,
+                    d->width, d->height, (unsigned long long)needed, ids_short ? "ids_capacity" : "depth_capacity",
+                    ids_short ? ids_capacity : depth_capacity);
 }
+
 
 static void record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t upload, uint64_t rays, uint32_t views)
 {
@@ -75,11 +77,9 @@ static void record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t 
     ctx->have_timing = 1;
 }
 
-vis_status vis_trace(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
-                     uint32_t *out_ids, float *out_depth)
+static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                            uint32_t *out_ids, size_t ids_capacity, float *out_depth, size_t depth_capacity)
 {
-    if (!ctx)
-        return VIS_ERROR_INVALID_ARGUMENT;
     double t0 = now_ms();
     vis_clear_error(ctx);
     vis_status st = check_args(ctx, scene, out_ids, "vis_trace");
@@ -88,30 +88,45 @@ vis_status vis_trace(vis_context *ctx, vis_scene *scene, const vis_camera *camer
     vis_trace_desc d;
     if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
         return st;
+    if ((st = check_capacity(ctx, (uint64_t)d.width * d.height, ids_capacity, out_depth, depth_capacity, "vis_trace", 1,
+                             &d)) != VIS_OK)
+        return st;
     vis_ray_setup setup;
     if ((st = make_setup(ctx, scene, camera, &d, &setup)) != VIS_OK)
         return st;
 
     uint64_t upload = 0;
-    if ((st = sync_scene(ctx, scene, &upload)) != VIS_OK)
+    void *data = NULL;
+    if ((st = vis_scene_begin_trace(ctx, scene, &data, &upload)) != VIS_OK)
         return st;
     vis_scene_view view = vis_scene_get_view(scene);
     char err[1024] = "";
     double p0 = now_ms();
-    int rc = ctx->backend.ops->trace(ctx->backend.impl, scene->backend_data, &view, &setup, out_ids, out_depth, err,
-                                     sizeof err);
+    int rc = ctx->backend.ops->trace(ctx->backend.impl, data, &view, &setup, out_ids, out_depth, err, sizeof err);
     double pass_ms = now_ms() - p0;
+    vis_scene_end_read(scene);
     if (rc != VIS_OK)
         return vis_fail(ctx, (vis_status)rc, "%s backend: %s", ctx->backend.ops->name, err);
     record_timing(ctx, t0, pass_ms, upload, (uint64_t)d.width * d.height, 1);
     return VIS_OK;
 }
 
-vis_status vis_trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera *cameras, uint32_t count,
-                           const vis_trace_desc *desc, uint32_t *out_ids, float *out_depth)
+vis_status vis_trace(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                     uint32_t *out_ids, size_t ids_capacity, float *out_depth, size_t depth_capacity)
 {
     if (!ctx)
         return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_status st = trace_one(ctx, scene, camera, desc, out_ids, ids_capacity, out_depth, depth_capacity);
+    vis_leave(ctx);
+    return st;
+}
+
+static vis_status trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera *cameras, uint32_t count,
+                              const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity, float *out_depth,
+                              size_t depth_capacity)
+{
     double t0 = now_ms();
     vis_clear_error(ctx);
     if (count == 0)
@@ -125,12 +140,15 @@ vis_status vis_trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera 
     if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
         return st;
     size_t pixels = (size_t)d.width * d.height;
-    if ((uint64_t)count * pixels > SIZE_MAX / sizeof(uint32_t))
-        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_batch: %u views of %ux%u overflow the address space",
-                        count, d.width, d.height);
+    /* W, H <= 2^14 and count < 2^32: the product fits 64 bits, and a capacity that holds it
+     * (a size_t) makes every offset i * pixels below fit size_t. */
+    if ((st = check_capacity(ctx, (uint64_t)count * d.width * d.height, ids_capacity, out_depth, depth_capacity,
+                             "vis_trace_batch", count, &d)) != VIS_OK)
+        return st;
     /* Every camera is checked before any work, so a bad one leaves the outputs untouched.
      * The setups live in the context's scratch: no allocation once it has grown. */
-    vis_ray_setup *setups = vis_scratch(ctx, (size_t)count * sizeof *setups);
+    uint64_t setup_bytes = (uint64_t)count * sizeof(vis_ray_setup); /* < 2^48: fits size_t where size_t is 64-bit */
+    vis_ray_setup *setups = setup_bytes == (size_t)setup_bytes ? vis_scratch(ctx, (size_t)setup_bytes) : NULL;
     if (!setups)
         return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "vis_trace_batch: out of memory for %u views", count);
     for (uint32_t i = 0; i < count && st == VIS_OK; ++i) {
@@ -142,8 +160,9 @@ vis_status vis_trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera 
         }
     }
     uint64_t upload = 0;
+    void *data = NULL;
     if (st == VIS_OK)
-        st = sync_scene(ctx, scene, &upload);
+        st = vis_scene_begin_trace(ctx, scene, &data, &upload);
     if (st != VIS_OK)
         return st;
     vis_scene_view view = vis_scene_get_view(scene);
@@ -152,37 +171,44 @@ vis_status vis_trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera 
     double p0 = now_ms();
     int rc = VIS_OK;
     if (ops->trace_batch) {
-        rc = ops->trace_batch(ctx->backend.impl, scene->backend_data, &view, setups, count, out_ids, out_depth, err,
+        rc = ops->trace_batch(ctx->backend.impl, data, &view, setups, count, out_ids, out_depth, err,
                               sizeof err);
     } else {
         for (uint32_t i = 0; i < count && rc == VIS_OK; ++i)
-            rc = ops->trace(ctx->backend.impl, scene->backend_data, &view, &setups[i], out_ids + i * pixels,
+            rc = ops->trace(ctx->backend.impl, data, &view, &setups[i], out_ids + i * pixels,
                             out_depth ? out_depth + i * pixels : NULL, err, sizeof err);
     }
     double pass_ms = now_ms() - p0;
+    vis_scene_end_read(scene);
     if (rc != VIS_OK)
         return vis_fail(ctx, (vis_status)rc, "%s backend: %s", ops->name, err);
     record_timing(ctx, t0, pass_ms, upload, (uint64_t)count * pixels, count);
     return VIS_OK;
 }
 
+vis_status vis_trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera *cameras, uint32_t count,
+                           const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity, float *out_depth,
+                           size_t depth_capacity)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_status st = trace_batch(ctx, scene, cameras, count, desc, out_ids, ids_capacity, out_depth, depth_capacity);
+    vis_leave(ctx);
+    return st;
+}
+
 vis_status vis_context_last_timing(const vis_context *ctx, vis_timing *out)
 {
     if (!ctx || !out)
         return VIS_ERROR_INVALID_ARGUMENT;
-    if (!ctx->have_timing)
-        return VIS_ERROR_NOT_FOUND;
-    *out = ctx->timing;
-    return VIS_OK;
-}
-
-vis_status vis_scene_last_upload_bytes(const vis_scene *scene, uint64_t *out_bytes)
-{
-    if (!scene || !out_bytes)
-        return VIS_ERROR_INVALID_ARGUMENT;
-    const vis_backend *b = &scene->ctx->backend;
-    *out_bytes = scene->backend_data && b->ops->last_upload_bytes
-                     ? b->ops->last_upload_bytes(b->impl, scene->backend_data)
-                     : 0;
-    return VIS_OK;
+    vis_context *c = (vis_context *)ctx; /* the busy flag: a trace on another thread writes the timing */
+    if (vis_enter(c) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_status st = ctx->have_timing ? VIS_OK : VIS_ERROR_NOT_FOUND;
+    if (st == VIS_OK)
+        *out = ctx->timing;
+    vis_leave(c);
+    return st;
 }

@@ -29,6 +29,7 @@ enum { ZC_FREE = 0, ZC_CULLED, ZC_NEAR, ZC_ON_SCREEN };
 
 struct vis_zcull {
     vis_context *ctx;
+    vis_zcull *prev, *next; /* ctx->zculls (vis_context_destroy frees those left) */
     float *depth;           /* tile-major depth target                                     */
     size_t depth_cap;       /* floats                                                      */
     float *tile_min;
@@ -77,18 +78,32 @@ void vis_zcull_desc_defaults(vis_zcull_desc *desc)
     desc->simd = VIS_ZCULL_SIMD_AUTO;
 }
 
-vis_status vis_zcull_create(vis_context *ctx, vis_zcull **out)
+static vis_status zcull_create(vis_context *ctx, vis_zcull **out)
 {
-    if (!ctx)
-        return VIS_ERROR_INVALID_ARGUMENT;
     if (!out)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_zcull_create: out_zcull is NULL");
     vis_zcull *zc = vis_calloc(ctx, 1, sizeof *zc);
     if (!zc)
         return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "vis_zcull_create: out of memory");
     zc->ctx = ctx;
+    zc->next = ctx->zculls;
+    if (ctx->zculls)
+        ctx->zculls->prev = zc;
+    ctx->zculls = zc;
     *out = zc;
     return VIS_OK;
+}
+
+vis_status vis_zcull_create(vis_context *ctx, vis_zcull **out)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(ctx);
+    vis_status st = zcull_create(ctx, out);
+    vis_leave(ctx);
+    return st;
 }
 
 void vis_zcull_destroy(vis_zcull *zc)
@@ -96,6 +111,12 @@ void vis_zcull_destroy(vis_zcull *zc)
     if (!zc)
         return;
     vis_context *ctx = zc->ctx;
+    if (zc->prev)
+        zc->prev->next = zc->next;
+    else if (ctx->zculls == zc)
+        ctx->zculls = zc->next;
+    if (zc->next)
+        zc->next->prev = zc->prev;
     vis_free(ctx, zc->depth);
     vis_free(ctx, zc->tile_min);
     vis_free(ctx, zc->rects);
@@ -212,11 +233,10 @@ static vis_status zc_resolve_desc(vis_context *ctx, const vis_zcull_desc *in, vi
     return VIS_OK;
 }
 
-vis_status vis_zcull_run(vis_zcull *zc, const vis_scene *scene, const vis_camera *camera, const vis_zcull_desc *desc,
-                         vis_draw_entry *out, size_t capacity, size_t *out_count, vis_zcull_stats *out_stats)
+static vis_status zcull_run(vis_zcull *zc, const vis_scene *scene, const vis_camera *camera,
+                            const vis_zcull_desc *desc, vis_draw_entry *out, size_t capacity, size_t *out_count,
+                            vis_zcull_stats *out_stats)
 {
-    if (!zc)
-        return VIS_ERROR_INVALID_ARGUMENT;
     vis_context *ctx = zc->ctx;
     if (!scene || !camera || !out_count)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_zcull_run: %s is NULL",
@@ -357,15 +377,34 @@ vis_status vis_zcull_run(vis_zcull *zc, const vis_scene *scene, const vis_camera
     return VIS_OK;
 }
 
-vis_status vis_zcull_depth(vis_zcull *zc, float *out_depth)
+vis_status vis_zcull_run(vis_zcull *zc, const vis_scene *scene, const vis_camera *camera, const vis_zcull_desc *desc,
+                         vis_draw_entry *out, size_t capacity, size_t *out_count, vis_zcull_stats *out_stats)
 {
     if (!zc)
         return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(zc->ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    if (scene)
+        vis_scene_begin_read(scene);
+    vis_status st = zcull_run(zc, scene, camera, desc, out, capacity, out_count, out_stats);
+    if (scene)
+        vis_scene_end_read(scene);
+    vis_leave(zc->ctx);
+    return st;
+}
+
+static vis_status zcull_depth(vis_zcull *zc, float *out_depth, size_t capacity)
+{
     if (!out_depth)
         return vis_fail(zc->ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_zcull_depth: out_depth is NULL");
     if (!zc->have_run)
         return vis_fail(zc->ctx, VIS_ERROR_NOT_FOUND, "vis_zcull_depth: no run yet");
     const vis_zc_target *t = &zc->target;
+    uint64_t needed = (uint64_t)t->width * t->height;
+    if ((uint64_t)capacity < needed)
+        return vis_fail(zc->ctx, VIS_ERROR_CAPACITY,
+                        "vis_zcull_depth: the %ux%u buffer needs %llu floats, capacity is %zu", t->width, t->height,
+                        (unsigned long long)needed, capacity);
     const double W = t->width, H = t->height;
     for (uint32_t y = 0; y < t->height; y++) {
         double ny = (1.0 - (y + 0.5) / H * 2.0) * zc->tan_half;
@@ -377,4 +416,15 @@ vis_status vis_zcull_depth(vis_zcull *zc, float *out_depth)
         }
     }
     return VIS_OK;
+}
+
+vis_status vis_zcull_depth(vis_zcull *zc, float *out_depth, size_t capacity)
+{
+    if (!zc)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(zc->ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_status st = zcull_depth(zc, out_depth, capacity);
+    vis_leave(zc->ctx);
+    return st;
 }

@@ -1,5 +1,6 @@
 #include "scene_builder.h"
 
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -7,6 +8,19 @@
 #include <string.h>
 
 #include <cmocka.h>
+
+#include "test_support.h"
+
+vis_context *make_cpu_ctx(uint32_t threads)
+{
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.backend = VIS_BACKEND_CPU;
+    cd.threads = threads;
+    vis_context *ctx = NULL;
+    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
+    return ctx;
+}
 
 tobj *add_obj(tworld *w, uint32_t id)
 {
@@ -113,4 +127,82 @@ void wall_world(tworld *w)
     obj_box(add_obj(w, 2), lo, hi);
     float lo2[3] = {4, 1, 16}, hi2[3] = {16, 12, 17}; /* meets the wall at a corner */
     obj_box(add_obj(w, 3), lo2, hi2);
+}
+
+/* ---- random worlds and cameras ---------------------------------------------------------- */
+
+/* Random boxes inside chunk c (a chunk object). */
+void obj_chunk_boxes(tobj *o, uint64_t *rng, const int c[3])
+{
+    int boxes = 1 + (int)(vt_rand(rng) % 6);
+    for (int b = 0; b < boxes; ++b) {
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            int l = (int)(vt_rand(rng) % 16), e = 1 + (int)(vt_rand(rng) % 8);
+            if (l + e > 16)
+                e = 16 - l;
+            lo[a] = (float)(c[a] * 16 + l);
+            hi[a] = lo[a] + (float)e;
+        }
+        obj_box(o, lo, hi);
+    }
+    if (vt_rand_unit(rng) < 0.3) /* a face exactly on the chunk boundary */
+        obj_quad(o, 0, (float)(c[0] * 16), (float)(c[1] * 16), (float)(c[2] * 16), (float)(c[1] * 16 + 16),
+                 (float)(c[2] * 16 + 16));
+}
+
+/* An entity: two triangles sharing an edge and an off-grid quad, across chunk borders. */
+void obj_entity(tobj *o, uint64_t *rng, const float size[3])
+{
+    float p[3];
+    for (int a = 0; a < 3; ++a)
+        p[a] = (float)(vt_rand_unit(rng) * (size[a] - 6.0) + 0.5);
+    float a0[3] = {p[0], p[1], p[2]}, a1[3] = {p[0] + 5.3f, p[1] + 0.7f, p[2]};
+    float a2[3] = {p[0], p[1] + 4.1f, p[2] + 5.2f}, a3[3] = {p[0] + 5.3f, p[1] + 4.1f, p[2] + 5.2f};
+    obj_tri(o, a0, a1, a2);
+    obj_tri(o, a1, a3, a2);
+    obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
+}
+
+void random_chunk_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = 16.0f * nx;
+    w->size[1] = 16.0f * ny;
+    w->size[2] = 16.0f * nz;
+    for (int cz = 0; cz < nz; ++cz)
+        for (int cy = 0; cy < ny; ++cy)
+            for (int cx = 0; cx < nx; ++cx) {
+                if (vt_rand_unit(rng) < 0.3)
+                    continue;
+                int c[3] = {cx, cy, cz};
+                obj_chunk_boxes(add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz))), rng, c);
+            }
+    /* Identical boxes in two objects: the lowest ID must win on both backends. */
+    for (int i = 0; i < 4; ++i) {
+        float lo[3] = {(float)(vt_rand(rng) % (uint64_t)(16 * nx - 4)), (float)(vt_rand(rng) % (uint64_t)(16 * ny - 4)),
+                       (float)(vt_rand(rng) % (uint64_t)(16 * nz - 4))};
+        float hi[3] = {lo[0] + 3, lo[1] + 3, lo[2] + 3};
+        obj_box(add_obj(w, 100001 + 2 * i), lo, hi);
+        obj_box(add_obj(w, 100000 + 2 * i), lo, hi);
+    }
+    for (int i = 0; i < 4; ++i)
+        obj_entity(add_obj(w, 200000 + i), rng, w->size);
+}
+
+void random_view(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
+{
+    memset(cam, 0, sizeof *cam);
+    for (int a = 0; a < 3; ++a) {
+        double e = vt_rand_unit(rng) * (size[a] * 1.6) - size[a] * 0.3;
+        if (vt_rand_unit(rng) < 0.3)
+            e = floor(e / 16.0) * 16.0; /* on a split plane or a chunk corner */
+        cam->eye[a] = origin[a] + e;
+        cam->target[a] = origin[a] + vt_rand_unit(rng) * size[a];
+    }
+    if (vt_rand_unit(rng) < 0.2) /* along an axis */
+        for (int a = 0; a < 3; ++a)
+            if (a != 1)
+                cam->target[a] = cam->eye[a];
+    cam->fovy_deg = 20.0 + vt_rand_unit(rng) * 100.0;
 }

@@ -16,6 +16,15 @@ const char *vt_shared_file(const char *relative);
  * sanitizer build sets). Every test still runs every case, only fewer random repetitions. */
 int vt_small(void);
 
+/* VT_ASAN: defined in builds with AddressSanitizer (GCC's macro, clang's feature test). */
+#if defined(__SANITIZE_ADDRESS__)
+#define VT_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define VT_ASAN 1
+#endif
+#endif
+
 /* Reads a whole file; caller frees. NULL on failure. */
 void *vt_read_file(const char *path, size_t *out_size);
 

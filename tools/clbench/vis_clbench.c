@@ -90,6 +90,7 @@ static void random_camera(const vw_world *w, uint64_t *rng, vis_camera *cam)
 typedef struct bufs {
     uint32_t *ia, *ib;
     float *da, *db;
+    size_t n; /* elements of each */
 } bufs;
 
 static uint32_t g_traversals;
@@ -111,9 +112,9 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
             td.traversal = (vis_traversal)t;
             td.short_stack = 1u + (uint32_t)(g_compared % 8u);
             memset(b->ib, 0xAB, n * 4);
-            if (vis_trace(cpu, sa, cam, &td, b->ia, b->da) != VIS_OK)
+            if (vis_trace(cpu, sa, cam, &td, b->ia, b->n, b->da, b->n) != VIS_OK)
                 die("cpu trace", cpu);
-            if (vis_trace(cl, sb, cam, &td, b->ib, b->db) != VIS_OK)
+            if (vis_trace(cl, sb, cam, &td, b->ib, b->n, b->db, b->n) != VIS_OK)
                 die("opencl trace", cl);
             ++g_compared;
             size_t bad = 0, first = 0;
@@ -235,7 +236,7 @@ int main(int argc, char **argv)
         td.width = td.height = 1;
         for (uint32_t t = 0; t < 64; ++t) {
             td.traversal = (vis_traversal)t;
-            if (vis_trace(cpu, A, &c, &td, &id, NULL) != VIS_OK)
+            if (vis_trace(cpu, A, &c, &td, &id, 1, NULL, 0) != VIS_OK)
                 break;
             g_traversals = t + 1;
         }
@@ -245,15 +246,23 @@ int main(int argc, char **argv)
     vc_view views[VC_MAX_VIEWS];
     size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
     size_t big = 512 * 512;
-    bufs b = {malloc(big * 4), malloc(big * 4), malloc(big * 4), malloc(big * 4)};
+    bufs b = {malloc(big * 4), malloc(big * 4), malloc(big * 4), malloc(big * 4), big};
     uint64_t rng = 2024;
     double c0 = vc_now_ms();
     uint32_t cams = 0;
     uint64_t full_bytes = 0;
+    if (nv > 0) { /* the first trace of B syncs the whole scene: its upload is the scene's size */
+        vis_trace_desc td;
+        vis_trace_desc_defaults(&td);
+        td.width = td.height = 1;
+        vis_timing timing;
+        if (vis_trace(cl, B, &views[0].camera, &td, b.ib, b.n, NULL, 0) != VIS_OK ||
+            vis_context_last_timing(cl, &timing) != VIS_OK)
+            die("opencl trace", cl);
+        full_bytes = timing.upload_bytes;
+    }
     for (size_t i = 0; i < nv; ++i, ++cams) {
         compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, views[i].name);
-        if (i == 0)
-            vis_scene_last_upload_bytes(B, &full_bytes); /* the first sync: the whole scene */
         compare(cpu, A, cl, B, &views[i].camera, 48, 40, &b, views[i].name);
     }
     for (int i = 0; i < ncams; ++i, ++cams) {
@@ -309,9 +318,9 @@ int main(int argc, char **argv)
             td.traversal = (vis_traversal)t;
             vis_timing tg;
             for (int r = 0; r < (reps < 20 ? reps : 20); ++r) /* warm-up */
-                vis_trace(cl, B, cam, &td, b.ib, b.db);
+                vis_trace(cl, B, cam, &td, b.ib, b.n, b.db, b.n);
             for (int r = 0; r < reps; ++r) {
-                if (vis_trace(cl, B, cam, &td, b.ib, b.db) != VIS_OK)
+                if (vis_trace(cl, B, cam, &td, b.ib, b.n, b.db, b.n) != VIS_OK)
                     die("trace", cl);
                 vis_context_last_timing(cl, &tg);
                 km[r] = tg.kernel_ms;
@@ -321,7 +330,7 @@ int main(int argc, char **argv)
             qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
             double kmed = km[reps / 2], kmin = km[0], tmed = tm[reps / 2], tmin = tm[0];
             for (int r = 0; r < reps; ++r) {
-                vis_trace(cl, B, cam, &td, b.ib, NULL);
+                vis_trace(cl, B, cam, &td, b.ib, b.n, NULL, 0);
                 vis_context_last_timing(cl, &tg);
                 tm[r] = tg.total_ms;
             }
@@ -329,7 +338,7 @@ int main(int argc, char **argv)
             double imed = tm[reps / 2];
             int creps = 5;
             for (int r = 0; r < creps; ++r) {
-                vis_trace(cpu, A, cam, &td, b.ia, b.da);
+                vis_trace(cpu, A, cam, &td, b.ia, b.n, b.da, b.n);
                 vis_context_last_timing(cpu, &tg);
                 km[r] = tg.total_ms;
             }
@@ -361,7 +370,7 @@ int main(int argc, char **argv)
         vis_timing tg;
         double bk[5], bt[5], bd[5];
         for (int r = 0; r < 6; ++r) {
-            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, NULL) != VIS_OK)
+            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, (size_t)n * big, NULL, 0) != VIS_OK)
                 die("batch", cl);
             vis_context_last_timing(cl, &tg);
             if (r) {
@@ -370,7 +379,7 @@ int main(int argc, char **argv)
             }
         }
         for (int r = 0; r < 5; ++r) {
-            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, depth) != VIS_OK)
+            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, (size_t)n * big, depth, (size_t)n * big) != VIS_OK)
                 die("batch", cl);
             vis_context_last_timing(cl, &tg);
             bd[r] = tg.total_ms;
@@ -382,7 +391,7 @@ int main(int argc, char **argv)
         printf("%6u %12.3f %12.3f %14.2f %14.2f %16.2f\n", n, bk[2], bt[2], rays / (bk[2] * 1e6), rays / (bt[2] * 1e6),
                rays / (bd[2] * 1e6));
         /* spot check: the batch's first and last views equal single passes */
-        vis_trace(cl, B, &cams_b[n - 1], NULL, b.ib, NULL);
+        vis_trace(cl, B, &cams_b[n - 1], NULL, b.ib, b.n, NULL, 0);
         if (memcmp(b.ib, ids + (size_t)(n - 1) * big, big * 4) != 0) {
             printf("MISMATCH batch view %u vs single pass\n", n - 1);
             ++g_failures;
@@ -403,7 +412,7 @@ int main(int argc, char **argv)
         if (world_scene_update(sb, NULL, &werr))
             die("update", NULL);
         vis_timing tg;
-        if (vis_trace(cl, B, &def, NULL, b.ib, NULL) != VIS_OK)
+        if (vis_trace(cl, B, &def, NULL, b.ib, b.n, NULL, 0) != VIS_OK)
             die("trace", cl);
         vis_context_last_timing(cl, &tg);
         eb[e] = (double)tg.upload_bytes;

@@ -1,5 +1,7 @@
 /* accuracy_report.c — accuracy.csv, accuracy.png (gnuplot, run as an external program on a
- * generated script) and the summary table of `vis accuracy`. */
+ * generated script) and the summary table of `vis accuracy`. Files are written through
+ * out_file.h (a failure never destroys the file that was there), and user strings reach
+ * gnuplot only as escaped string literals (gp_string). */
 #define _POSIX_C_SOURCE 200809L
 
 #include "accuracy_report.h"
@@ -12,6 +14,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+
+#include "out_file.h"
 
 extern char **environ;
 
@@ -34,33 +38,25 @@ static void budget_label(const acc_row *r, char *buf, size_t size)
 
 int acc_write_csv(const char *path, const acc_row *rows, size_t n, char *err, size_t err_size)
 {
-    FILE *f = fopen(path, "w");
-    if (!f) {
-        set_err(err, err_size, "cannot open %s for writing: %s", path, strerror(errno));
+    vc_out_file f;
+    if (vc_out_open(&f, path, err, err_size) != 0)
         return -1;
-    }
-    fprintf(f, "method,width,height,time_ms,drawn,missed,missed_area,overdraw,overdraw_triangles,occluded_culled,"
-               "budget,rays,frames,truth_visible,missed_area_max,hidden,trace_ms,list_ms,raster_ms,test_ms\n");
+    vc_out_printf(&f, "method,width,height,time_ms,drawn,missed,missed_area,overdraw,overdraw_triangles,"
+                      "occluded_culled,budget,rays,frames,truth_visible,missed_area_max,hidden,trace_ms,list_ms,"
+                      "raster_ms,test_ms\n");
     for (size_t i = 0; i < n; ++i) {
         const acc_row *r = &rows[i];
         int zbuf = strcmp(r->method, "zbuf") == 0;
         char a[32] = "", b[32] = "", c[32] = "", d[32] = "";
         snprintf(zbuf ? c : a, sizeof a, "%.4f", r->part_a_ms);
         snprintf(zbuf ? d : b, sizeof b, "%.4f", r->part_b_ms);
-        fprintf(f, "%s,%u,%u,%.4f,%.2f,%.2f,%.6g,%.2f,%.1f,%.4f,%ux%u,%llu,%u,%.2f,%.6g,%.2f,%s,%s,%s,%s\n",
-                r->method, r->width, r->height, r->time_ms, r->s.drawn, r->s.missed, r->s.missed_area,
-                r->s.overdraw, r->s.overdraw_triangles, r->s.occluded_culled, r->budget_w, r->budget_h,
-                (unsigned long long)r->width * r->height, r->s.frames, r->s.truth_visible, r->s.missed_area_max,
-                r->s.hidden, a, b, c, d);
+        vc_out_printf(&f, "%s,%u,%u,%.4f,%.2f,%.2f,%.6g,%.2f,%.1f,%.4f,%ux%u,%llu,%u,%.2f,%.6g,%.2f,%s,%s,%s,%s\n",
+                      r->method, r->width, r->height, r->time_ms, r->s.drawn, r->s.missed, r->s.missed_area,
+                      r->s.overdraw, r->s.overdraw_triangles, r->s.occluded_culled, r->budget_w, r->budget_h,
+                      (unsigned long long)r->width * r->height, r->s.frames, r->s.truth_visible,
+                      r->s.missed_area_max, r->s.hidden, a, b, c, d);
     }
-    int bad = ferror(f) != 0;
-    if (fclose(f) != 0)
-        bad = 1;
-    if (bad) {
-        set_err(err, err_size, "writing %s failed: %s", path, strerror(errno));
-        return -1;
-    }
-    return 0;
+    return vc_out_close(&f, 1, err, err_size);
 }
 
 /* ---- the plot -------------------------------------------------------------------------- */
@@ -102,15 +98,36 @@ static double zero_floor(const double *v, size_t n, double fallback)
     return pow(10.0, floor(log10(m)) - 1.0);
 }
 
-static void gp_quote(FILE *f, const char *s)
+/* S as a gnuplot string literal that gnuplot reads back byte for byte and never as commands
+ * (malloc'ed; NULL when out of memory). A scene named "k\nsystem \"touch X\"" once ran
+ * `touch X`: a newline ends a gnuplot command even inside a string, and single quotes cannot
+ * escape it. Double quotes can (\ooo octal escapes), but gnuplot runs `...` inside them and
+ * reads \ as an escape, so every byte that is not a letter, a digit or a few harmless marks
+ * is written as \ooo — newlines, quotes, backslashes, backquotes, ';', '@', '$', control
+ * characters and UTF-8 bytes alike. For text that is shown (display != 0), control characters
+ * become '?' first: a title stays one line, and cairo draws no boxes for ESC or CR. */
+static char *gp_string(const char *s, int display)
 {
-    fputc('\'', f);
+    char *q = malloc(4 * strlen(s) + 3), *p = q;
+    if (!q)
+        return NULL;
+    *p++ = '"';
     for (; *s; ++s) {
-        if (*s == '\'')
-            fputc('\'', f); /* '' is a quote inside a single-quoted gnuplot string */
-        fputc(*s, f);
+        unsigned char c = (unsigned char)*s;
+        if (display && (c < 0x20 || c == 0x7f))
+            c = '?';
+        if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || strchr(" .,:_-+/()", c)) {
+            *p++ = (char)c;
+        } else {
+            *p++ = '\\';
+            *p++ = (char)('0' + (c >> 6));
+            *p++ = (char)('0' + ((c >> 3) & 7));
+            *p++ = (char)('0' + (c & 7));
+        }
     }
-    fputc('\'', f);
+    *p++ = '"';
+    *p = '\0';
+    return q;
 }
 
 static int write_script(const char *script, const char *title, const acc_row *rows, size_t n,
@@ -128,47 +145,51 @@ static int write_script(const char *script, const char *title, const acc_row *ro
         over[i] = rows[i].s.overdraw;
     }
     double area_floor = zero_floor(area, n, 1e-4), over_floor = zero_floor(over, n, 0.1);
-    FILE *f = fopen(script, "w");
-    if (!f) {
+    char *quoted_title = gp_string(title, 1);
+    vc_out_file out, *f = &out;
+    if (!quoted_title || vc_out_open(f, script, err, err_size) != 0) {
+        if (!quoted_title)
+            set_err(err, err_size, "out of memory");
+        free(quoted_title);
         free(area);
         free(over);
-        set_err(err, err_size, "cannot open %s for writing: %s", script, strerror(errno));
         return -1;
     }
-    fprintf(f, "# Written by `vis accuracy`; `gnuplot accuracy.gp` in this directory redraws accuracy.png.\n");
-    fprintf(f, "set encoding utf8\nset terminal pngcairo size 1400,600 font 'sans,11' noenhanced\n"
-               "set output 'accuracy.png'\n");
+    vc_out_printf(f, "# Written by `vis accuracy`; `gnuplot accuracy.gp` in this directory redraws accuracy.png.\n");
+    /* `vis accuracy` names a temporary output on gnuplot's command line (acc_plot). */
+    vc_out_printf(f, "set encoding utf8\nset terminal pngcairo size 1400,600 font 'sans,11' noenhanced\n"
+                     "set output exists(\"vis_output\") ? vis_output : 'accuracy.png'\n");
     /* One datablock per method: time, missed area (%), overdraw (objects), label; zeros are
      * moved to the axis floor, which is labelled 0. */
     for (size_t m = 0; m < sizeof styles / sizeof styles[0]; ++m) {
-        fprintf(f, "$m%zu << EOD\n", m);
+        vc_out_printf(f, "$m%zu << EOD\n", m);
         for (size_t i = 0; i < n; ++i) {
             if (strcmp(rows[i].method, styles[m].method) != 0)
                 continue;
             char label[32];
             budget_label(&rows[i], label, sizeof label);
-            fprintf(f, "%.6g %.6g %.6g \"%s\"\n", rows[i].time_ms, area[i] > 0.0 ? area[i] : area_floor,
-                    over[i] > 0.0 ? over[i] : over_floor, label);
+            vc_out_printf(f, "%.6g %.6g %.6g \"%s\"\n", rows[i].time_ms, area[i] > 0.0 ? area[i] : area_floor,
+                          over[i] > 0.0 ? over[i] : over_floor, label);
         }
-        fprintf(f, "EOD\n");
+        vc_out_printf(f, "EOD\n");
     }
-    fprintf(f, "set multiplot layout 1,2 title ");
-    gp_quote(f, title);
-    fprintf(f, " font ',13'\n");
-    fprintf(f, "set logscale xy\nset grid xtics ytics mxtics mytics lc rgb '#dddddd'\nset key top right box opaque\n"
-               "set xlabel 'time per frame, ms (median over the path; log)'\nset format y '%%g'\n"
-               "set offsets graph 0.08, graph 0.12, graph 0.1, graph 0.05\n");
+    vc_out_printf(f, "set multiplot layout 1,2 title %s font ',13'\n", quoted_title);
+    vc_out_printf(f, "set logscale xy\nset grid xtics ytics mxtics mytics lc rgb '#dddddd'\n"
+                     "set key top right box opaque\nset xlabel 'time per frame, ms (median over the path; log)'\n"
+                     "set format y '%%g'\n"
+                     "set offsets graph 0.08, graph 0.12, graph 0.1, graph 0.05\n");
     for (int panel = 0; panel < 2; ++panel) {
         double floor_v = panel == 0 ? area_floor : over_floor;
         const double *val = panel == 0 ? area : over;
         int col = panel == 0 ? 2 : 3;
-        fprintf(f, "set ylabel '%s'\n",
-                panel == 0 ? "missed area: % of the display that pops in (mean per frame; log)"
-                           : "overdraw: objects drawn but not visible (mean per frame; log)");
-        fprintf(f, "set title '%s'\n",
-                panel == 0 ? "cost vs popping (lower left is better)" : "cost vs overdraw (lower left is better)");
-        fprintf(f, "set yrange [%.6g:*]\nset ytics autofreq\nset ytics add ('0' %.6g)\nunset label\n",
-                floor_v * 0.5, floor_v);
+        vc_out_printf(f, "set ylabel '%s'\n",
+                      panel == 0 ? "missed area: % of the display that pops in (mean per frame; log)"
+                                 : "overdraw: objects drawn but not visible (mean per frame; log)");
+        vc_out_printf(f, "set title '%s'\n",
+                      panel == 0 ? "cost vs popping (lower left is better)"
+                                 : "cost vs overdraw (lower left is better)");
+        vc_out_printf(f, "set yrange [%.6g:*]\nset ytics autofreq\nset ytics add ('0' %.6g)\nunset label\n",
+                      floor_v * 0.5, floor_v);
         for (size_t m = 0; m < sizeof styles / sizeof styles[0]; ++m) {
             size_t k = 0;
             for (size_t i = 0; i < n; ++i) {
@@ -176,11 +197,11 @@ static int write_script(const char *script, const char *title, const acc_row *ro
                     continue;
                 char label[32];
                 budget_label(&rows[i], label, sizeof label);
-                fprintf(f, "set label \"%s\" at first %.6g, first %.6g %s font ',9' tc rgb '%s' front\n", label,
-                        rows[i].time_ms, val[i] > 0.0 ? val[i] : floor_v, label_place(m, k++), styles[m].colour);
+                vc_out_printf(f, "set label \"%s\" at first %.6g, first %.6g %s font ',9' tc rgb '%s' front\n", label,
+                              rows[i].time_ms, val[i] > 0.0 ? val[i] : floor_v, label_place(m, k++), styles[m].colour);
             }
         }
-        fprintf(f, "plot ");
+        vc_out_printf(f, "plot ");
         int first = 1;
         for (size_t m = 0; m < sizeof styles / sizeof styles[0]; ++m) {
             int present = 0;
@@ -188,25 +209,19 @@ static int write_script(const char *script, const char *title, const acc_row *ro
                 present |= strcmp(rows[i].method, styles[m].method) == 0;
             if (!present)
                 continue;
-            fprintf(f, "%s$m%zu using 1:%d with linespoints lw 2 pt %d ps 1.3 lc rgb '%s' title '%s'",
-                    first ? "" : ", \\\n     ", m, col, styles[m].point, styles[m].colour, styles[m].title);
+            vc_out_printf(f, "%s$m%zu using 1:%d with linespoints lw 2 pt %d ps 1.3 lc rgb '%s' title '%s'",
+                          first ? "" : ", \\\n     ", m, col, styles[m].point, styles[m].colour, styles[m].title);
             first = 0;
         }
         if (first)
-            fprintf(f, "NaN notitle");
-        fprintf(f, "\n");
+            vc_out_printf(f, "NaN notitle");
+        vc_out_printf(f, "\n");
     }
-    fprintf(f, "unset multiplot\n");
+    vc_out_printf(f, "unset multiplot\n");
+    free(quoted_title);
     free(area);
     free(over);
-    int bad = ferror(f) != 0;
-    if (fclose(f) != 0)
-        bad = 1;
-    if (bad) {
-        set_err(err, err_size, "writing %s failed: %s", script, strerror(errno));
-        return -1;
-    }
-    return 0;
+    return vc_out_close(f, 1, err, err_size);
 }
 
 int acc_plot(const char *dir, const char *title, const acc_row *rows, size_t n, char *err, size_t err_size)
@@ -219,30 +234,40 @@ int acc_plot(const char *dir, const char *title, const acc_row *rows, size_t n, 
     const char *prog = getenv("VIS_GNUPLOT");
     if (!prog || !prog[0])
         prog = "gnuplot";
-    remove(png);
+    /* gnuplot draws into the out_file temporary, renamed over accuracy.png only when the
+     * picture is complete: a failed run leaves the old picture, and no partial one. */
+    vc_out_file out;
+    if (vc_out_open(&out, png, err, err_size) != 0)
+        return -1;
+    fclose(out.f);
+    out.f = NULL;
+    /* Its name reaches gnuplot as an escaped literal; the script's path as a file argument,
+     * which gnuplot opens and never parses. */
+    char *name = gp_string(vc_out_name(&out), 0), *set = name ? malloc(strlen(name) + 16) : NULL;
+    if (!set) {
+        free(name);
+        vc_out_close(&out, 0, err, err_size);
+        set_err(err, err_size, "out of memory");
+        return -1;
+    }
+    sprintf(set, "vis_output = %s", name);
+    free(name);
     /* gnuplot's own messages go to stderr: stdout carries only the result (--json). */
     posix_spawn_file_actions_t fa;
     if (posix_spawn_file_actions_init(&fa) != 0) {
+        free(set);
+        vc_out_close(&out, 0, err, err_size);
         set_err(err, err_size, "cannot start %s", prog);
         return -1;
     }
     posix_spawn_file_actions_adddup2(&fa, 2, 1);
-    /* Run in DIR (gnuplot's `cd`), so that the script's relative output name works there. */
-    char cd[4200];
-    size_t k = 0;
-    k += (size_t)snprintf(cd, sizeof cd, "cd '");
-    for (const char *p = dir; *p && k + 4 < sizeof cd; ++p) {
-        if (*p == '\'')
-            cd[k++] = '\'';
-        cd[k++] = *p;
-    }
-    cd[k++] = '\'';
-    cd[k] = '\0';
-    char *argv[] = {(char *)prog, "-e", cd, "accuracy.gp", NULL};
+    char *argv[] = {(char *)prog, "-e", set, script, NULL};
     pid_t pid;
     int rc = posix_spawnp(&pid, prog, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
+    free(set);
     if (rc != 0) {
+        vc_out_close(&out, 0, err, err_size);
         set_err(err, err_size, "%s not found (%s): install gnuplot-nox for accuracy.png; the CSV and %s are written",
                 prog, strerror(rc), script);
         return 1;
@@ -251,20 +276,26 @@ int acc_plot(const char *dir, const char *title, const acc_row *rows, size_t n, 
     while (waitpid(pid, &status, 0) < 0) {
         if (errno != EINTR) {
             set_err(err, err_size, "waiting for %s: %s", prog, strerror(errno));
+            vc_out_close(&out, 0, err, err_size);
             return -1;
         }
     }
     if (WIFEXITED(status) && WEXITSTATUS(status) == 127) {
+        vc_out_close(&out, 0, err, err_size);
         set_err(err, err_size, "%s could not be run: install gnuplot-nox for accuracy.png", prog);
         return 1;
     }
+    /* An empty regular file means gnuplot wrote nothing; a device has no size to check. */
     struct stat st;
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || stat(png, &st) != 0 || st.st_size == 0) {
+    int drawn = WIFEXITED(status) && WEXITSTATUS(status) == 0 && stat(vc_out_name(&out), &st) == 0 &&
+                (!S_ISREG(st.st_mode) || st.st_size > 0);
+    if (!drawn) {
+        vc_out_close(&out, 0, err, err_size);
         set_err(err, err_size, "%s %s failed (exit %d): no %s", prog, script,
                 WIFEXITED(status) ? WEXITSTATUS(status) : -1, png);
         return -1;
     }
-    return 0;
+    return vc_out_close(&out, 1, err, err_size);
 }
 
 /* ---- the table ------------------------------------------------------------------------- */

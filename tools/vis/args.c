@@ -318,6 +318,61 @@ static int p_compare(const char *cmd, const char *opt, const char *value, int li
     return CLI_EXIT_OK;
 }
 
+/* A count or a size: N, N with a binary suffix K, M, G or T (optionally followed by "iB" or
+ * "B": 4G = 4GiB = 2^32), or 2^N; at most 2^64 - 1. */
+static int parse_amount(const char *s, uint64_t *out)
+{
+    uint64_t v;
+    const char *caret = strchr(s, '^');
+    if (caret) {
+        if (caret - s != 1 || s[0] != '2' || parse_u64(caret + 1, 0, 63, &v) != 0)
+            return -1;
+        *out = (uint64_t)1 << v;
+        return 0;
+    }
+    size_t n = strlen(s), k = 0;
+    char digits[32];
+    while (k < n && s[k] >= '0' && s[k] <= '9')
+        k++;
+    if (k == 0 || k >= sizeof digits)
+        return -1;
+    memcpy(digits, s, k);
+    digits[k] = '\0';
+    if (parse_u64(digits, 0, UINT64_MAX, &v) != 0)
+        return -1;
+    const char *suffix = s + k;
+    int shift = 0;
+    if (*suffix) {
+        static const char units[] = "KMGT";
+        const char *u = strchr(units, suffix[0] >= 'a' ? suffix[0] - 'a' + 'A' : suffix[0]);
+        if (!u || !*u)
+            return -1;
+        shift = 10 * (int)(u - units + 1);
+        suffix++;
+        if (strcmp(suffix, "") != 0 && strcmp(suffix, "B") != 0 && strcmp(suffix, "iB") != 0)
+            return -1;
+    }
+    if (shift && v > (UINT64_MAX >> shift))
+        return -1;
+    *out = v << shift;
+    return 0;
+}
+
+static int p_max_bytes(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    if (parse_amount(value, &a->max_bytes) != 0)
+        return cli_usage_error(cmd, "%s '%s': expected bytes, e.g. 512M, 4G, 2^31 (0: the default 2G)", opt, value);
+    return CLI_EXIT_OK;
+}
+
+static int p_max_voxels(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
+{
+    if (parse_amount(value, &a->max_voxels) != 0)
+        return cli_usage_error(cmd, "%s '%s': expected a voxel count, e.g. 1000000, 256M, 2^30 (0: the default 2^30)",
+                               opt, value);
+    return CLI_EXIT_OK;
+}
+
 static int p_json(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
 {
     a->json = 1;
@@ -330,7 +385,7 @@ static const opt_spec options[] = {
     {"--res", OPT_RES, "WxH", "ID buffer size (default 512x512)", p_res},
     {"--method", OPT_METHOD, "ray|zbuf", "ray pass (default) or the software z-buffer culler", p_method},
     {"--ids", OPT_IDS, "object|leaf", "object IDs (default) or kd-leaf IDs", p_ids},
-    {"--traversal", OPT_TRAVERSAL, "NAME", "kd-tree traversal: stack (default), bruteforce, restart, pushdown, shortstack[:N], ropes, ropes-shortstack[:N]; bench: all", p_traversal},
+    {"--traversal", OPT_TRAVERSAL, "NAME", "kd-tree traversal: auto (default: packet on the CPU, stack on OpenCL), packet, stack, bruteforce, restart, pushdown, shortstack[:N], ropes, ropes-shortstack[:N]; bench: all", p_traversal},
     {"--backend", OPT_BACKEND, "auto|cpu|opencl", "backend (default auto)", p_backend},
     {"--threads", OPT_THREADS, "N|all", "CPU backend threads (default all cores)", p_threads},
     {"--repeat", OPT_REPEAT, "N", "passes to time; the median is reported", p_repeat},
@@ -349,7 +404,15 @@ static const opt_spec options[] = {
     {"--max-res", OPT_MAX_RES, "N", "largest ray-pass rung: N*N rays (default 2048)", p_max_res},
     {"--leaf-depth", OPT_LEAF_DEPTH, "N", "kd depth for leaf IDs (default: 8 chunks per leaf)", p_leaf_depth},
     {"--json", OPT_JSON, NULL, "one JSON object on stdout", p_json},
+    {"--max-bytes", OPT_MAX_BYTES, "N", "memory the world may take (default 2G; K/M/G/T suffixes, 2^N)", p_max_bytes},
+    {"--max-voxels", OPT_MAX_VOXELS, "N", "voxels a load may write (default 2^30)", p_max_voxels},
 };
+
+/* The options a command takes: its own, and the budget wherever a scene is loaded. */
+static unsigned accepted(const cli_command *cmd)
+{
+    return cmd->options | (cmd->options & OPT_SCENE ? OPT_MAX_BYTES | OPT_MAX_VOXELS : 0u);
+}
 
 #define OPTION_COUNT (sizeof options / sizeof options[0])
 
@@ -359,7 +422,7 @@ void cli_args_usage(const cli_command *cmd, void *fp)
     fprintf(f, "usage: vis %s", cmd->name);
     for (size_t i = 0; i < OPTION_COUNT; ++i) {
         const opt_spec *o = &options[i];
-        if (!(cmd->options & o->bit))
+        if (!(accepted(cmd) & o->bit))
             continue;
         int req = (cmd->required & o->bit) != 0;
         fprintf(f, " %s%s%s%s%s", req ? "" : "[", o->name, o->metavar ? " " : "", o->metavar ? o->metavar : "",
@@ -368,7 +431,7 @@ void cli_args_usage(const cli_command *cmd, void *fp)
     fprintf(f, "\n%s\n\n", cmd->summary);
     for (size_t i = 0; i < OPTION_COUNT; ++i) {
         const opt_spec *o = &options[i];
-        if (!(cmd->options & o->bit))
+        if (!(accepted(cmd) & o->bit))
             continue;
         char left[64];
         const char *metavar = o->metavar ? o->metavar : "";
@@ -428,7 +491,7 @@ int cli_args_parse(const cli_command *cmd, int argc, char **argv, cli_args *out)
         for (size_t k = 0; k < OPTION_COUNT; ++k)
             if (strcmp(options[k].name, name) == 0)
                 o = &options[k];
-        if (!o || !(cmd->options & o->bit))
+        if (!o || !(accepted(cmd) & o->bit))
             return cli_usage_error(cmd->name, "unknown option '%s' (see vis %s --help)", name, cmd->name);
         if (out->given & o->bit)
             return cli_usage_error(cmd->name, "%s given twice", name);

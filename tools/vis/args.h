@@ -41,7 +41,10 @@ enum {
     OPT_TRUTH_RES = 1u << 20,
     OPT_SUPERSAMPLE = 1u << 21,
     OPT_MAX_RES = 1u << 22,
-    OPT_LEAF_DEPTH = 1u << 23
+    OPT_LEAF_DEPTH = 1u << 23,
+    /* The load budget (vw_budget): every command that takes --scene takes these too. */
+    OPT_MAX_BYTES = 1u << 24,
+    OPT_MAX_VOXELS = 1u << 25
 };
 
 typedef enum cli_method { CLI_METHOD_RAY = 0, CLI_METHOD_ZBUF } cli_method;
@@ -69,6 +72,7 @@ typedef struct cli_args {
     uint32_t supersample;           /* accuracy: truth samples per pixel side, default 1 */
     uint32_t max_res;               /* accuracy: largest ray-pass rung, default 2048     */
     uint32_t leaf_depth;            /* accuracy: kd depth of the leaf-ID scene (0: auto) */
+    uint64_t max_bytes, max_voxels; /* the world's budget (vw_budget); 0: the defaults   */
     const char *dump_ids, *dump_depth, *dump_list, *png, *out;
     int compare_embree;
     int json;

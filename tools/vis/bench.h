@@ -60,6 +60,7 @@ typedef struct bench {
     int have_keep;
     vis_scene_info info;
     uint32_t *ids, *ids2;
+    size_t ids_cap;          /* elements of ids and of ids2                                    */
     /* Embree */
     embree_compare *ec;
     embree_view ev[VC_MAX_VIEWS];

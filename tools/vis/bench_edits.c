@@ -123,10 +123,10 @@ static uint64_t mirror_sync(upload_mirror *m)
     vis_trace_desc_defaults(&td);
     td.width = td.height = 1;
     uint32_t id;
-    uint64_t bytes = 0;
-    if (vis_trace(m->ctx, s, &cam, &td, &id, NULL) != VIS_OK || vis_scene_last_upload_bytes(s, &bytes) != VIS_OK)
+    vis_timing timing;
+    if (vis_trace(m->ctx, s, &cam, &td, &id, 1, NULL, 0) != VIS_OK || vis_context_last_timing(m->ctx, &timing) != VIS_OK)
         return UINT64_MAX;
-    return bytes;
+    return timing.upload_bytes;
 }
 
 /* Applies the touched chunks to the mirror and returns what the next sync uploads. */

@@ -57,7 +57,8 @@ static int run_config(bench *b, cli_scene *s, trav_config *tc)
         for (size_t v = 0; v < b->nviews; ++v) {
             cli_pass_times t;
             memset(&t, 0, sizeof t);
-            if (cli_pass_run(s->ctx, scene, &b->views[v].camera, &desc, a->frames, b->ids, NULL, &t) != VIS_OK)
+            if (cli_pass_run(s->ctx, scene, &b->views[v].camera, &desc, a->frames, b->ids, b->ids_cap, NULL, 0, &t) !=
+                VIS_OK)
                 return cli_fail_vis(CMD, s->ctx, bench_traversal_methods[m]);
             c->view_ms[v] = ms[v] = t.median_ms;
             c->view_mrays[v] = mr[v] = t.mrays_per_s;
@@ -78,9 +79,9 @@ static int run_config(bench *b, cli_scene *s, trav_config *tc)
 
 static double mb(uint64_t bytes) { return (double)bytes / (1024.0 * 1024.0); }
 
-static uint64_t rope_used(const vis_scene_info *info, uint32_t n)
+static uint64_t rope_used(const vis_scene_stats *stats, uint32_t n)
 {
-    return n <= VIS_MAX_SHORT_STACK ? info->rope_bytes_used[n] : 0;
+    return n <= VIS_MAX_SHORT_STACK ? stats->rope_bytes_used[n] : 0;
 }
 
 static void rope_name(uint32_t n, char *buf, size_t size)
@@ -91,7 +92,8 @@ static void rope_name(uint32_t n, char *buf, size_t size)
         snprintf(buf, size, "ropes-shortstack:%u", n);
 }
 
-static void print_tables(const bench *b, const trav_config *tc, size_t nc, const vis_scene_info *info)
+static void print_tables(const bench *b, const trav_config *tc, size_t nc, const vis_scene_info *info,
+                         const vis_scene_stats *stats)
 {
     printf("\nTable 3: Mrays/s, median over the %zu views of the camera path (%ux%u, %u frames each)\n", b->nviews,
            b->a->width, b->a->height, b->a->frames);
@@ -115,18 +117,19 @@ static void print_tables(const bench *b, const trav_config *tc, size_t nc, const
         printf("  %s: %s\n", tc[c].backend, tc[c].device);
 
     printf("\nTable 4: rope memory (kd depth %u, %u nodes, %u leaves; scene %.2f MB, ropes held %.2f MB)\n",
-           info->kd_depth, info->nodes, info->leaves, mb(info->bytes), mb(info->rope_bytes));
+           info->kd_depth, info->nodes, info->leaves, mb(info->bytes), mb(stats->rope_bytes));
     printf("  %-20s %14s %10s %12s\n", "method", "bytes", "MB", "% of scene");
     for (size_t r = 0; r < NROPE; ++r) {
         char name[32];
         rope_name(rope_rows[r], name, sizeof name);
-        uint64_t used = rope_used(info, rope_rows[r]);
+        uint64_t used = rope_used(stats, rope_rows[r]);
         printf("  %-20s %14llu %10.3f %11.2f%%\n", name, (unsigned long long)used, mb(used),
                info->bytes ? 100.0 * (double)used / (double)info->bytes : 0.0);
     }
 }
 
-static void print_json(const bench *b, const trav_config *tc, size_t nc, const vis_scene_info *info)
+static void print_json(const bench *b, const trav_config *tc, size_t nc, const vis_scene_info *info,
+                       const vis_scene_stats *stats)
 {
     const cli_args *a = b->a;
     json_writer w;
@@ -174,12 +177,12 @@ static void print_json(const bench *b, const trav_config *tc, size_t nc, const v
     json_object_begin(&w, "rope_memory");
     json_uint(&w, "kd_depth", info->kd_depth);
     json_uint(&w, "scene_bytes", info->bytes);
-    json_uint(&w, "rope_bytes", info->rope_bytes);
+    json_uint(&w, "rope_bytes", stats->rope_bytes);
     json_array_begin(&w, "rows");
     for (size_t r = 0; r < NROPE; ++r) {
         char name[32];
         rope_name(rope_rows[r], name, sizeof name);
-        uint64_t used = rope_used(info, rope_rows[r]);
+        uint64_t used = rope_used(stats, rope_rows[r]);
         json_object_begin(&w, NULL);
         json_string(&w, "method", name);
         json_uint(&w, "short_stack", rope_rows[r]);
@@ -202,7 +205,9 @@ int bench_traversal_all(bench *b, cli_progress *progress)
     size_t nc = 0;
     int have_info = 0, rc = CLI_EXIT_OK;
     vis_scene_info info;
+    vis_scene_stats stats;
     memset(&info, 0, sizeof info);
+    memset(&stats, 0, sizeof stats);
     /* One thread count: the last of --threads (bench's default list ends with all cores). */
     uint32_t threads = a->thread_count ? a->threads[a->thread_count - 1] : 0;
     if (!a->json)
@@ -233,6 +238,8 @@ int bench_traversal_all(bench *b, cli_progress *progress)
             if (rc == CLI_EXIT_OK && !have_info) {
                 if (vis_scene_get_info(world_scene_scene(s.ws), &info) != VIS_OK)
                     rc = cli_fail_vis(CMD, s.ctx, "vis_scene_get_info");
+                else if (vis_scene_get_stats(world_scene_scene(s.ws), &stats) != VIS_OK)
+                    rc = cli_fail_vis(CMD, s.ctx, "vis_scene_get_stats");
                 else
                     have_info = 1;
             }
@@ -243,9 +250,9 @@ int bench_traversal_all(bench *b, cli_progress *progress)
         rc = cli_fail(CMD, "no backend of --backend could start");
     if (rc == CLI_EXIT_OK) {
         if (a->json)
-            print_json(b, tc, nc, &info);
+            print_json(b, tc, nc, &info, &stats);
         else
-            print_tables(b, tc, nc, &info);
+            print_tables(b, tc, nc, &info, &stats);
     }
     free(tc);
     return rc;

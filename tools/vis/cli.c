@@ -1,11 +1,11 @@
 /* cli.c — context, world and scene setup shared by the `vis` commands. */
 #include "cli.h"
 
-#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "out_file.h"
 #include "timer.h"
 
 int cli_fail(const char *cmd, const char *fmt, ...)
@@ -70,13 +70,23 @@ int cli_context_open(const char *cmd, vis_backend_kind backend, uint32_t threads
     return CLI_EXIT_OK;
 }
 
+/* The budget of every load (--max-bytes, --max-voxels), set once by main after parsing; the
+ * CLI is single-threaded. Zero fields: the library's defaults. */
+static vw_budget load_budget;
+
+void cli_world_set_budget(uint64_t max_bytes, uint64_t max_voxels)
+{
+    load_budget.max_bytes = max_bytes;
+    load_budget.max_voxels = max_voxels;
+}
+
 int cli_world_load(const char *cmd, const char *spec, cli_progress *p, cli_world *out)
 {
     memset(out, 0, sizeof *out);
     vw_error err;
     err.message[0] = '\0';
     double t0 = vc_now_ms();
-    vw_status s = vw_world_from_spec(spec, NULL, p ? cli_progress_update : NULL, p, &out->world, &err);
+    vw_status s = vw_world_from_spec(spec, &load_budget, p ? cli_progress_update : NULL, p, &out->world, &err);
     if (p)
         cli_progress_finish(p);
     out->load_ms = vc_now_ms() - t0;
@@ -147,15 +157,9 @@ void cli_camera_format(const vis_camera *c, char *buf, size_t size)
 
 int cli_write_file(const char *cmd, const char *path, const void *data, size_t size)
 {
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return cli_fail(cmd, "cannot open %s for writing: %s", path, strerror(errno));
-    size_t n = fwrite(data, 1, size, f);
-    int bad = n != size;
-    if (fclose(f) != 0)
-        bad = 1;
-    if (bad)
-        return cli_fail(cmd, "writing %s failed: %s", path, strerror(errno));
+    char err[1024];
+    if (vc_write_file(path, data, size, err, sizeof err) != 0)
+        return cli_fail(cmd, "%s", err);
     return CLI_EXIT_OK;
 }
 

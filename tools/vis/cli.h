@@ -32,6 +32,9 @@ int cli_context_open(const char *cmd, vis_backend_kind backend, uint32_t threads
 /* Loads a world from SPEC, drawing progress on `p` (may be NULL). Returns CLI_EXIT_USAGE
  * for a malformed spec, CLI_EXIT_FAILURE for I/O and format errors, after printing why. */
 int cli_world_load(const char *cmd, const char *spec, cli_progress *p, cli_world *out);
+/* The budget cli_world_load passes to the library (0 = its default); main sets it from
+ * --max-bytes and --max-voxels. A load over it fails with CLI_EXIT_FAILURE and the numbers. */
+void cli_world_set_budget(uint64_t max_bytes, uint64_t max_voxels);
 void cli_world_free(cli_world *w);
 
 /* Opens a context and builds the world's scene on it (progress "meshing" on p). */
@@ -56,7 +59,8 @@ int cli_camera_check(const char *cmd, vis_context *ctx, const vis_camera *camera
 /* "EX,EY,EZ,TX,TY,TZ,FOVY" of a camera, for output. */
 void cli_camera_format(const vis_camera *camera, char *buf, size_t size);
 
-/* Writes `size` bytes to a file; prints the error and returns CLI_EXIT_FAILURE on failure. */
+/* Writes `size` bytes to a file (out_file.h: a failure never destroys what was there); prints
+ * the error and returns CLI_EXIT_FAILURE on failure. */
 int cli_write_file(const char *cmd, const char *path, const void *data, size_t size);
 
 

@@ -67,6 +67,7 @@ typedef struct study {
     uint8_t *has_box, *in_view;
     /* buffers */
     uint32_t *ids;
+    size_t ids_cap;       /* elements of ids                                                */
     vis_draw_entry *truth, *list;
     size_t cap, truth_count;
     double *reps, *reps_a, *reps_b;
@@ -203,6 +204,7 @@ static int setup(study *st, cli_progress *progress)
     if (st->cap == 0)
         st->cap = 1;
     st->ids = malloc(n * sizeof *st->ids);
+    st->ids_cap = n;
     st->truth = malloc(st->cap * sizeof *st->truth);
     st->list = malloc(st->cap * sizeof *st->list);
     st->reps = malloc(st->repeat * sizeof *st->reps);
@@ -254,7 +256,7 @@ static int truth_pass(study *st, size_t f, const vis_camera *cam)
     vis_context *ctx = st->obj.ctx;
     vis_scene *scene = world_scene_scene(st->obj.ws);
     double t0 = vc_now_ms();
-    if (vis_trace(ctx, scene, cam, &d, st->ids, NULL) != VIS_OK)
+    if (vis_trace(ctx, scene, cam, &d, st->ids, st->ids_cap, NULL, 0) != VIS_OK)
         return cli_fail_vis(CMD, ctx, "vis_trace (truth)");
     st->truth_ms[f] = vc_now_ms() - t0;
     if (vis_drawlist_build(ctx, scene, st->ids, d.width, d.height, VIS_IDS_OBJECT, st->truth, st->cap,
@@ -299,7 +301,7 @@ static int row_pass(study *st, plan_row *r, size_t f, const vis_camera *cam, siz
         /* The game's cost of a draw list: the pass and turning its IDs into the list. */
         for (uint32_t i = 0; i < n; ++i) {
             double t0 = vc_now_ms();
-            if (vis_trace(s->ctx, scene, cam, &d, st->ids, NULL) != VIS_OK)
+            if (vis_trace(s->ctx, scene, cam, &d, st->ids, st->ids_cap, NULL, 0) != VIS_OK)
                 return cli_fail_vis(CMD, s->ctx, "vis_trace");
             double t1 = vc_now_ms();
             if (vis_drawlist_build(s->ctx, scene, st->ids, d.width, d.height, d.ids, st->list, st->cap, count) !=
@@ -328,7 +330,7 @@ static int run_frames(study *st)
         d.width = d.height = ACC_MIN_RES;
         d.ids = VIS_IDS_LEAF;
         if (vis_trace(st->leaf.ctx, world_scene_scene(st->leaf.ws), &st->views[st->frame[0]].camera, &d, st->ids,
-                      NULL) != VIS_OK)
+                      st->ids_cap, NULL, 0) != VIS_OK)
             return cli_fail_vis(CMD, st->leaf.ctx, "vis_trace (leaf warm-up)");
     }
     for (size_t f = 0; f < st->nframes; ++f) {

@@ -33,7 +33,8 @@ static int run_views(bench *b, cli_scene *s, size_t config)
         r->view = b->views[v].name;
         r->view_index = v;
         r->config = config;
-        if (cli_pass_run(s->ctx, scene, &b->views[v].camera, &desc, a->frames, b->ids, NULL, &r->t) != VIS_OK)
+        if (cli_pass_run(s->ctx, scene, &b->views[v].camera, &desc, a->frames, b->ids, b->ids_cap, NULL, 0, &r->t) !=
+            VIS_OK)
             return cli_fail_vis(CMD, s->ctx, b->views[v].name);
         vis_draw_entry *e = NULL;
         if (cli_drawlist(s->ctx, scene, b->ids, a->width, a->height, a->ids, &e, &r->visible, NULL) != VIS_OK)
@@ -176,7 +177,8 @@ static int run_embree(bench *b)
         embree_view *e = &b->ev[v];
         const view_result *ours = ours_for(b, v);
         e->ours_ms = ours ? ours->t.median_ms : 0.0;
-        if (vis_trace(b->keep.ctx, world_scene_scene(b->keep.ws), &b->views[v].camera, &desc, b->ids, NULL) != VIS_OK)
+        if (vis_trace(b->keep.ctx, world_scene_scene(b->keep.ws), &b->views[v].camera, &desc, b->ids, b->ids_cap, NULL,
+                      0) != VIS_OK)
             return cli_fail_vis(CMD, b->keep.ctx, "vis_trace");
         int rc = embree_pass(b, v, 0, &e->single_ms, &e->single_min, &e->single_max);
         if (rc != CLI_EXIT_OK)
@@ -328,6 +330,7 @@ int cmd_bench(const cli_args *a)
     size_t n = (size_t)a->width * a->height;
     b->ids = malloc(n * sizeof *b->ids);
     b->ids2 = malloc(n * sizeof *b->ids2);
+    b->ids_cap = n;
     if (!b->ids || !b->ids2) {
         free(b->ids);
         free(b->ids2);

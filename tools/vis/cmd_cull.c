@@ -126,7 +126,7 @@ static int ray_pass(const cli_args *a, cli_scene *s, cull_result *r)
         goto done;
     }
     vis_trace_desc desc = cli_trace_desc(a);
-    if (cli_pass_run(s->ctx, scene, &r->camera, &desc, a->repeat, ids, depth, &r->times) != VIS_OK) {
+    if (cli_pass_run(s->ctx, scene, &r->camera, &desc, a->repeat, ids, n, depth, depth ? n : 0, &r->times) != VIS_OK) {
         rc = cli_fail_vis(CMD, s->ctx, "vis_trace");
         goto done;
     }

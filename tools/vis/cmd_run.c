@@ -62,7 +62,8 @@ int cmd_run(const cli_args *a)
     double total_ms = 0.0;
     for (size_t v = 0; v < nviews; ++v) {
         cli_pass_times t;
-        if (cli_pass_run(s.ctx, scene, &views[v].camera, &desc, repeat, ids, NULL, &t) != VIS_OK) {
+        if (cli_pass_run(s.ctx, scene, &views[v].camera, &desc, repeat, ids, (size_t)a->width * a->height, NULL, 0,
+                         &t) != VIS_OK) {
             rc = cli_fail_vis(CMD, s.ctx, views[v].name);
             goto done;
         }

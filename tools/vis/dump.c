@@ -1,22 +1,31 @@
-/* dump.c — writes the ID, depth and draw-list dumps. */
+/* dump.c — writes the ID, depth and draw-list dumps (through out_file.h: a failed write never
+ * destroys the file that was there). */
 #include "dump.h"
 
-#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "cli.h"
+#include "out_file.h"
+
+static int finish(const char *cmd, vc_out_file *f)
+{
+    char err[1024];
+    if (vc_out_close(f, 1, err, sizeof err) != 0)
+        return cli_fail(cmd, "%s", err);
+    return CLI_EXIT_OK;
+}
 
 /* Writes 32-bit words little-endian whatever the host's byte order, through a small buffer. */
 static int write_words_le(const char *cmd, const char *path, const void *words, size_t count)
 {
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return cli_fail(cmd, "cannot open %s for writing: %s", path, strerror(errno));
+    char err[1024];
+    vc_out_file f;
+    if (vc_out_open(&f, path, err, sizeof err) != 0)
+        return cli_fail(cmd, "%s", err);
     const unsigned char *src = words;
     unsigned char buf[4096];
-    int bad = 0;
-    for (size_t i = 0; i < count && !bad; i += sizeof buf / 4) {
+    for (size_t i = 0; i < count && !f.error; i += sizeof buf / 4) {
         size_t n = count - i < sizeof buf / 4 ? count - i : sizeof buf / 4;
         for (size_t k = 0; k < n; ++k) {
             uint32_t w;
@@ -26,13 +35,9 @@ static int write_words_le(const char *cmd, const char *path, const void *words, 
             buf[4 * k + 2] = (unsigned char)(w >> 16);
             buf[4 * k + 3] = (unsigned char)(w >> 24);
         }
-        bad = fwrite(buf, 4, n, f) != n;
+        vc_out_write(&f, buf, 4 * n);
     }
-    if (fclose(f) != 0)
-        bad = 1;
-    if (bad)
-        return cli_fail(cmd, "writing %s failed: %s", path, strerror(errno));
-    return CLI_EXIT_OK;
+    return finish(cmd, &f);
 }
 
 int cli_dump_ids(const char *cmd, const char *path, const uint32_t *ids, size_t count)
@@ -48,15 +53,11 @@ int cli_dump_depth(const char *cmd, const char *path, const float *depth, size_t
 
 int cli_dump_list(const char *cmd, const char *path, const vis_draw_entry *entries, size_t count)
 {
-    FILE *f = fopen(path, "w");
-    if (!f)
-        return cli_fail(cmd, "cannot open %s for writing: %s", path, strerror(errno));
-    int bad = 0;
-    for (size_t i = 0; i < count && !bad; ++i)
-        bad = fprintf(f, "%u %u\n", entries[i].id, entries[i].pixels) < 0;
-    if (fclose(f) != 0)
-        bad = 1;
-    if (bad)
-        return cli_fail(cmd, "writing %s failed: %s", path, strerror(errno));
-    return CLI_EXIT_OK;
+    char err[1024];
+    vc_out_file f;
+    if (vc_out_open(&f, path, err, sizeof err) != 0)
+        return cli_fail(cmd, "%s", err);
+    for (size_t i = 0; i < count && !f.error; ++i)
+        vc_out_printf(&f, "%u %u\n", entries[i].id, entries[i].pixels);
+    return finish(cmd, &f);
 }

@@ -1,8 +1,11 @@
-/* id_png.c — ID buffers as PNG pictures (libpng's simplified API, when the build has libpng). */
+/* id_png.c — ID buffers as PNG pictures (libpng's simplified API, when the build has libpng),
+ * written through out_file.h. */
 #include "id_png.h"
 
 #include <stdio.h>
 #include <stdlib.h>
+
+#include "out_file.h"
 
 #ifdef VIS_HAVE_PNG
 #include <png.h>
@@ -54,14 +57,26 @@ int cli_png_write_ids(const char *path, const uint32_t *ids, uint32_t width, uin
     image.width = width;
     image.height = height;
     image.format = PNG_FORMAT_RGB;
-    int ok = png_image_write_to_file(&image, path, 0, rgb, (png_int_32)(width * 3), NULL);
-    free(rgb);
-    if (!ok) {
-        snprintf(err, err_size, "writing %s: %s", path, image.message);
-        png_image_free(&image);
+    /* Encoded in memory, then written by vc_write_file: libpng's own file writer remove()s
+     * the file it named when a write fails, and `--png /dev/full` as root deleted /dev/full. */
+    png_alloc_size_t size = PNG_IMAGE_PNG_SIZE_MAX(image);
+    void *png = malloc(size);
+    if (!png) {
+        free(rgb);
+        snprintf(err, err_size, "out of memory for a %ux%u picture", width, height);
         return -1;
     }
-    return 0;
+    int ok = png_image_write_to_memory(&image, png, &size, 0, rgb, (png_int_32)(width * 3), NULL);
+    free(rgb);
+    if (!ok) {
+        snprintf(err, err_size, "encoding %s: %s", path, image.message);
+        png_image_free(&image);
+        free(png);
+        return -1;
+    }
+    int rc = vc_write_file(path, png, size, err, err_size);
+    free(png);
+    return rc;
 #else
     (void)ids;
     (void)width;

@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cli.h"
 #include "commands.h"
 #include "vis/vis.h"
 
@@ -35,6 +36,8 @@ static void usage(FILE *f)
         fprintf(f, "  %-8s %s\n", cli_commands[i].name, cli_commands[i].summary);
     fprintf(f, "\nSPEC: a .vox or .vdb file, or a generator such as gen:terrain:size=512x128x512:seed=1\n"
                "      (gen:terrain, gen:city, gen:maze; gen:default is the default world).\n"
+               "      --max-bytes N and --max-voxels N bound what loading it may take (defaults 2G and\n"
+               "      2^30); a SPEC that needs more fails with 'over budget' and the numbers.\n"
                "exit codes: 0 ok, 1 library or I/O error, 2 bad arguments.\n");
 }
 
@@ -62,6 +65,7 @@ int main(int argc, char **argv)
             return CLI_EXIT_OK; /* --help */
         if (rc != CLI_EXIT_OK)
             return rc;
+        cli_world_set_budget(args.max_bytes, args.max_voxels);
         return cli_commands[i].run(&args);
     }
     fprintf(stderr, "vis: unknown command '%s'\n\n", name);

@@ -20,10 +20,11 @@ vis_trace_desc cli_trace_desc(const cli_args *a)
 }
 
 vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
-                        uint32_t passes, uint32_t *ids, float *depth, cli_pass_times *out)
+                        uint32_t passes, uint32_t *ids, size_t ids_capacity, float *depth, size_t depth_capacity,
+                        cli_pass_times *out)
 {
     double t0 = vc_now_ms();
-    vis_status s = vis_trace(ctx, scene, camera, desc, ids, depth);
+    vis_status s = vis_trace(ctx, scene, camera, desc, ids, ids_capacity, depth, depth_capacity);
     if (s != VIS_OK)
         return s;
     out->first_ms = vc_now_ms() - t0;
@@ -34,7 +35,7 @@ vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *ca
         return VIS_ERROR_OUT_OF_MEMORY;
     for (uint32_t i = 0; i < passes; ++i) {
         t0 = vc_now_ms();
-        s = vis_trace(ctx, scene, camera, desc, ids, depth);
+        s = vis_trace(ctx, scene, camera, desc, ids, ids_capacity, depth, depth_capacity);
         t[i] = vc_now_ms() - t0;
         if (s != VIS_OK) {
             free(t);

@@ -20,10 +20,12 @@ typedef struct cli_pass_times {
 /* The trace desc the command line asks for: --res, --ids, --traversal. */
 vis_trace_desc cli_trace_desc(const cli_args *args);
 
-/* Traces `passes` (>= 1) timed passes after a warm-up. ids: W*H; depth may be NULL. Returns
- * the first failing call's status (its message is on the context). */
+/* Traces `passes` (>= 1) timed passes after a warm-up. ids: ids_capacity elements, at least
+ * W*H; depth (may be NULL, with depth_capacity 0) likewise. Returns the first failing call's
+ * status (its message is on the context). */
 vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
-                        uint32_t passes, uint32_t *ids, float *depth, cli_pass_times *out);
+                        uint32_t passes, uint32_t *ids, size_t ids_capacity, float *depth, size_t depth_capacity,
+                        cli_pass_times *out);
 
 /* A draw list of the scene's capacity (entries freed by the caller), built from ids.
  * *out_ms is the time of vis_drawlist_build alone. */

@@ -37,7 +37,7 @@ vis_status cli_zcull_run(vis_context *ctx, vis_scene *scene, const vis_camera *c
         t[i] = vc_now_ms() - t0;
     }
     if (s == VIS_OK && depth)
-        s = vis_zcull_depth(zc, depth);
+        s = vis_zcull_depth(zc, depth, (size_t)width * height);
     if (s != VIS_OK)
         goto fail;
     out->passes = passes;

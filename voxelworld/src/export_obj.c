@@ -4,10 +4,9 @@
  * and one quad face per vw_quad, in absolute integer voxel coordinates (origin + local, both
  * exact in int64, printed as integers). Faces wind counter-clockwise seen from the side they
  * face, the OBJ/OpenGL convention, so (v1 - v0) x (v2 - v0) points along the face's side. */
-#include <errno.h>
 #include <stdio.h>
-#include <string.h>
 
+#include "out_file.h"
 #include "vw_internal.h"
 
 static void corner(const vw_world *w, const vw_quad *q, int32_t u, int32_t v, long long out[3])
@@ -22,20 +21,22 @@ vw_status vw_export_obj(const vw_world *w, const char *path, vw_error *err)
 {
     if (!w || !path)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "vw_export_obj: world and path must not be NULL");
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return vwi_fail(err, VW_ERROR_IO, "%s: cannot open for writing: %s", path, strerror(errno));
+    /* Through out_file.h: a failed export leaves what was at PATH as it was, and no partial
+     * file. */
+    vwi_file f;
+    vw_status st = vwi_out_open(&f, path, err);
+    if (st != VW_OK)
+        return st;
     vw_mesh mesh = {NULL, 0, 0};
-    vw_status st = VW_OK;
     unsigned long long next_vertex = 1; /* OBJ indices are 1-based and file-global */
-    fprintf(f, "# voxelworld chunk meshes: one object per chunk, quads in absolute voxel coordinates\n");
-    for (uint32_t i = 0; i < w->chunk_count && st == VW_OK; i++) {
+    vwi_file_printf(&f, "# voxelworld chunk meshes: one object per chunk, quads in absolute voxel coordinates\n");
+    for (uint32_t i = 0; i < w->chunk_count && st == VW_OK && !f.error; i++) {
         if (w->chunk[i].solid == 0)
             continue;
         st = vw_mesh_chunk(w, i, &mesh);
         if (st != VW_OK || mesh.count == 0)
             continue;
-        fprintf(f, "o %u\n", (unsigned)vw_chunk_object_id(i));
+        vwi_file_printf(&f, "o %u\n", (unsigned)vw_chunk_object_id(i));
         for (size_t k = 0; k < mesh.count; k++) {
             const vw_quad *q = &mesh.quads[k];
             /* (u0,v0) (u1,v0) (u1,v1) (u0,v1) turns from u towards v; u x v = +axis, so this
@@ -45,20 +46,15 @@ vw_status vw_export_obj(const vw_world *w, const char *path, vw_error *err)
                 long long p[3];
                 const int j = q->side > 0 ? c : 3 - c;
                 corner(w, q, uv[j][0], uv[j][1], p);
-                fprintf(f, "v %lld %lld %lld\n", p[0], p[1], p[2]);
+                vwi_file_printf(&f, "v %lld %lld %lld\n", p[0], p[1], p[2]);
             }
-            fprintf(f, "f %llu %llu %llu %llu\n", next_vertex, next_vertex + 1, next_vertex + 2, next_vertex + 3);
+            vwi_file_printf(&f, "f %llu %llu %llu %llu\n", next_vertex, next_vertex + 1, next_vertex + 2,
+                           next_vertex + 3);
             next_vertex += 4;
         }
     }
     vw_mesh_free(&mesh);
-    if (st != VW_OK) {
-        fclose(f);
-        return vwi_fail(err, st, "%s: meshing failed: %s", path, vw_status_string(st));
-    }
-    int bad = ferror(f);
-    bad |= fclose(f) != 0;
-    if (bad)
-        return vwi_fail(err, VW_ERROR_IO, "%s: write failed", path);
-    return VW_OK;
+    if (st != VW_OK)
+        vwi_fail(err, st, "%s: meshing failed: %s", path, vw_status_string(st));
+    return vwi_out_close(&f, st, err);
 }

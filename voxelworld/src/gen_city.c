@@ -143,6 +143,13 @@ static void fill(void *state, vwg_column *col)
 
 static void destroy(void *state) { free(state); }
 
+uint64_t vwg_city_scratch_bytes(const int32_t size[3], int32_t chunk)
+{
+    (void)size;
+    (void)chunk;
+    return sizeof(city); /* buildings are computed per column, from the seed */
+}
+
 vw_status vwg_city_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_error *err)
 {
     city *c = calloc(1, sizeof *c);

@@ -146,6 +146,18 @@ static void destroy(void *state)
     free(m);
 }
 
+/* At its peak (while carving): the axis layouts (line and cell, int32 per voxel of x and z)
+ * and, per cell, open (1 byte, kept), the carving stack (4) and seen (1). layout_axis gives
+ * each cell at least one corridor voxel and one wall line, so at most size/2 + 1 cells lie
+ * along an axis. */
+uint64_t vwg_maze_scratch_bytes(const int32_t size[3], int32_t chunk)
+{
+    (void)chunk;
+    const uint64_t cells = (uint64_t)(size[0] / 2 + 1) * (uint64_t)(size[2] / 2 + 1);
+    return sizeof(maze) + 2 * sizeof(int32_t) * ((uint64_t)size[0] + (uint64_t)size[2]) +
+           cells * (1 + sizeof(uint32_t) + 1);
+}
+
 vw_status vwg_maze_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_error *err)
 {
     const int32_t sx = w->size[0], sz = w->size[2];

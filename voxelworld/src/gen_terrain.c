@@ -160,15 +160,27 @@ static void destroy(void *state)
     free(t);
 }
 
+/* The lattice of one column: F_COUNT fields of (H/LAT + 2) layers of nl x nl points. */
+static size_t lattice_bytes(int32_t height, int32_t chunk)
+{
+    const size_t nl = (size_t)chunk / LAT + 1;
+    return sizeof(double) * F_COUNT * ((size_t)height / LAT + 2) * nl * nl;
+}
+
+uint64_t vwg_terrain_scratch_bytes(const int32_t size[3], int32_t chunk)
+{
+    /* Heights past MAX_H are refused before anything is allocated. */
+    return sizeof(terrain) + lattice_bytes(size[1] < MAX_H ? size[1] : MAX_H, chunk);
+}
+
 vw_status vwg_terrain_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_error *err)
 {
     if (w->size[1] > MAX_H)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "terrain: height %d is over the generator's limit of %d voxels",
                         (int)w->size[1], MAX_H);
     terrain *t = calloc(1, sizeof *t);
-    const size_t nl = (size_t)w->chunk_size / LAT + 1;
     if (t)
-        t->lattice = malloc(sizeof(double) * F_COUNT * ((size_t)w->size[1] / LAT + 2) * nl * nl);
+        t->lattice = malloc(lattice_bytes(w->size[1], w->chunk_size));
     if (!t || !t->lattice) {
         destroy(t);
         return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "terrain: out of memory");

@@ -61,4 +61,12 @@ vw_status vwg_terrain_create(vw_world *world, uint64_t seed, vwg_generator *out,
 vw_status vwg_city_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);
 vw_status vwg_maze_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);
 
+/* The most memory each generator allocates for itself (its state and scratch, at their
+ * peak) for a world of `size` voxels (chunk multiples) and chunks of `chunk`: what the
+ * driver charges to the budget before the world is made, next to the column buffer. Kept
+ * beside each generator's allocations, which they bound. */
+uint64_t vwg_terrain_scratch_bytes(const int32_t size[3], int32_t chunk);
+uint64_t vwg_city_scratch_bytes(const int32_t size[3], int32_t chunk);
+uint64_t vwg_maze_scratch_bytes(const int32_t size[3], int32_t chunk);
+
 #endif

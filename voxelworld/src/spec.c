@@ -1,6 +1,11 @@
 /* spec.c — turns a world SPEC into a world: "gen:NAME[:key=value]..." runs a generator, a
  * path ending in .vox or .vdb (with an optional "?key=value&..." query) calls an importer.
- * Also the generator driver: one chunk column at a time, stored straight into the world. */
+ * Also the generator driver: one chunk column at a time, stored straight into the world.
+ *
+ * Budget (vw_budget): a generator's box is checked against max_voxels, and its chunk table
+ * plus its scratch (the column buffer and the generator's own, vwg_*_scratch_bytes) against
+ * max_bytes, before anything is allocated; while it runs, the world's limit is lowered by
+ * the scratch, so the whole load stays within max_bytes. Importers get the budget as is. */
 #include <ctype.h>
 #include <errno.h>
 #include <stdlib.h>
@@ -66,18 +71,26 @@ static vw_status store_chunk(vw_world *w, const vwg_column *col, int32_t cx, int
     }
     uint8_t *dst = vwi_chunk_dense(w, index);
     if (!dst)
-        return VW_ERROR_OUT_OF_MEMORY;
+        return vwi_dense_failure(w);
     for (int32_t z = 0; z < c; z++)
         memcpy(dst + slice * (size_t)z, vwg_at(col, 0, cy * c, z), slice);
     vwi_chunk_settle(w, index);
     return VW_OK;
 }
 
+/* The column buffer: C x H x C bytes. */
+static uint64_t column_bytes(int32_t chunk, int32_t height)
+{
+    return (uint64_t)chunk * (uint64_t)chunk * (uint64_t)height;
+}
+
+/* Fails with the store's status (VW_ERROR_BUDGET when the world's limit is reached) and no
+ * message, which from_gen writes; VW_ERROR_OUT_OF_MEMORY with one for the column. */
 static vw_status run_generator(vw_world *w, const vwg_generator *g, vw_progress_fn progress, void *user, vw_error *err)
 {
     const int32_t c = w->chunk_size, nx = w->chunks[0], ny = w->chunks[1], nz = w->chunks[2];
     vwg_column col = {0, 0, c, w->size[1], NULL};
-    const size_t bytes = (size_t)c * (size_t)c * (size_t)w->size[1];
+    const size_t bytes = (size_t)column_bytes(c, w->size[1]);
     col.v = malloc(bytes);
     if (!col.v)
         return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "out of memory for a generator column of %zu bytes", bytes);
@@ -106,9 +119,7 @@ static vw_status run_generator(vw_world *w, const vwg_generator *g, vw_progress_
             }
         }
     free(col.v);
-    if (st != VW_OK)
-        return vwi_fail(err, st, "out of memory while generating (%u chunks hold data so far)", (unsigned)w->dense_chunks);
-    return VW_OK;
+    return st;
 }
 
 /* ---- parsing ------------------------------------------------------------------------ */
@@ -244,7 +255,8 @@ static vw_status parse_gen(const char *spec, gen_spec *g, vw_error *err)
     return VW_OK;
 }
 
-static vw_status from_gen(const char *spec, vw_progress_fn progress, void *user, vw_world **out, vw_error *err)
+static vw_status from_gen(const char *spec, const vw_budget *budget, vw_progress_fn progress, void *user, vw_world **out,
+                          vw_error *err)
 {
     gen_spec g;
     vw_status st = parse_gen(spec, &g, err);
@@ -257,9 +269,35 @@ static vw_status from_gen(const char *spec, vw_progress_fn progress, void *user,
     if (chunks > MAX_GEN_CHUNKS)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': %llu chunks is over the generators' limit of %llu",
                         spec, (unsigned long long)chunks, (unsigned long long)MAX_GEN_CHUNKS);
+    /* The budget, before anything is allocated: every voxel of the box is generated (sizes
+     * round up to chunks), and the table and the scratch exist before the first chunk. */
+    const vw_budget b = vwi_budget(budget);
+    int32_t size[3];
+    uint64_t voxels = 1;
+    for (int a = 0; a < 3; a++) {
+        size[a] = (int32_t)((g.size[a] + g.chunk - 1) / g.chunk * g.chunk);
+        voxels *= (uint64_t)size[a];
+    }
+    char n1[32], n2[32], b1[32], b2[32], b3[32];
+    if (voxels > b.max_voxels)
+        return vwi_fail(err, VW_ERROR_BUDGET, "spec '%s': %dx%dx%d is %s voxels; the budget is %s voxels", spec, size[0],
+                        size[1], size[2], vwi_format_count(voxels, n1, sizeof n1),
+                        vwi_format_count(b.max_voxels, n2, sizeof n2));
+    uint64_t scratch = column_bytes(g.chunk, size[1]);
+    scratch += strcmp(g.name, "terrain") == 0 ? vwg_terrain_scratch_bytes(size, g.chunk)
+             : strcmp(g.name, "city") == 0    ? vwg_city_scratch_bytes(size, g.chunk)
+                                              : vwg_maze_scratch_bytes(size, g.chunk);
+    const uint64_t table = vwi_table_bytes(chunks);
+    if (table + scratch > b.max_bytes)
+        return vwi_fail(err, VW_ERROR_BUDGET,
+                        "spec '%s': the table of %s chunks (%s) and the generator's scratch (%s) need %s; the budget is %s",
+                        spec, vwi_format_count(chunks, n1, sizeof n1), vwi_format_bytes(table, b1, sizeof b1),
+                        vwi_format_bytes(scratch, b2, sizeof b2), vwi_format_bytes(table + scratch, b3, sizeof b3),
+                        vwi_format_bytes(b.max_bytes, n2, sizeof n2));
     vw_world_desc d;
     memset(&d, 0, sizeof d);
     d.chunk_size = g.chunk;
+    d.max_bytes = b.max_bytes;
     for (int a = 0; a < 3; a++) {
         d.origin[a] = g.origin[a];
         d.size[a] = (int32_t)g.size[a];
@@ -276,8 +314,24 @@ static vw_status from_gen(const char *spec, vw_progress_fn progress, void *user,
     else
         st = vwg_maze_create(w, g.seed, &gen, err);
     if (st == VW_OK) {
+        if (err)
+            err->message[0] = '\0';
+        w->max_bytes = b.max_bytes - scratch; /* the scratch lives as long as the run */
         st = run_generator(w, &gen, progress, user, err);
+        w->max_bytes = b.max_bytes;
         gen.destroy(gen.state);
+        if (st != VW_OK && (!err || !err->message[0])) {
+            const uint64_t held = vwi_world_bytes(w);
+            if (st == VW_ERROR_BUDGET)
+                vwi_fail(err, st,
+                         "spec '%s': the world outgrew the budget of %s while generating: %s chunks hold data "
+                         "(%s in all) beside %s of the generator's scratch",
+                         spec, vwi_format_bytes(b.max_bytes, b1, sizeof b1), vwi_format_count(w->dense_chunks, n1, sizeof n1),
+                         vwi_format_bytes(held, b2, sizeof b2), vwi_format_bytes(scratch, b3, sizeof b3));
+            else
+                vwi_fail(err, st, "spec '%s': out of memory while generating (%s chunks hold data so far, %s)", spec,
+                         vwi_format_count(w->dense_chunks, n1, sizeof n1), vwi_format_bytes(held, b2, sizeof b2));
+        }
     }
     if (st != VW_OK) {
         vw_world_destroy(w);
@@ -302,7 +356,8 @@ static int ends_with(const char *s, size_t n, const char *suffix)
     return 1;
 }
 
-static vw_status from_file(const char *spec, vw_progress_fn progress, void *user, vw_world **out, vw_error *err)
+static vw_status from_file(const char *spec, const vw_budget *budget, vw_progress_fn progress, void *user, vw_world **out,
+                           vw_error *err)
 {
     /* "path?key=value&key=value": the query starts at the last '?' that follows the
      * extension, so paths with '?' elsewhere still work. */
@@ -326,6 +381,8 @@ static vw_status from_file(const char *spec, vw_progress_fn progress, void *user
     char *query = q ? strcpy(path + plen + 1, q + 1) : NULL;
     vw_vdb_options vo;
     memset(&vo, 0, sizeof vo);
+    if (budget)
+        vo.budget = *budget;
     vw_status st = VW_OK;
     for (char *kv = query; kv && st == VW_OK;) {
         char *amp = strchr(kv, '&');
@@ -363,7 +420,7 @@ static vw_status from_file(const char *spec, vw_progress_fn progress, void *user
     if (st == VW_OK) {
         if (progress)
             progress("loading", 0.0, user);
-        st = vox ? vw_vox_load_file(path, vo.chunk_size, NULL, out, err) : vw_vdb_load_file(path, &vo, out, err);
+        st = vox ? vw_vox_load_file(path, vo.chunk_size, budget, out, err) : vw_vdb_load_file(path, &vo, out, err);
         if (st == VW_OK) {
             vw_world_clear_dirty(*out);
             if (progress)
@@ -376,11 +433,10 @@ static vw_status from_file(const char *spec, vw_progress_fn progress, void *user
 
 vw_status vw_world_from_spec(const char *spec, const vw_budget *budget, vw_progress_fn progress, void *progress_user, vw_world **out_world, vw_error *err)
 {
-    (void)budget; /* TODO(budget) */
     if (!spec || !out_world)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "vw_world_from_spec: spec and out_world must not be NULL");
     *out_world = NULL;
     if (strncmp(spec, "gen:", 4) == 0)
-        return from_gen(spec, progress, progress_user, out_world, err);
-    return from_file(spec, progress, progress_user, out_world, err);
+        return from_gen(spec, budget, progress, progress_user, out_world, err);
+    return from_file(spec, budget, progress, progress_user, out_world, err);
 }

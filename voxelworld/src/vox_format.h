@@ -51,9 +51,9 @@ typedef struct vw_vox_stats {
     int64_t bounds_max[3];
 } vw_vox_stats;
 
-/* vw_vox_load_memory with explicit limits (NULL = defaults) and statistics (may be NULL).
- * out_world may be NULL: the file is then parsed, checked and measured, and no world is
- * built. */
+/* vw_vox_load_memory with explicit limits (NULL = defaults), the default vw_budget, and
+ * statistics (may be NULL). out_world may be NULL: the file is then parsed, checked and
+ * measured, and no world is built (nor the budget checked). */
 vw_status vw_vox_load_memory_ex(const void *data, size_t size, int32_t chunk_size, const vw_vox_limits *limits,
                                 vw_world **out_world, vw_vox_stats *out_stats, vw_error *err);
 

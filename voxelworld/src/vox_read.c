@@ -14,13 +14,27 @@
  * is checked against the bytes left before anything is allocated from it; the scene graph
  * is walked with an explicit stack (no recursion depth to exhaust), loops are caught by an
  * on-path mark, and vw_vox_limits caps instances, voxels, node visits and world size.
+ *
+ * The budget (vw_budget) is checked from the parsed scene before the world exists: the
+ * instances' solid voxels against max_voxels, then the world's table plus one dense chunk
+ * for every distinct chunk an instanced voxel lands in (counted exactly, with a bit per chunk
+ * of the table) against max_bytes. A file on disk is checked before it is read: a regular
+ * file (not a FIFO or a device), no larger than max_bytes, with the magic in its first
+ * bytes; only as many bytes as its MAIN chunk claims are read.
  */
-#include "vox_format.h"
+#define _POSIX_C_SOURCE 200809L
 
+#include "vox_format.h"
+#include "vw_internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #define VOX_ID(a, b, c, d) ((uint32_t)(a) | (uint32_t)(b) << 8 | (uint32_t)(c) << 16 | (uint32_t)(d) << 24)
 #define ID_VOX  VOX_ID('V', 'O', 'X', ' ')
@@ -142,6 +156,7 @@ static int str_is(vox_str s, const char *lit)
 typedef struct vox_model {
     int32_t size[3];
     uint32_t count;        /* XYZI entries                                                  */
+    uint32_t solid;        /* of those, the ones with a colour (colour 0 is empty)          */
     size_t voxels;         /* file offset of the first (x, y, z, colour) entry              */
 } vox_model;
 
@@ -188,6 +203,9 @@ typedef struct vox_ctx {
     size_t size;
     vw_error *err;
     vw_vox_limits lim;
+    vw_budget budget;            /* defaults filled in                                      */
+    int building;                /* a world is wanted: the budget applies                  */
+    uint64_t instanced_solid;    /* sum over instances of their model's solid voxels        */
     /* The chunk being read, named in error messages. */
     uint32_t chunk_id;
     size_t chunk_off;
@@ -495,7 +513,9 @@ static vw_status read_xyzi(vox_ctx *c, vox_reader *r)
         return vox_fail(c, VW_ERROR_FORMAT, at, "XYZI count %d needs %llu bytes but the chunk has %zu", (int)n,
                         (unsigned long long)n * 4u, rd_left(r));
     const uint8_t *v = r->data + r->pos;
+    uint32_t solid = 0;
     for (int32_t i = 0; i < n; i++) {
+        solid += v[4 * (size_t)i + 3] != 0;
         for (int a = 0; a < 3; a++)
             if (v[4 * (size_t)i + a] >= c->pending[a])
                 return vox_fail(c, VW_ERROR_FORMAT, r->pos + 4 * (size_t)i,
@@ -508,6 +528,7 @@ static vw_status read_xyzi(vox_ctx *c, vox_reader *r)
     vox_model *m = &c->models[c->model_count++];
     memcpy(m->size, c->pending, sizeof m->size);
     m->count = (uint32_t)n;
+    m->solid = solid;
     m->voxels = r->pos;
     c->st.model_voxels += (uint32_t)n;
     int64_t cells = (int64_t)m->size[0] * m->size[1] * m->size[2];
@@ -934,6 +955,14 @@ static vw_status add_instance(vox_ctx *c, uint32_t model, const vox_rot *rot, co
     if (c->inst_count >= c->lim.max_instances)
         return vox_fail(c, VW_ERROR_FORMAT, at, "more than %u instances", (unsigned)c->lim.max_instances);
     c->st.instanced_voxels += c->models[model].count;
+    c->instanced_solid += c->models[model].solid;
+    if (c->building && c->instanced_solid > c->budget.max_voxels) {
+        char n1[32], n2[32];
+        return vwi_fail(c->err, VW_ERROR_BUDGET,
+                        ".vox: the first %u instances already hold %s solid voxels; the budget is %s voxels",
+                        (unsigned)(c->inst_count + 1), vwi_format_count(c->instanced_solid, n2, sizeof n2),
+                        vwi_format_count(c->budget.max_voxels, n1, sizeof n1));
+    }
     if (c->st.instanced_voxels > c->lim.max_instanced_voxels)
         return vox_fail(c, VW_ERROR_FORMAT, at, "instances hold more than %llu voxels",
                         (unsigned long long)c->lim.max_instanced_voxels);
@@ -1115,6 +1144,59 @@ static int index_map(const vox_ctx *c, uint8_t out[256])
     return 1;
 }
 
+/* The budget against the world build_world is about to make (origin, chunk counts n):
+ * its table, and a dense chunk for every distinct chunk a solid instanced voxel lands in
+ * (vw_world_set makes each dense on its first voxel and compacts it only when it fills up
+ * with one material, so this bounds the peak). The touched chunks are counted exactly, one bit per
+ * chunk of the table, which max_chunks bounds (512 KiB by default, and never more than a
+ * 128th of the table, which is checked first). */
+static vw_status check_budget(vox_ctx *c, const int64_t origin[3], const int32_t n[3], uint64_t chunks, int32_t chunk_size)
+{
+    char b1[32], b2[32], b3[32], n1[32];
+    const uint64_t table = vwi_table_bytes(chunks), limit = c->budget.max_bytes;
+    if (table > limit)
+        return vwi_fail(c->err, VW_ERROR_BUDGET, ".vox: the scene spans %s chunks, whose table needs %s; the budget is %s",
+                        vwi_format_count(chunks, n1, sizeof n1), vwi_format_bytes(table, b1, sizeof b1),
+                        vwi_format_bytes(limit, b2, sizeof b2));
+    uint64_t *seen = calloc((size_t)((chunks + 63) / 64), sizeof *seen);
+    if (!seen)
+        return vwi_fail(c->err, VW_ERROR_OUT_OF_MEMORY, ".vox: out of memory for a bit per chunk (%s chunks)",
+                        vwi_format_count(chunks, n1, sizeof n1));
+    const int shift = chunk_size == 16 ? 4 : 5;
+    uint64_t dense = 0;
+    for (uint32_t i = 0; i < c->inst_count; i++) {
+        const vox_inst *in = &c->inst[i];
+        const vox_model *m = &c->models[in->model];
+        const uint8_t *v = c->data + m->voxels;
+        for (uint32_t k = 0; k < m->count; k++, v += 4) {
+            if (v[3] == 0)
+                continue;
+            const int64_t p[3] = {v[0], v[1], v[2]};
+            int64_t q[3], wp[3];
+            place(in, m->size, p, q);
+            to_world(q, wp);
+            /* Inside the world by construction (it covers every instance box). */
+            uint64_t idx = 0;
+            for (int a = 2; a >= 0; a--)
+                idx = idx * (uint64_t)n[a] + (uint64_t)((wp[a] - origin[a]) >> shift);
+            const uint64_t bit = 1ull << (idx & 63);
+            if (!(seen[idx >> 6] & bit)) {
+                seen[idx >> 6] |= bit;
+                dense++;
+            }
+        }
+    }
+    free(seen);
+    const uint64_t vol = (uint64_t)chunk_size * (uint64_t)chunk_size * (uint64_t)chunk_size;
+    if (table + dense * vol > limit)
+        return vwi_fail(c->err, VW_ERROR_BUDGET,
+                        ".vox: the scene needs %s for %s dense chunks (the chunks its voxels land in), and %s for its "
+                        "table; the budget is %s",
+                        vwi_format_bytes(dense * vol, b1, sizeof b1), vwi_format_count(dense, n1, sizeof n1),
+                        vwi_format_bytes(table, b2, sizeof b2), vwi_format_bytes(limit, b3, sizeof b3));
+    return VW_OK;
+}
+
 static vw_status build_world(vox_ctx *c, int32_t chunk_size, vw_world **out_world)
 {
     int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
@@ -1139,7 +1221,9 @@ static vw_status build_world(vox_ctx *c, int32_t chunk_size, vw_world **out_worl
     vw_world_desc desc;
     memset(&desc, 0, sizeof desc);
     desc.chunk_size = chunk_size;
+    desc.max_bytes = c->budget.max_bytes;
     uint64_t chunks = 1;
+    int32_t n[3];
     for (int a = 0; a < 3; a++) {
         desc.origin[a] = floor_div(lo[a], chunk_size) * chunk_size;
         int64_t extent = hi[a] - desc.origin[a];
@@ -1153,7 +1237,8 @@ static vw_status build_world(vox_ctx *c, int32_t chunk_size, vw_world **out_worl
                             (long long)extent, "xyz"[a], (long long)VOX_MAX_AXIS);
         }
         desc.size[a] = (int32_t)extent;
-        chunks *= (uint64_t)((extent + chunk_size - 1) / chunk_size);
+        n[a] = (int32_t)((extent + chunk_size - 1) / chunk_size);
+        chunks *= (uint64_t)n[a];
     }
     if (chunks > c->lim.max_chunks) {
         c->chunk_id = c->inst[at_max[0]].chunk_id;
@@ -1164,9 +1249,12 @@ static vw_status build_world(vox_ctx *c, int32_t chunk_size, vw_world **out_worl
     }
     if (!out_world)
         return VW_OK;
+    vw_status s = check_budget(c, desc.origin, n, chunks, chunk_size);
+    if (s != VW_OK)
+        return s;
 
     vw_world *w = NULL;
-    vw_status s = vw_world_create(&desc, &w, c->err);
+    s = vw_world_create(&desc, &w, c->err);
     if (s != VW_OK)
         return s;
     /* Materials before voxels: changing flags marks chunks with voxels dirty. */
@@ -1204,8 +1292,8 @@ static vw_status build_world(vox_ctx *c, int32_t chunk_size, vw_world **out_worl
 
 /* ---- entry points ------------------------------------------------------------------- */
 
-vw_status vw_vox_load_memory_ex(const void *data, size_t size, int32_t chunk_size, const vw_vox_limits *limits,
-                                vw_world **out_world, vw_vox_stats *out_stats, vw_error *err)
+static vw_status load(const void *data, size_t size, int32_t chunk_size, const vw_vox_limits *limits,
+                      const vw_budget *budget, vw_world **out_world, vw_vox_stats *out_stats, vw_error *err)
 {
     if (out_world)
         *out_world = NULL;
@@ -1233,6 +1321,8 @@ vw_status vw_vox_load_memory_ex(const void *data, size_t size, int32_t chunk_siz
     c->lim.max_instances = limits && limits->max_instances ? limits->max_instances : 1u << 18;
     c->lim.max_instanced_voxels = limits && limits->max_instanced_voxels ? limits->max_instanced_voxels : 1ull << 28;
     c->lim.max_node_visits = limits && limits->max_node_visits ? limits->max_node_visits : 1u << 24;
+    c->budget = vwi_budget(budget);
+    c->building = out_world != NULL;
     memcpy(c->palette, vw_vox_default_palette, sizeof c->palette);
     for (int i = 0; i < 256; i++)
         c->flags[i] = VW_MAT_OPAQUE;
@@ -1304,62 +1394,117 @@ vw_status vw_vox_load_memory_ex(const void *data, size_t size, int32_t chunk_siz
     return s;
 }
 
-vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, const vw_budget *budget, vw_world **out_world, vw_error *err)
+vw_status vw_vox_load_memory_ex(const void *data, size_t size, int32_t chunk_size, const vw_vox_limits *limits,
+                                vw_world **out_world, vw_vox_stats *out_stats, vw_error *err)
 {
-    (void)budget; /* TODO(budget): enforced by the budget work in progress */
-    if (!out_world)
-        return VW_ERROR_INVALID_ARGUMENT;
-    return vw_vox_load_memory_ex(data, size, chunk_size, NULL, out_world, NULL, err);
+    return load(data, size, chunk_size, limits, NULL, out_world, out_stats, err);
 }
 
-vw_status vw_vox_load_file(const char *path, int32_t chunk_size, const vw_budget *budget, vw_world **out_world, vw_error *err)
+vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, const vw_budget *budget,
+                             vw_world **out_world, vw_error *err)
+{
+    if (!out_world)
+        return VW_ERROR_INVALID_ARGUMENT;
+    return load(data, size, chunk_size, NULL, budget, out_world, NULL, err);
+}
+
+/* Reads exactly n bytes at the current position; 0 on an error or a short file. */
+static int read_full(int fd, uint8_t *buf, size_t n)
+{
+    while (n > 0) {
+        ssize_t got = read(fd, buf, n);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got == 0)
+            errno = 0; /* the end of the file came first */
+        if (got <= 0)
+            return 0;
+        buf += got;
+        n -= (size_t)got;
+    }
+    return 1;
+}
+
+vw_status vw_vox_load_file(const char *path, int32_t chunk_size, const vw_budget *budget, vw_world **out_world,
+                           vw_error *err)
 {
     if (out_world)
         *out_world = NULL;
     if (!path || !out_world)
         return VW_ERROR_INVALID_ARGUMENT;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        if (err)
-            snprintf(err->message, sizeof err->message, "cannot open %s", path);
-        return VW_ERROR_IO;
+    const vw_budget b = vwi_budget(budget);
+    /* Non-blocking, so that opening a FIFO returns at once (to be refused below) instead of
+     * waiting for a writer; it changes nothing for a regular file. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
+        return vwi_fail(err, VW_ERROR_IO, "cannot open %s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0) {
+        int e = errno;
+        close(fd);
+        return vwi_fail(err, VW_ERROR_IO, "cannot stat %s: %s", path, strerror(e));
     }
-    /* Read in growing steps rather than trusting ftell: works for pipes and special files. */
-    size_t cap = 1 << 16, size = 0;
-    uint8_t *buf = malloc(cap);
-    vw_status s = buf ? VW_OK : VW_ERROR_OUT_OF_MEMORY;
-    while (s == VW_OK) {
-        if (size == cap) {
-            if (cap >= ((size_t)1 << 31)) {
-                if (err)
-                    snprintf(err->message, sizeof err->message, "%s: larger than 2 GiB", path);
-                s = VW_ERROR_IO;
-                break;
-            }
-            uint8_t *nb = realloc(buf, cap * 2);
-            if (!nb) {
-                s = VW_ERROR_OUT_OF_MEMORY;
-                break;
-            }
-            buf = nb;
-            cap *= 2;
+    if (!S_ISREG(st.st_mode)) {
+        close(fd);
+        return vwi_fail(err, VW_ERROR_IO, "%s is not a regular file (%s)", path,
+                        S_ISFIFO(st.st_mode) ? "a FIFO" : S_ISCHR(st.st_mode) ? "a character device"
+                                            : S_ISBLK(st.st_mode)   ? "a block device"
+                                            : S_ISDIR(st.st_mode)   ? "a directory"
+                                            : S_ISSOCK(st.st_mode)  ? "a socket"
+                                                                    : "not a plain file");
+    }
+    char b1[32], b2[32];
+    const uint64_t file_size = st.st_size > 0 ? (uint64_t)st.st_size : 0;
+    if (file_size > b.max_bytes || file_size > SIZE_MAX) {
+        close(fd);
+        return vwi_fail(err, VW_ERROR_BUDGET, "%s: the file's %s are more than the budget of %s", path,
+                        vwi_format_bytes(file_size, b1, sizeof b1), vwi_format_bytes(b.max_bytes, b2, sizeof b2));
+    }
+    /* The header first: the magic, then MAIN's sizes say how much of the file the parser
+     * will look at (trailing bytes are ignored), so only that much is read. A file too
+     * short for either is read whole (it is tiny) for the parser's own message. */
+    uint8_t head[20];
+    size_t want = (size_t)file_size, have = 0;
+    if (file_size >= 8) {
+        if (!read_full(fd, head, 8)) {
+            int e = errno;
+            close(fd);
+            return vwi_fail(err, VW_ERROR_IO, "cannot read %s: %s", path, e ? strerror(e) : "the file shrank");
         }
-        size_t got = fread(buf + size, 1, cap - size, f);
-        size += got;
-        if (got == 0) {
-            if (ferror(f)) {
-                if (err)
-                    snprintf(err->message, sizeof err->message, "cannot read %s", path);
-                s = VW_ERROR_IO;
+        have = 8;
+        if (memcmp(head, "VOX ", 4) != 0) {
+            close(fd);
+            return vwi_fail(err, VW_ERROR_FORMAT, ".vox: %s: not a .vox file (no 'VOX ' magic) at byte offset 0 (file header)",
+                            path);
+        }
+        if (file_size >= 20) {
+            if (!read_full(fd, head + 8, 12)) {
+                int e = errno;
+                close(fd);
+                return vwi_fail(err, VW_ERROR_IO, "cannot read %s: %s", path, e ? strerror(e) : "the file shrank");
             }
-            break;
+            have = 20;
+            const uint64_t claimed = 20 + (uint64_t)(head[12] | head[13] << 8 | head[14] << 16 | (uint32_t)head[15] << 24) +
+                                     (uint64_t)(head[16] | head[17] << 8 | head[18] << 16 | (uint32_t)head[19] << 24);
+            if (claimed < file_size)
+                want = (size_t)claimed; /* a claim past the end is the parser's to report */
         }
     }
-    fclose(f);
-    if (s == VW_OK)
-        s = vw_vox_load_memory(buf, size, chunk_size, budget, out_world, err);
-    else if (s == VW_ERROR_OUT_OF_MEMORY && err && !err->message[0])
-        snprintf(err->message, sizeof err->message, "out of memory reading %s", path);
+    uint8_t *buf = malloc(want ? want : 1);
+    if (!buf) {
+        close(fd);
+        return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "out of memory reading %s (%s)", path,
+                        vwi_format_bytes(want, b1, sizeof b1));
+    }
+    memcpy(buf, head, have);
+    int ok = read_full(fd, buf + have, want - have);
+    int e = errno;
+    close(fd);
+    vw_status s;
+    if (!ok)
+        s = vwi_fail(err, VW_ERROR_IO, "cannot read %s: %s", path, e ? strerror(e) : "the file shrank while it was read");
+    else
+        s = vw_vox_load_memory(buf, want, chunk_size, budget, out_world, err);
     free(buf);
     return s;
 }

@@ -22,11 +22,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "out_file.h"
+
 #define TILE 256
 
 /* A byte sink, a file or a growable buffer, that remembers the first failure. */
 typedef struct vox_out {
-    FILE *f;
+    vwi_file *f;
     uint8_t *buf;
     size_t len, cap;
     vw_status status;
@@ -37,7 +39,7 @@ static void out_bytes(vox_out *o, const void *p, size_t n)
     if (o->status != VW_OK || n == 0)
         return;
     if (o->f) {
-        if (fwrite(p, 1, n, o->f) != n)
+        if (vwi_file_write(o->f, p, n) != 0)
             o->status = VW_ERROR_IO;
     } else {
         if (n > o->cap - o->len) {
@@ -77,8 +79,11 @@ static void out_patch_u32(vox_out *o, size_t at, uint32_t v)
         return;
     const uint8_t b[4] = {(uint8_t)v, (uint8_t)(v >> 8), (uint8_t)(v >> 16), (uint8_t)(v >> 24)};
     if (o->f) {
-        if (fseek(o->f, (long)at, SEEK_SET) != 0 || fwrite(b, 1, 4, o->f) != 4 || fseek(o->f, 0, SEEK_END) != 0)
+        if (fseek(o->f->f, (long)at, SEEK_SET) != 0 || vwi_file_write(o->f, b, 4) != 0 ||
+            fseek(o->f->f, 0, SEEK_END) != 0) {
+            vwi_file_failed(o->f);
             o->status = VW_ERROR_IO;
+        }
     } else {
         memcpy(o->buf + at, b, 4);
     }
@@ -391,21 +396,14 @@ vw_status vw_vox_save_file(const vw_world *world, const char *path, vw_error *er
 {
     if (!world || !path)
         return VW_ERROR_INVALID_ARGUMENT;
+    /* Through out_file.h: a failed export leaves what was at PATH as it was, and no partial
+     * file (removing PATH instead once deleted /dev/full for a root user). */
+    vwi_file file;
+    vw_status s = vwi_out_open(&file, path, err);
+    if (s != VW_OK)
+        return s;
     vox_out o;
     memset(&o, 0, sizeof o);
-    o.f = fopen(path, "wb");
-    if (!o.f) {
-        if (err)
-            snprintf(err->message, sizeof err->message, "cannot create %s", path);
-        return VW_ERROR_IO;
-    }
-    vw_status s = write_vox(world, &o, err);
-    if (fclose(o.f) != 0 && s == VW_OK) {
-        s = VW_ERROR_IO;
-        if (err)
-            snprintf(err->message, sizeof err->message, "cannot write %s", path);
-    }
-    if (s != VW_OK)
-        remove(path); /* no half-written file left behind */
-    return s;
+    o.f = &file;
+    return vwi_out_close(&file, write_vox(world, &o, err), err);
 }

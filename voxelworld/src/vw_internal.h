@@ -60,11 +60,19 @@ struct vw_world {
     uint32_t dense_chunks;
     uint64_t solid_voxels;
 
+    /* The limit on vwi_world_bytes(): vwi_chunk_dense refuses a chunk that would pass it.
+     * A generator lowers it by its own scratch memory while it runs (spec.c).          */
+    uint64_t max_bytes;
+
     vw_material material[256];
 };
 
-/* The chunk's dense array, converting a uniform chunk first (NULL when out of memory). */
+/* The chunk's dense array, converting a uniform chunk first. NULL when the conversion would
+ * take the world past max_bytes or malloc fails; vwi_dense_failure says which. */
 uint8_t *vwi_chunk_dense(vw_world *world, uint32_t index);
+/* Why vwi_chunk_dense just returned NULL: VW_ERROR_BUDGET when one more dense chunk does not
+ * fit under max_bytes, else VW_ERROR_OUT_OF_MEMORY. */
+vw_status vwi_dense_failure(const vw_world *world);
 /* Recounts a chunk after direct writes to its dense array and compacts it to uniform when
  * every voxel holds one value. */
 void vwi_chunk_settle(vw_world *world, uint32_t index);
@@ -78,6 +86,37 @@ static inline uint32_t vwi_chunk_volume(const vw_world *w)
 {
     return (uint32_t)w->chunk_size * (uint32_t)w->chunk_size * (uint32_t)w->chunk_size;
 }
+
+/* What a world of `chunk_count` chunks holds before any chunk is dense: the struct, the
+ * chunk table and the dirty bits. vw_world_create, the loaders and the generators check
+ * budgets with this one formula. */
+static inline uint64_t vwi_table_bytes(uint64_t chunk_count)
+{
+    return (uint64_t)sizeof(vw_world) + chunk_count * (uint64_t)sizeof(vwi_chunk) +
+           (chunk_count + 63) / 64 * (uint64_t)sizeof(uint64_t);
+}
+
+/* Everything the world holds now (vw_world_info.bytes). */
+static inline uint64_t vwi_world_bytes(const vw_world *w)
+{
+    return vwi_table_bytes(w->chunk_count) + (uint64_t)w->dense_chunks * vwi_chunk_volume(w);
+}
+
+/* The budget with its defaults filled in (budget may be NULL). */
+static inline vw_budget vwi_budget(const vw_budget *budget)
+{
+    vw_budget b = {VW_DEFAULT_MAX_BYTES, VW_DEFAULT_MAX_VOXELS};
+    if (budget && budget->max_bytes)
+        b.max_bytes = budget->max_bytes;
+    if (budget && budget->max_voxels)
+        b.max_voxels = budget->max_voxels;
+    return b;
+}
+
+/* For messages: "16.0 GiB" (bytes below 1 KiB as "512 bytes"), and "4,194,304". Both
+ * return `buf`, which should hold 32 chars. */
+const char *vwi_format_bytes(uint64_t bytes, char *buf, size_t size);
+const char *vwi_format_count(uint64_t count, char *buf, size_t size);
 
 static inline uint32_t vwi_index(const vw_world *w, int32_t cx, int32_t cy, int32_t cz)
 {

@@ -3,7 +3,12 @@
  * Storage is described in vw_internal.h: a flat table of chunks, each uniform (no memory) or
  * dense (C^3 bytes). Writes convert a uniform chunk to dense lazily, and a chunk that becomes
  * uniform again (all air after a dig, one material after a fill) is compacted back, so memory
- * follows the number of chunks that actually mix materials. */
+ * follows the number of chunks that actually mix materials.
+ *
+ * Budget: a world never holds more than its max_bytes (vw_world_desc). The chunk table is
+ * checked arithmetically before it is allocated, and every dense chunk is charged before its
+ * malloc; an edit that would pass the limit fails with VW_ERROR_BUDGET before it changes
+ * anything. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,10 +60,46 @@ static void account_add(vw_world *w, const vwi_chunk *c)
     w->solid_voxels += c->solid;
 }
 
+const char *vwi_format_bytes(uint64_t bytes, char *buf, size_t size)
+{
+    static const char *const unit[] = {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+    if (bytes < 1024) {
+        snprintf(buf, size, "%llu bytes", (unsigned long long)bytes);
+        return buf;
+    }
+    double v = (double)bytes / 1024.0;
+    int u = 0;
+    while (v >= 1024.0 && u < 5)
+        v /= 1024.0, u++;
+    snprintf(buf, size, "%.1f %s", v, unit[u]);
+    return buf;
+}
+
+const char *vwi_format_count(uint64_t count, char *buf, size_t size)
+{
+    char digits[24];
+    int n = snprintf(digits, sizeof digits, "%llu", (unsigned long long)count);
+    size_t k = 0;
+    for (int i = 0; i < n && k + 2 < size; i++) {
+        if (i > 0 && (n - i) % 3 == 0)
+            buf[k++] = ',';
+        buf[k++] = digits[i];
+    }
+    buf[k] = '\0';
+    return buf;
+}
+
+vw_status vwi_dense_failure(const vw_world *w)
+{
+    return vwi_world_bytes(w) + vwi_chunk_volume(w) > w->max_bytes ? VW_ERROR_BUDGET : VW_ERROR_OUT_OF_MEMORY;
+}
+
 uint8_t *vwi_chunk_dense(vw_world *w, uint32_t index)
 {
     vwi_chunk *c = &w->chunk[index];
     if (!c->voxels) {
+        if (vwi_world_bytes(w) + vwi_chunk_volume(w) > w->max_bytes)
+            return NULL;
         uint8_t *v = malloc(vwi_chunk_volume(w));
         if (!v)
             return NULL;
@@ -141,6 +182,15 @@ vw_status vw_world_create(const vw_world_desc *desc, vw_world **out_world, vw_er
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "world of %dx%dx%d voxels has %llu chunks; at most %u are allowed",
                         (int)desc->size[0], (int)desc->size[1], (int)desc->size[2], (unsigned long long)count,
                         (unsigned)VWI_MAX_CHUNKS);
+    const uint64_t limit = desc->max_bytes ? desc->max_bytes : VW_DEFAULT_MAX_BYTES;
+    const uint64_t need = vwi_table_bytes(count);
+    if (need > limit) {
+        char a[32], b[32], n[32];
+        return vwi_fail(err, VW_ERROR_BUDGET,
+                        "world of %dx%dx%d voxels needs %s for its table of %s chunks; the budget is %s",
+                        (int)desc->size[0], (int)desc->size[1], (int)desc->size[2], vwi_format_bytes(need, a, sizeof a),
+                        vwi_format_count(count, n, sizeof n), vwi_format_bytes(limit, b, sizeof b));
+    }
 
     vw_world *w = calloc(1, sizeof *w);
     if (!w)
@@ -148,6 +198,7 @@ vw_status vw_world_create(const vw_world_desc *desc, vw_world **out_world, vw_er
     w->chunk_size = cs;
     w->chunk_shift = cs == 16 ? 4 : 5;
     w->chunk_count = (uint32_t)count;
+    w->max_bytes = limit;
     for (int a = 0; a < 3; a++) {
         w->origin[a] = desc->origin[a];
         w->chunks[a] = chunks[a];
@@ -193,9 +244,8 @@ void vw_world_get_info(const vw_world *w, vw_world_info *out)
     out->chunk_count = w->chunk_count;
     out->nonempty_chunks = w->nonempty_chunks;
     out->solid_voxels = w->solid_voxels;
-    out->bytes = sizeof *w + (uint64_t)w->chunk_count * sizeof *w->chunk +
-                 (uint64_t)(w->chunk_count + 63) / 64 * sizeof *w->dirty +
-                 (uint64_t)w->dense_chunks * vwi_chunk_volume(w);
+    out->bytes = vwi_world_bytes(w);
+    out->max_bytes = w->max_bytes;
 }
 
 /* ---- materials ---------------------------------------------------------------------- */
@@ -280,7 +330,7 @@ vw_status vw_world_set(vw_world *w, int64_t x, int64_t y, int64_t z, vw_voxel va
     if (c->voxels || c->uniform != value) {
         uint8_t *v = vwi_chunk_dense(w, index);
         if (!v)
-            return VW_ERROR_OUT_OF_MEMORY;
+            return vwi_dense_failure(w); /* nothing changed yet */
         uint8_t *p = &v[(r[0] & m) + ((r[1] & m) << s) + ((r[2] & m) << (2 * s))];
         account_remove(w, c);
         c->solid = c->solid + (value != 0) - (*p != 0);
@@ -339,8 +389,26 @@ vw_status vw_world_fill(vw_world *w, const int64_t min[3], const int64_t max[3],
         c0[a] = lo[a] >> s;
         c1[a] = (hi[a] - 1) >> s;
     }
+    /* The budget first, so that a fill over it changes nothing: the chunks the box covers in
+     * part and that are uniform with another value each need a dense array. (Whole chunks
+     * become uniform, which only frees memory; that is not counted, so the check may refuse
+     * a fill that would have fitted in this order, never admit one that does not.) */
+    uint64_t need = 0;
     for (int32_t cz = c0[2]; cz <= c1[2]; cz++)
         for (int32_t cy = c0[1]; cy <= c1[1]; cy++)
+            for (int32_t cx = c0[0]; cx <= c1[0]; cx++) {
+                const int32_t cc[3] = {cx, cy, cz};
+                int whole = 1;
+                for (int a = 0; a < 3; a++)
+                    whole &= lo[a] <= (cc[a] << s) && hi[a] >= (cc[a] << s) + cs;
+                const vwi_chunk *c = &w->chunk[vwi_index(w, cx, cy, cz)];
+                need += !whole && !c->voxels && c->uniform != value;
+            }
+    if (vwi_world_bytes(w) + need * vwi_chunk_volume(w) > w->max_bytes)
+        return VW_ERROR_BUDGET;
+    vw_status st = VW_OK;
+    for (int32_t cz = c0[2]; cz <= c1[2] && st == VW_OK; cz++)
+        for (int32_t cy = c0[1]; cy <= c1[1] && st == VW_OK; cy++)
             for (int32_t cx = c0[0]; cx <= c1[0]; cx++) {
                 const int32_t cc[3] = {cx, cy, cz};
                 int32_t l0[3], l1[3], whole = 1;
@@ -359,8 +427,12 @@ vw_status vw_world_fill(vw_world *w, const int64_t min[3], const int64_t max[3],
                 if (!c->voxels && c->uniform == value)
                     continue;
                 uint8_t *v = vwi_chunk_dense(w, index);
-                if (!v)
-                    return VW_ERROR_OUT_OF_MEMORY;
+                if (!v) {
+                    /* malloc failed (the budget was checked above): what was filled so far
+                     * stays, and is marked dirty below like a whole fill. */
+                    st = vwi_dense_failure(w);
+                    break;
+                }
                 for (int32_t z = l0[2]; z < l1[2]; z++)
                     for (int32_t y = l0[1]; y < l1[1]; y++)
                         memset(v + l0[0] + ((y + (z << s)) << s), value, (size_t)(l1[0] - l0[0]));
@@ -382,7 +454,7 @@ vw_status vw_world_fill(vw_world *w, const int64_t min[3], const int64_t max[3],
             mark_range(w, n0, n1);
         }
     }
-    return VW_OK;
+    return st;
 }
 
 /* ---- chunks ------------------------------------------------------------------------- */

@@ -11,13 +11,50 @@
  *  - Desc structs are zero-initialised by the caller; a zero field means the documented
  *    default (vis_*_desc_defaults() shows the values filled in).
  *  - Pointers are non-NULL unless the parameter says "may be NULL".
+ *  - Caller-owned output buffers come with their capacity in elements (not bytes); a short
+ *    one gives VIS_ERROR_CAPACITY with the count needed, and nothing is written.
  *  - Units: world units are voxels. Angles are degrees. Times are milliseconds.
  *  - The library never prints, never exits and never aborts on bad input.
  *
- * Thread safety: contexts are independent of each other and may be used from different
- * threads at the same time. Calls on one context, and on the scenes created from it, must
- * be serialised by the caller (one thread at a time). The CPU backend runs its own worker
- * threads inside vis_trace(); they never outlive the call.
+ * Thread safety:
+ *  - Contexts are independent of each other and may be used from different threads at the
+ *    same time. One context serves one thread at a time: a call that uses a context's
+ *    mutable state (vis_trace, vis_trace_batch, vis_drawlist_build, vis_camera_validate,
+ *    vis_zcull_create/run/depth, vis_scene_create, vis_context_last_timing, and the scene
+ *    edits and vis_scene_leaf_objects, which count as calls on the scene's own context)
+ *    returns VIS_ERROR_BUSY at once, doing nothing, when another thread is inside such a
+ *    call on that context. Destroy functions are not
+ *    checked: nothing else may run on the context or object being destroyed.
+ *  - A scene may be traced (vis_trace, vis_trace_batch, vis_drawlist_build) from several
+ *    threads through several contexts at once, its own and others (each context keeps its
+ *    own backend copy of the scene, brought up to date at its first trace after a commit);
+ *    vis_zcull_run takes scenes of its own context only. Traces hold the scene's
+ *    reader-writer lock shared for their duration; vis_scene_commit (and every edit of a
+ *    VIS_COMMIT_AUTO scene) holds it exclusive, so a trace sees the committed state as it
+ *    was when the trace began, never a half-applied edit. vis_scene_get_info,
+ *    vis_scene_leaf_objects and vis_drawlist_bound read under the shared lock too.
+ *  - Edits (vis_scene_set_object, vis_scene_remove_object, vis_scene_commit) are calls on
+ *    the scene's own context: one thread edits, while any number trace through other
+ *    contexts. With vis_scene_desc.commit = VIS_COMMIT_EXPLICIT they are staged and become
+ *    visible to traces only at vis_scene_commit (Embree's model).
+ *  - vis_scene_destroy gives back every context's copy of the scene, through that context's
+ *    backend and allocator, on the destroying thread: a context that traces scenes of
+ *    other contexts needs an allocator that may be called from their threads (malloc may).
+ *  - The CPU backend runs its pool's worker threads (or desc.parallel_for) inside the trace
+ *    calls; the pool's workers live as long as the context and sleep between passes.
+ *
+ * Environment: the library reads these variables, and no others (docs/opencl.md has the
+ * details); none is read by a CPU-only context:
+ *  - VIS_OPENCL_DEVICE: the OpenCL device when vis_context_desc.opencl_device is NULL or ""
+ *    (same syntax); it also makes VIS_BACKEND_AUTO take that device whatever its kind.
+ *  - VIS_OPENCL_LIBRARY: the OpenCL ICD loader to open (a path or soname) instead of
+ *    libOpenCL.so.1 / libOpenCL.so.
+ *  - VIS_OPENCL_TILE=WxH: the OpenCL work-group shape (default 8x8; each 1..1024), a tuning
+ *    knob that never changes results; malformed values are ignored.
+ *  - OCL_ICD_FILENAMES, OCL_ICD_VENDORS, OPENCL_VENDOR_PATH, POCL_DEVICES: read, as the ICD
+ *    loader and PoCL would read them, only to tell which OpenCL implementations are
+ *    CPU-only, so that VIS_BACKEND_AUTO neither opens the loader nor starts PoCL's CPU
+ *    devices when no GPU can be there.
  *
  * What "visible" promises: an object is in the draw list of a ray pass when at least one
  * pixel-centre ray of the buffer hits it before anything else (ties in distance go to the
@@ -55,7 +92,13 @@ typedef enum vis_status {
     VIS_ERROR_UNSUPPORTED,      /* the backend or build lacks the feature                */
     VIS_ERROR_BACKEND,          /* the backend failed (OpenCL error, kernel build, ...)  */
     VIS_ERROR_NOT_FOUND,        /* no such object, device or platform                    */
-    VIS_ERROR_CAPACITY          /* a caller-owned output is too small                    */
+    VIS_ERROR_CAPACITY,         /* a caller-owned output is too small                    */
+    VIS_ERROR_BUDGET,           /* the call would exceed a size limit (a scene's max_bytes,
+                                   VIS_MAX_KD_NODES, cells per axis); the message names the
+                                   number and the limit                                  */
+    VIS_ERROR_BUSY              /* another thread is inside a call on the same context (the
+                                   call did nothing and left the last error alone), or
+                                   vis_context_destroy found the context still in use    */
 } vis_status;
 
 /* A static English string for a status ("ok", "invalid argument", ...). Never NULL. */
@@ -80,7 +123,11 @@ typedef enum vis_backend_kind {
 
 typedef enum vis_log_level { VIS_LOG_DEBUG = 0, VIS_LOG_INFO, VIS_LOG_WARNING, VIS_LOG_ERROR } vis_log_level;
 
-/* Optional allocator for all host memory the library takes. Both functions or neither.
+/* Optional allocator for all host memory libvis and its backends take (the context, scenes,
+ * scratch, the CPU backend's pool and occupancy flags, the OpenCL backend's bookkeeping);
+ * nothing in the library calls malloc itself (tests/test_alloc.c interposes malloc to check).
+ * What the C library, the OpenCL loader and driver allocate on their own (thread stacks,
+ * dlopen, the OpenCL runtime's own memory) does not go through it. Both functions or neither.
  * alloc returns memory aligned to at least `align` (a power of two, <= 64), or NULL. */
 typedef struct vis_allocator {
     void *(*alloc)(size_t size, size_t align, void *user);
@@ -91,6 +138,13 @@ typedef struct vis_allocator {
 /* Optional log callback: called from the thread that made the library call. */
 typedef void (*vis_log_fn)(vis_log_level level, const char *message, void *user);
 
+/* Optional job system for the CPU backend: runs job(i, arg) once for every i in [0, count),
+ * on any threads, in any order, and returns when all have finished. Called from inside
+ * vis_trace()/vis_trace_batch() on the calling thread; several contexts sharing one job
+ * system may call it at the same time. */
+typedef void (*vis_parallel_for_fn)(uint32_t count, void (*job)(uint32_t index, void *arg), void *arg,
+                                    void *user);
+
 typedef struct vis_context_desc {
     vis_backend_kind backend;    /* default VIS_BACKEND_AUTO                                  */
     uint32_t threads;            /* CPU backend worker threads; 0 = number of cores, 1 = serial */
@@ -100,6 +154,12 @@ typedef struct vis_context_desc {
     vis_allocator allocator;     /* zero = malloc/free                                        */
     vis_log_fn log;              /* may be NULL                                               */
     void *log_user;
+    vis_parallel_for_fn parallel_for; /* may be NULL: the CPU backend's own pool of `threads`
+                                    workers. When set, the CPU backend starts no thread of its
+                                    own and runs each pass's tiles through it (`threads` is then
+                                    ignored and vis_backend_info.threads is 0); buffers are
+                                    bit-identical either way                                  */
+    void *parallel_for_user;
 } vis_context_desc;
 
 VIS_API void vis_context_desc_defaults(vis_context_desc *desc);
@@ -108,8 +168,12 @@ VIS_API void vis_context_desc_defaults(vis_context_desc *desc);
  * back to the CPU and says why in vis_context_backend(). */
 VIS_API vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_context);
 
-/* May be NULL. Scenes created from the context must be destroyed first. */
-VIS_API void vis_context_destroy(vis_context *context);
+/* May be NULL (VIS_OK). Destroys the zculls, then the scenes still alive that were created
+ * from the context (newest first, as vis_zcull_destroy / vis_scene_destroy would; do not
+ * destroy them again), then the context. Fails with VIS_ERROR_BUSY, destroying nothing, when
+ * another thread is inside a call on the context, or when the context still holds its copy
+ * of a scene created from another context (a scene it traced): destroy those scenes first. */
+VIS_API vis_status vis_context_destroy(vis_context *context);
 
 /* The message of the last failed call on this context ("" if none). Valid until the next
  * call on the context. */
@@ -117,7 +181,7 @@ VIS_API const char *vis_context_last_error(const vis_context *context);
 
 typedef struct vis_backend_info {
     vis_backend_kind kind;   /* the backend actually used: CPU or OPENCL                     */
-    uint32_t threads;        /* CPU worker threads (CPU backend)                              */
+    uint32_t threads;        /* CPU worker threads (CPU backend); 0 with desc.parallel_for    */
     char name[64];           /* "cpu" or "opencl"                                             */
     char device[128];        /* "4 threads" / the OpenCL device name                          */
     char reason[256];        /* why AUTO picked it, or "" when chosen explicitly              */
@@ -130,8 +194,9 @@ VIS_API vis_status vis_context_backend(const vis_context *context, vis_backend_i
 /* Scene: objects in a fixed-depth kd-tree                                             */
 /* ------------------------------------------------------------------------------------ */
 
-/* Object IDs: 1..VIS_MAX_OBJECT_ID (0 means "nothing"). Keep them dense: the draw list
- * needs scratch proportional to the largest ID. At most VIS_MAX_OBJECTS objects. */
+/* Object IDs: 1..VIS_MAX_OBJECT_ID (0 means "nothing"); they need not be dense (the draw
+ * list's scratch follows the object count, not the largest ID). At most VIS_MAX_OBJECTS
+ * objects. */
 #define VIS_MAX_OBJECT_ID 0x0FFFFFFFu
 #define VIS_MAX_OBJECTS   0x00FFFFFFu
 
@@ -166,6 +231,15 @@ typedef struct vis_mesh {
     uint32_t triangle_count;
 } vis_mesh;
 
+/* When edits become visible to traces. */
+typedef enum vis_commit_mode {
+    VIS_COMMIT_AUTO = 0,  /* each edit is committed as it returns (it waits for traces in
+                             flight on other threads to finish): the next trace sees it   */
+    VIS_COMMIT_EXPLICIT   /* edits are staged (copied, validated) and published together by
+                             vis_scene_commit(); traces and queries see only what was
+                             committed                                                   */
+} vis_commit_mode;
+
 typedef struct vis_scene_desc {
     double origin[3];     /* world position of scene-local (0,0,0); keep it near the geometry
                              so that float coordinates stay exact far from the world origin */
@@ -174,24 +248,49 @@ typedef struct vis_scene_desc {
     uint32_t kd_depth;    /* fixed depth of the tree; 0 = deep enough that a leaf is one cell  */
     float leaf_slack;     /* spare capacity of each leaf's primitive slot, as a fraction of its
                              size when filled; default 0.25                                   */
+    uint64_t max_bytes;   /* host memory the scene may hold between calls (vis_scene_info.bytes;
+                             a call's short-lived scratch is not counted); 0 =
+                             VIS_DEFAULT_SCENE_MAX_BYTES                                      */
+    vis_commit_mode commit; /* default VIS_COMMIT_AUTO                                      */
 } vis_scene_desc;
+
+#define VIS_DEFAULT_SCENE_MAX_BYTES ((uint64_t)2 << 30) /* 2 GiB                              */
+#define VIS_MAX_KD_NODES (1u << 26) /* inner nodes + leaves of a scene's tree, at most        */
 
 VIS_API void vis_scene_desc_defaults(vis_scene_desc *desc);
 
-/* Builds the empty tree over the bounds; it is never rebuilt afterwards. */
+/* Builds the empty tree over the bounds; it is never rebuilt afterwards. The tree's node
+ * count and bytes are computed from size, cell_size and kd_depth before anything is
+ * allocated: VIS_ERROR_BUDGET when an axis would have more than 2^30 cells, the tree more
+ * than VIS_MAX_KD_NODES nodes or the empty scene more than max_bytes bytes, with a message
+ * naming the number and the limit. */
 VIS_API vis_status vis_scene_create(vis_context *context, const vis_scene_desc *desc, vis_scene **out_scene);
 
-/* May be NULL. */
+/* May be NULL. Waits for traces in flight on other threads to finish; none may start after
+ * it (the caller's duty). Releases every context's backend copy of the scene. */
 VIS_API void vis_scene_destroy(vis_scene *scene);
 
 /* Adds the object, or replaces its mesh if the ID exists: the leaves it lies in are updated
  * in place (nothing is rebuilt). An empty mesh removes the object. An object must lie
  * inside the scene bounds; one that crosses split planes is referenced from every leaf it
- * overlaps. */
+ * overlaps. VIS_ERROR_BUDGET, with the scene unchanged, when the edit would make the scene
+ * hold more than its max_bytes (the growth is computed before anything is changed). */
 VIS_API vis_status vis_scene_set_object(vis_scene *scene, uint32_t id, const vis_mesh *mesh);
 
-/* VIS_ERROR_NOT_FOUND if there is no such object. */
+/* VIS_ERROR_NOT_FOUND if there is no such object. Like vis_scene_set_object, it may return
+ * VIS_ERROR_BUDGET (scene unchanged) when its bookkeeping would grow past max_bytes. */
 VIS_API vis_status vis_scene_remove_object(vis_scene *scene, uint32_t id);
+
+/* With VIS_COMMIT_EXPLICIT, vis_scene_set_object and vis_scene_remove_object check their
+ * arguments (IDs, meshes, bounds; NOT_FOUND against the staged state) and stage the edit;
+ * the budget is checked when the edit is applied. vis_scene_commit applies the staged
+ * edits in order, under the scene's exclusive lock, and publishes them: every trace that
+ * starts afterwards, on any thread and context, sees them all (each context brings its
+ * backend copy up to date at its next trace). If an edit fails (VIS_ERROR_BUDGET,
+ * VIS_ERROR_OUT_OF_MEMORY) the ones before it stay applied and published, it and the
+ * ones after it are dropped, and its status is returned. VIS_OK with nothing staged, and
+ * always for VIS_COMMIT_AUTO scenes (their edits are committed as they return). */
+VIS_API vis_status vis_scene_commit(vis_scene *scene);
 
 /* Deepest short stack a pass may ask for (vis_trace_desc.short_stack), and the highest level
  * above the leaves that carries ropes. */
@@ -208,20 +307,38 @@ typedef struct vis_scene_info {
     uint32_t max_id;        /* largest object ID present (0 if none)                        */
     uint64_t quads;
     uint64_t triangles;
-    uint64_t bytes;         /* host memory held by the scene                                */
+    uint64_t bytes;         /* host memory held by the scene (its arrays at their capacity) */
+    uint64_t max_bytes;     /* the limit on `bytes` (vis_scene_desc.max_bytes)              */
     uint64_t edits;         /* set/remove calls so far                                      */
-    uint64_t relocations;   /* leaf updates that outgrew their slot and moved (no rebuild)  */
-    uint64_t rope_bytes;    /* rope data held (built once with the tree, part of `bytes`):
-                               box + six neighbour links of every node up to
-                               VIS_MAX_SHORT_STACK levels above the leaves, and a 4-byte
-                               node-to-rope index                                           */
-    uint64_t rope_bytes_used[VIS_MAX_SHORT_STACK + 1]; /* of those, the rope nodes a method
-                               walks: [0] ropes (one per leaf), [N] ropes-shortstack with N
-                               (one per node N levels above the leaves; Chang & Ihm 2010,
-                               Table 4)                                                      */
 } vis_scene_info;
 
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
+
+/* How the scene's memory is used inside: for benchmarks and debugging, not for deciding
+ * anything (the fields follow the implementation and may change between versions). */
+typedef struct vis_scene_stats {
+    uint64_t relocations;     /* leaf updates that outgrew their slot and moved to a new one
+                                 at the end of the pool (the tree is never rebuilt)          */
+    uint64_t quad_slots;      /* quad pool entries handed out to leaf slots: the quads the
+                                 leaves hold, their spare capacity (vis_scene_desc.leaf_slack)
+                                 and the slots left behind by relocations                    */
+    uint64_t quads_in_leaves; /* of those, the entries leaves use (an object's quad counts
+                                 once in every leaf it overlaps)                             */
+    uint64_t tri_slots;       /* the same for the triangle pool                               */
+    uint64_t tris_in_leaves;
+    uint64_t rope_bytes;      /* rope data held (built once with the tree, part of
+                                 vis_scene_info.bytes): box + six neighbour links of every
+                                 node up to VIS_MAX_SHORT_STACK levels above the leaves, and a
+                                 4-byte node-to-rope index                                   */
+    uint64_t rope_bytes_used[VIS_MAX_SHORT_STACK + 1]; /* of those, the rope nodes a method
+                                 walks: [0] ropes (one per leaf), [N] ropes-shortstack with N
+                                 (one per node N levels above the leaves; Chang & Ihm 2010,
+                                 Table 4)                                                    */
+} vis_scene_stats;
+
+/* Fills *out_stats; walks the tree and the leaves (not for every frame). Reads under the
+ * scene's shared lock, like vis_scene_get_info. */
+VIS_API vis_status vis_scene_get_stats(const vis_scene *scene, vis_scene_stats *out_stats);
 
 /* Writes the IDs of the objects referenced by leaf `leaf_id` (1..leaves), sorted.
  * Pass out_ids = NULL to learn the count. VIS_ERROR_CAPACITY if capacity is too small. */
@@ -253,10 +370,14 @@ typedef enum vis_id_mode {
 
 /* kd-tree traversal methods (Chang & Ihm 2010; docs/traversal.md). All give the nearest hit
  * with the lowest-ID tie rule; they differ in speed and in the per-ray state they need. The
- * per-ray methods give bit-identical buffers among themselves and on every backend;
- * VIS_TRAVERSAL_PACKET equals the brute force bit for bit, which the per-ray methods do
- * except where a float crossing point rounds onto a face across a leaf boundary
- * (docs/traversal.md, "Exactness"). */
+ * per-ray methods give bit-identical buffers among themselves, and on the CPU and on every
+ * OpenCL device with double precision (cl_khr_fp64). On an OpenCL device without it the
+ * kernel is built all the same, without the watertight triangle test's double-precision
+ * fallback for edge functions that round to zero: rays that graze a triangle's edge or
+ * vertex exactly may then differ from the CPU (quads are unaffected); the backend logs a
+ * warning when it is created on such a device (docs/opencl.md). VIS_TRAVERSAL_PACKET equals
+ * the brute force bit for bit, which the per-ray methods do except where a float crossing
+ * point rounds onto a face across a leaf boundary (docs/traversal.md, "Exactness"). */
 typedef enum vis_traversal {
     VIS_TRAVERSAL_AUTO = 0,       /* the backend's fastest (default): PACKET on the CPU,
                                      STACK on OpenCL                                         */
@@ -272,7 +393,7 @@ typedef enum vis_traversal {
                                      no stack                                                */
     VIS_TRAVERSAL_ROPES_SHORTSTACK = 7, /* ropes on the nodes short_stack levels above the
                                      leaves, a short stack below them (Chang & Ihm 2010)     */
-    VIS_TRAVERSAL_PACKET = 8      /* CPU: each 8x8 tile walks the tree once as a packet, with
+    VIS_TRAVERSAL_PACKET = 8      /* CPU: each 16x16 tile walks the tree once as a packet, with
                                      interval culling and exact per-ray tests (Wald et al.
                                      2001; Reshetov et al. 2005; Boulos et al. 2007); other
                                      backends run STACK                                      */
@@ -295,10 +416,15 @@ VIS_API void vis_trace_desc_defaults(vis_trace_desc *desc);
 VIS_API vis_status vis_camera_validate(vis_context *context, const vis_camera *camera);
 
 /* The ray pass. out_ids receives width*height IDs (row-major, top row first, 0 = nothing
- * hit); out_depth (may be NULL) the distance along the normalised ray, +inf where nothing
- * was hit. Allocates nothing once the scene's backend copy is up to date. */
+ * hit); out_depth (may be NULL, then depth_capacity must be 0, else
+ * VIS_ERROR_INVALID_ARGUMENT) the distance along the normalised ray, +inf where nothing was
+ * hit. Capacities are in elements (not bytes): VIS_ERROR_CAPACITY, with nothing written,
+ * when ids_capacity, or depth_capacity with out_depth set, is below width*height (the
+ * message gives the count needed). Allocates nothing once the scene's backend copy is up to
+ * date. */
 VIS_API vis_status vis_trace(vis_context *context, vis_scene *scene, const vis_camera *camera,
-                             const vis_trace_desc *desc, uint32_t *out_ids, float *out_depth);
+                             const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity,
+                             float *out_depth, size_t depth_capacity);
 
 /* ------------------------------------------------------------------------------------ */
 /* Draw list                                                                            */
@@ -315,7 +441,8 @@ VIS_API size_t vis_drawlist_bound(const vis_scene *scene);
 
 /* Turns an ID buffer into the draw list: unique object IDs, sorted ascending, leaf IDs
  * expanded to the objects of the leaf, each with its pixel count. Scratch comes from the
- * context (grown only when the scene's largest ID grows). VIS_ERROR_CAPACITY if capacity
+ * context: 4 bytes per object slot (the most objects the scene has held at once), plus 4 per
+ * leaf in VIS_IDS_LEAF mode; it grows only when that grows, so a warm call allocates nothing. VIS_ERROR_CAPACITY if capacity
  * is below the entry count (nothing is written then). */
 VIS_API vis_status vis_drawlist_build(vis_context *context, const vis_scene *scene, const uint32_t *ids,
                                       uint32_t width, uint32_t height, vis_id_mode mode,
@@ -335,7 +462,7 @@ VIS_API vis_status vis_drawlist_build(vis_context *context, const vis_scene *sce
  * docs/zcull.md has the method and its limits.
  *
  * Thread safety: a vis_zcull belongs to the context it was created from; its calls count as
- * calls on that context (serialise them with the context's other calls). Several handles
+ * calls on that context (another thread's call meanwhile gets VIS_ERROR_BUSY). Several handles
  * may exist; each keeps its own buffers. */
 typedef struct vis_zcull vis_zcull;
 
@@ -392,7 +519,7 @@ typedef struct vis_zcull_stats {
  * only when the resolution or the scene grows: runs at a fixed size allocate nothing. */
 VIS_API vis_status vis_zcull_create(vis_context *context, vis_zcull **out_zcull);
 
-/* May be NULL. Must come before the context's destruction. */
+/* May be NULL. vis_context_destroy destroys the culls still alive on the context. */
 VIS_API void vis_zcull_destroy(vis_zcull *zcull);
 
 /* One culling pass. desc may be NULL (defaults). The scene must come from the culler's
@@ -407,8 +534,9 @@ VIS_API vis_status vis_zcull_run(vis_zcull *zcull, const vis_scene *scene, const
 /* The depth buffer of the last successful run: width*height floats, row-major, top row
  * first, the distance along the normalised pixel-centre ray to the occluders as rasterised
  * (never nearer than the true surface), +inf where no occluder covers the pixel centre.
- * VIS_ERROR_NOT_FOUND before the first run. */
-VIS_API vis_status vis_zcull_depth(vis_zcull *zcull, float *out_depth);
+ * VIS_ERROR_NOT_FOUND before the first run; VIS_ERROR_CAPACITY, with nothing written, when
+ * capacity (in floats) is below the run's width*height (the message gives the count). */
+VIS_API vis_status vis_zcull_depth(vis_zcull *zcull, float *out_depth, size_t capacity);
 
 /* ------------------------------------------------------------------------------------ */
 /* Batches, timing, uploads                                                             */
@@ -416,15 +544,18 @@ VIS_API vis_status vis_zcull_depth(vis_zcull *zcull, float *out_depth);
 
 /* Traces `count` views of one scene in one call (server-style batches). View i uses
  * cameras[i] and the one desc (desc may be NULL: defaults); its W x H IDs go to
- * out_ids + i*W*H and, when out_depth is not NULL, its depths to out_depth + i*W*H (so
- * both hold count*W*H elements). Every camera is validated before any work; on failure the
- * outputs are left untouched and the message names the camera. Each view's buffers equal
- * what vis_trace() gives for that camera, bit for bit. The OpenCL backend runs the views in
- * one kernel launch (a few for batches larger than its output buffers); the CPU backend
- * traces them one after the other. count = 0 does nothing and returns VIS_OK. */
+ * out_ids + i*W*H and, when out_depth is not NULL, its depths to out_depth + i*W*H.
+ * Capacities are in elements for the whole batch: VIS_ERROR_CAPACITY, with nothing written,
+ * when ids_capacity, or depth_capacity with out_depth set, is below count*W*H (computed in
+ * 64 bits; the message gives the count needed). out_depth may be NULL, then depth_capacity
+ * must be 0. Every camera is validated before any work; on failure the outputs are left
+ * untouched and the message names the camera. Each view's buffers equal what vis_trace()
+ * gives for that camera, bit for bit. The OpenCL backend runs the views in one kernel
+ * launch (a few for batches larger than its output buffers); the CPU backend traces them
+ * one after the other. count = 0 does nothing and returns VIS_OK. */
 VIS_API vis_status vis_trace_batch(vis_context *context, vis_scene *scene, const vis_camera *cameras,
                                    uint32_t count, const vis_trace_desc *desc, uint32_t *out_ids,
-                                   float *out_depth);
+                                   size_t ids_capacity, float *out_depth, size_t depth_capacity);
 
 /* What the last successful vis_trace() or vis_trace_batch() on a context did and how long
  * it took. */
@@ -434,21 +565,18 @@ typedef struct vis_timing {
     double kernel_ms;      /* the ray pass alone: OpenCL kernel time from event profiling
                               (summed over a batch's launches); CPU backend: the pass's wall
                               clock                                                          */
-    uint64_t upload_bytes; /* bytes sent to the device by this call's scene sync (0 when
-                              nothing changed, and always 0 on the CPU backend)              */
+    uint64_t upload_bytes; /* bytes sent to the device by this call's scene sync: the whole
+                              scene on the context's first trace of it, afterwards only the
+                              leaves (headers, primitive slots, bucket tables) and objects
+                              changed by edits since (docs/opencl.md); 0 when nothing
+                              changed, and always 0 on the CPU backend, which traces the
+                              host arrays directly                                           */
     uint64_t rays;         /* rays traced: width * height * views                           */
     uint32_t views;        /* 1 for vis_trace()                                              */
 } vis_timing;
 
 /* VIS_ERROR_NOT_FOUND before the first successful trace on the context. */
 VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timing *out_timing);
-
-/* Bytes the context's backend sent to its device in the last sync of this scene that had
- * something to send: the whole scene on the first trace, afterwards only the leaves (headers,
- * primitive slots, bucket tables) and objects changed by edits (docs/opencl.md). Scenes sync
- * inside the next vis_trace() after edits. Always 0 on the CPU backend, which traces the
- * host arrays directly. */
-VIS_API vis_status vis_scene_last_upload_bytes(const vis_scene *scene, uint64_t *out_bytes);
 
 #ifdef __cplusplus
 }

@@ -188,7 +188,10 @@ vw_status vw_world_from_spec(const char *spec, const vw_budget *budget, vw_progr
 const char *vw_default_spec(void);
 
 /* Wavefront OBJ of every chunk mesh, exactly as traced: one `o ID` group per object, quads
- * as 4-vertex faces in absolute voxel coordinates. */
+ * as 4-vertex faces in absolute voxel coordinates. Both exporters write a regular file (or a
+ * new name) through a temporary file in its directory, renamed over it once complete: on
+ * failure (VW_ERROR_IO, with the path and the reason) the old file is left as it was and no
+ * partial file remains. A device or FIFO is written in place and never removed. */
 vw_status vw_export_obj(const vw_world *world, const char *path, vw_error *err);
 
 /* ---- MagicaVoxel .vox (vox_read.c, vox_write.c) ------------------------------------ */
@@ -198,14 +201,18 @@ vw_status vw_export_obj(const vw_world *world, const char *path, vw_error *err);
  * cell [x,x+1]x[y,y+1]x[z,z+1] (z up) becomes the world cell [x,x+1]x[z,z+1]x[-y-1,-y]
  * after the scene graph is applied. On a malformed buffer: VW_ERROR_FORMAT and a message
  * with the byte offset and chunk. `chunk_size` 0 means 16. `budget` may be NULL (the
- * defaults): VW_ERROR_BUDGET when the instanced voxels or the world's memory would exceed it. */
+ * defaults): VW_ERROR_BUDGET when the instanced voxels or the world's memory would exceed it.
+ * vw_vox_load_file reads only regular files (anything else, a FIFO or a device, is
+ * VW_ERROR_IO before a byte is read), no larger than budget->max_bytes, and checks the magic
+ * before it reads the rest. */
 vw_status vw_vox_load_memory(const void *data, size_t size, int32_t chunk_size, const vw_budget *budget,
                              vw_world **out_world, vw_error *err);
 vw_status vw_vox_load_file(const char *path, int32_t chunk_size, const vw_budget *budget, vw_world **out_world,
                            vw_error *err);
 
 /* Writes any world as .vox (version 200), splitting it into models of at most 256 per axis
- * placed with a scene graph, so that loading it gives back the same voxels. */
+ * placed with a scene graph, so that loading it gives back the same voxels. The file is
+ * written as vw_export_obj's: a failure never destroys what was at PATH. */
 vw_status vw_vox_save_file(const vw_world *world, const char *path, vw_error *err);
 
 /* ---- OpenVDB .vdb (vdb/vdb_shim.cpp; VW_WITH_OPENVDB) ------------------------------ */
