@@ -206,7 +206,9 @@ VIS_API vis_status vis_context_backend(const vis_context *context, vis_backend_i
 
 /* An axis-aligned rectangle in the plane x[axis] = plane, covering
  * [u0,u1] x [v0,v1] in the two other axes, u = (axis+1)%3 and v = (axis+2)%3.
- * Intersected exactly, closed on all edges, from both sides. Coordinates are scene-local
+ * Closed on all edges, hit from both sides; a ray that touches an edge or corner counts as a
+ * hit (the test is the quad box's slab test with a 2^-20 relative slack, docs/traversal.md,
+ * "Exactness"), so rounding never lets a ray slip between faces. Coordinates are scene-local
  * (relative to vis_scene_desc.origin). Requires u0 <= u1 and v0 <= v1. */
 typedef struct vis_quad {
     uint32_t axis;   /* 0 = x, 1 = y, 2 = z */
@@ -375,9 +377,9 @@ typedef enum vis_id_mode {
  * kernel is built all the same, without the watertight triangle test's double-precision
  * fallback for edge functions that round to zero: rays that graze a triangle's edge or
  * vertex exactly may then differ from the CPU (quads are unaffected); the backend logs a
- * warning when it is created on such a device (docs/opencl.md). VIS_TRAVERSAL_PACKET equals
- * the brute force bit for bit, which the per-ray methods do except where a float crossing
- * point rounds onto a face across a leaf boundary (docs/traversal.md, "Exactness"). */
+ * warning when it is created on such a device (docs/opencl.md). Every method, packets
+ * included, equals VIS_TRAVERSAL_BRUTEFORCE bit for bit for quads (docs/traversal.md,
+ * "Exactness"). */
 typedef enum vis_traversal {
     VIS_TRAVERSAL_AUTO = 0,       /* the backend's fastest (default): PACKET on the CPU,
                                      STACK on OpenCL                                         */
