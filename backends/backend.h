@@ -98,6 +98,12 @@ typedef struct vis_scene_view {
     uint32_t kd_depth;
 } vis_scene_view;
 
+/* VIS_SCENE_ARGS (common/trace_core.h) taken from a vis_scene_view: the traversal functions'
+ * scene parameters, in their order. */
+#define VIS_SCENE_VIEW_ARGS(v)                                                               \
+    (v)->nodes, (v)->leaves, (v)->buckets, (v)->quads, (v)->tris, (v)->objects, (v)->object_leaves, \
+        (v)->ropes, (v)->rope_index
+
 /* What changed since the backend's last sync of this scene. `full` is set for the backend's
  * first sync of the scene (and for every sync of a copy held by a context other than the
  * scene's own, libvis/src/scene_share.c): everything must be sent. Pools that grew on the

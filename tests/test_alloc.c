@@ -17,6 +17,7 @@
 
 #include <cmocka.h>
 
+#include "scene_builder.h"
 #include "vis/vis.h"
 
 /* ---- malloc interposition ----------------------------------------------------------- */
@@ -119,22 +120,16 @@ static void count_free(void *p, void *user)
 
 static vis_context *make_context(counting *c, uint32_t threads)
 {
-    vis_context_desc cd;
-    vis_context_desc_defaults(&cd);
-    cd.backend = VIS_BACKEND_CPU;
-    cd.threads = threads;
-    cd.allocator.alloc = count_alloc;
-    cd.allocator.free = count_free;
-    cd.allocator.user = c;
+    vis_allocator a = {count_alloc, count_free, c};
     vis_context *ctx = NULL;
-    vis_status st = vis_context_create(&cd, &ctx);
+    vis_status st = cpu_ctx_create(threads, &a, &ctx);
     if (st != VIS_OK)
         fail_msg("vis_context_create: %s", vis_status_string(st));
     return ctx;
 }
 
 /* A floor, a wall and a triangle in a 64^3 scene. */
-static vis_scene *make_scene(vis_context *ctx)
+static vis_scene *make_small_scene(vis_context *ctx)
 {
     vis_scene_desc d;
     vis_scene_desc_defaults(&d);
@@ -202,7 +197,7 @@ static void test_warm_frames_allocate_nothing(void **state)
     (void)state;
     counting c = {0};
     vis_context *ctx = make_context(&c, 3);
-    vis_scene *s = make_scene(ctx);
+    vis_scene *s = make_small_scene(ctx);
     assert_non_null(s);
     vis_zcull *z = NULL;
     assert_int_equal(vis_zcull_create(ctx, &z), VIS_OK);
@@ -239,7 +234,7 @@ static void test_all_host_memory_through_the_allocator(void **state)
     counting c = {0};
     watch_begin();
     vis_context *ctx = make_context(&c, 1);
-    vis_scene *s = make_scene(ctx);
+    vis_scene *s = make_small_scene(ctx);
     vis_zcull *z = NULL;
     vis_status zst = vis_zcull_create(ctx, &z);
     vis_camera cam = {{32, 40, 2}, {30, 0, 40}, 60, 0, 0};
@@ -293,17 +288,11 @@ static void test_allocation_failures_are_reported(void **state)
     int completed = 0;
     for (size_t n = 1; n < 200 && !completed; ++n) {
         failing f = {{0}, n};
-        vis_context_desc cd;
-        vis_context_desc_defaults(&cd);
-        cd.backend = VIS_BACKEND_CPU;
-        cd.threads = 2;
-        cd.allocator.alloc = fail_alloc;
-        cd.allocator.free = fail_free;
-        cd.allocator.user = &f;
+        vis_allocator a = {fail_alloc, fail_free, &f};
         vis_context *ctx = NULL;
-        vis_status st = vis_context_create(&cd, &ctx);
+        vis_status st = cpu_ctx_create(2, &a, &ctx);
         if (st == VIS_OK) {
-            vis_scene *s = make_scene(ctx);
+            vis_scene *s = make_small_scene(ctx);
             vis_camera cam = {{32, 40, 2}, {30, 0, 40}, 60, 0, 0};
             vis_trace_desc td;
             vis_trace_desc_defaults(&td);

@@ -237,7 +237,7 @@ static void random_edit(pair *p, tworld *w, uint64_t *rng, int nx, int ny)
         uint32_t ci = o->id - 1;
         int c[3] = {(int)(ci % (uint32_t)nx), (int)(ci / (uint32_t)nx % (uint32_t)ny), (int)(ci / (uint32_t)(nx * ny))};
         obj_clear(o);
-        obj_chunk_boxes(o, rng, c);
+        obj_chunk_boxes(o, rng, c, &chunk_world_default);
     } else if (r < 0.9) { /* a new entity */
         o = add_obj(w, 300000 + (uint32_t)(vt_rand(rng) % 100000));
         for (uint32_t i = 0; i + 1 < w->n; ++i)
@@ -247,10 +247,10 @@ static void random_edit(pair *p, tworld *w, uint64_t *rng, int nx, int ny)
                 break;
             }
         obj_clear(o);
-        obj_entity(o, rng, w->size);
+        obj_entity(o, rng, w->size, &chunk_world_default);
     } else { /* move whatever it is as an entity */
         obj_clear(o);
-        obj_entity(o, rng, w->size);
+        obj_entity(o, rng, w->size, &chunk_world_default);
     }
     set_obj(p->cpu_scene, o);
     set_obj(p->cl_scene, o);
@@ -414,7 +414,7 @@ static void test_edit_uploads_only_changed_bytes(void **state)
     for (int cz = 0; cz < 4; ++cz)
         for (int cx = 0; cx < 4; ++cx) { /* chunk objects only: each alone in its leaf */
             int c[3] = {cx, 0, cz};
-            obj_chunk_boxes(add_obj(&w, 1u + (uint32_t)(cx + 4 * 2 * cz)), &rng, c);
+            obj_chunk_boxes(add_obj(&w, 1u + (uint32_t)(cx + 4 * 2 * cz)), &rng, c, &chunk_world_default);
         }
     pair p;
     pair_make(&p, cl, &w, NULL, 0);
@@ -819,11 +819,8 @@ static void test_real_vox_scenes(void **state)
 static void keep_chunk(uint32_t chunk, uint32_t id, const vw_mesh *m, void *user)
 {
     (void)chunk;
-    tobj *o = add_obj(user, id);
-    o->quads = malloc((m->count ? m->count : 1) * sizeof *o->quads);
-    assert_non_null(o->quads);
+    tobj *o = add_obj_quads(user, id, (uint32_t)m->count);
     world_scene_convert_quads(m->quads, m->count, o->quads);
-    o->nq = (uint32_t)m->count;
 }
 
 static void test_aimed_cameras(void **state)

@@ -69,11 +69,7 @@ static void test_object_lifecycle(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(2);
-    vis_scene_desc d;
-    vis_scene_desc_defaults(&d);
-    d.size[0] = d.size[1] = d.size[2] = 256;
-    vis_scene *s = NULL;
-    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene *s = make_cube_scene(ctx, 256);
     uint64_t rng = 5;
     enum { N = 3000 };
     static uint8_t present[N + 1];
@@ -274,11 +270,7 @@ static void test_scene_stats(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(1);
-    vis_scene_desc d;
-    vis_scene_desc_defaults(&d);
-    d.size[0] = d.size[1] = d.size[2] = 64;
-    vis_scene *s = NULL;
-    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    vis_scene *s = make_cube_scene(ctx, 64);
     vis_scene_stats st;
     assert_int_equal(vis_scene_get_stats(NULL, &st), VIS_ERROR_INVALID_ARGUMENT);
     assert_int_equal(vis_scene_get_stats(s, NULL), VIS_ERROR_INVALID_ARGUMENT);
@@ -318,20 +310,10 @@ static void test_no_allocation_per_frame(void **state)
 {
     (void)state;
     counting c = {0, 0};
-    vis_context_desc cd;
-    vis_context_desc_defaults(&cd);
-    cd.backend = VIS_BACKEND_CPU;
-    cd.threads = 2;
-    cd.allocator.alloc = count_alloc;
-    cd.allocator.free = count_free;
-    cd.allocator.user = &c;
+    vis_allocator a = {count_alloc, count_free, &c};
     vis_context *ctx = NULL;
-    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
-    vis_scene_desc d;
-    vis_scene_desc_defaults(&d);
-    d.size[0] = d.size[1] = d.size[2] = 64;
-    vis_scene *s = NULL;
-    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    assert_int_equal(cpu_ctx_create(2, &a, &ctx), VIS_OK);
+    vis_scene *s = make_cube_scene(ctx, 64);
     vis_quad q = {1, 0, 8, 0, 0, 64, 64};
     vis_mesh m = {&q, 1, NULL, 0};
     assert_int_equal(vis_scene_set_object(s, 1, &m), VIS_OK);

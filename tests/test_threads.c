@@ -23,6 +23,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
 
@@ -111,21 +112,10 @@ static vis_trace_desc trace_desc(vis_traversal t)
     return d;
 }
 
-static vis_context *cpu_ctx(uint32_t threads)
-{
-    vis_context_desc d;
-    vis_context_desc_defaults(&d);
-    d.backend = VIS_BACKEND_CPU;
-    d.threads = threads;
-    vis_context *ctx = NULL;
-    assert_int_equal(vis_context_create(&d, &ctx), VIS_OK);
-    return ctx;
-}
-
 /* The oracle: state `state` built directly into a fresh scene, traced once on one thread. */
 static void reference(int state, vis_traversal t, uint32_t *ids, float *depth)
 {
-    vis_context *ctx = cpu_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     vis_scene_desc sd = scene_desc(VIS_COMMIT_AUTO);
     vis_scene *s = NULL;
     assert_int_equal(vis_scene_create(ctx, &sd, &s), VIS_OK);
@@ -178,7 +168,7 @@ static void test_two_threads_one_context(void **state)
     (void)state;
     uint32_t *ref = malloc(PIX * sizeof *ref);
     reference(0, VIS_TRAVERSAL_AUTO, ref, NULL);
-    vis_context *ctx = cpu_ctx(4);
+    vis_context *ctx = make_cpu_ctx(4);
     vis_scene_desc sd = scene_desc(VIS_COMMIT_AUTO);
     vis_scene *s = NULL;
     assert_int_equal(vis_scene_create(ctx, &sd, &s), VIS_OK);
@@ -335,7 +325,7 @@ typedef struct shared_arg {
 static void *tracer(void *p)
 {
     shared_arg *a = p;
-    vis_context *ctx = cpu_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint32_t *ids = malloc(PIX * sizeof *ids);
     float *depth = malloc(PIX * sizeof *depth);
     vis_camera c = camera();
@@ -376,7 +366,7 @@ static void shared_scene_case(vis_traversal traversal)
     }
     assert_memory_not_equal(ref[0], ref[1], PIX * sizeof *ref[0]);
 
-    vis_context *editor = cpu_ctx(1);
+    vis_context *editor = make_cpu_ctx(1);
     vis_scene_desc sd = scene_desc(VIS_COMMIT_EXPLICIT);
     vis_scene *s = NULL;
     assert_int_equal(vis_scene_create(editor, &sd, &s), VIS_OK);

@@ -30,17 +30,6 @@
 #include "voxelworld/vw.h"
 #include "world_scene.h"
 
-static vis_context *make_ctx(uint32_t threads)
-{
-    vis_context_desc cd;
-    vis_context_desc_defaults(&cd);
-    cd.backend = VIS_BACKEND_CPU;
-    cd.threads = threads;
-    vis_context *ctx = NULL;
-    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
-    return ctx;
-}
-
 /* Traces with the tree -- per ray (the stack method) and as packets (the default) -- and
  * with the built-in brute force; the first two must equal the brute force bit for bit, and
  * the brute force keeps the conservative rule against the double-precision reference.
@@ -107,96 +96,24 @@ static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, 
 
 /* ---- random worlds -------------------------------------------------------------------- */
 
-/* A world of `cells` (16^3 chunks) with voxel boxes per chunk (each chunk one object), a few
- * random rectangles shared between objects on the same planes (ties), and entities made of
- * triangles and off-grid quads that straddle chunk boundaries. */
-static void random_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
-{
-    memset(w, 0, sizeof *w);
-    w->size[0] = 16.0f * nx;
-    w->size[1] = 16.0f * ny;
-    w->size[2] = 16.0f * nz;
-    for (int cz = 0; cz < nz; ++cz)
-        for (int cy = 0; cy < ny; ++cy)
-            for (int cx = 0; cx < nx; ++cx) {
-                if (vt_rand_unit(rng) < 0.3)
-                    continue;
-                uint32_t id = 1u + (uint32_t)(cx + nx * (cy + ny * cz));
-                tobj *o = add_obj(w, id);
-                int boxes = 1 + (int)(vt_rand(rng) % 6);
-                for (int b = 0; b < boxes; ++b) {
-                    float lo[3], hi[3];
-                    int c[3] = {cx, cy, cz};
-                    for (int a = 0; a < 3; ++a) {
-                        int l = (int)(vt_rand(rng) % 16), e = 1 + (int)(vt_rand(rng) % 8);
-                        if (l + e > 16)
-                            e = 16 - l;
-                        lo[a] = (float)(c[a] * 16 + l);
-                        hi[a] = lo[a] + (float)e;
-                    }
-                    obj_box(o, lo, hi);
-                }
-                /* a face exactly on the chunk boundary */
-                if (vt_rand_unit(rng) < 0.3)
-                    obj_quad(o, 0, (float)(cx * 16), (float)(cy * 16), (float)(cz * 16), (float)(cy * 16 + 16),
-                             (float)(cz * 16 + 16));
-            }
-    /* Overlapping objects on identical quads: the lowest ID must win. */
-    uint32_t base = 100000;
-    for (int i = 0; i < 4; ++i) {
-        float lo[3] = {(float)(vt_rand(rng) % (uint64_t)(16 * nx - 4)), (float)(vt_rand(rng) % (uint64_t)(16 * ny - 4)),
-                       (float)(vt_rand(rng) % (uint64_t)(16 * nz - 4))};
-        float hi[3] = {lo[0] + 3, lo[1] + 3, lo[2] + 3};
-        obj_box(add_obj(w, base + 2 * i + 1), lo, hi);
-        obj_box(add_obj(w, base + 2 * i), lo, hi);
-    }
-    /* Entities: triangles and off-grid quads across chunk borders. */
-    for (int i = 0; i < 4; ++i) {
-        tobj *o = add_obj(w, 200000 + i);
-        float p[3];
-        for (int a = 0; a < 3; ++a)
-            p[a] = (float)(vt_rand_unit(rng) * (w->size[a] - 6.0) + 0.5);
-        float a0[3] = {p[0], p[1], p[2]}, a1[3] = {p[0] + 5.3f, p[1] + 0.7f, p[2]}, a2[3] = {p[0], p[1] + 4.1f, p[2] + 5.2f};
-        obj_tri(o, a0, a1, a2);
-        float a3[3] = {p[0] + 5.3f, p[1] + 4.1f, p[2] + 5.2f};
-        obj_tri(o, a1, a3, a2); /* shares an edge with the first */
-        obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
-    }
-}
-
-static void random_camera(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
-{
-    memset(cam, 0, sizeof *cam);
-    for (int a = 0; a < 3; ++a) {
-        /* Sometimes on an integer (a split plane or a chunk corner), sometimes outside. */
-        double e = vt_rand_unit(rng) * (size[a] * 1.6) - size[a] * 0.3;
-        if (vt_rand_unit(rng) < 0.3)
-            e = floor(e / 16.0) * 16.0;
-        cam->eye[a] = origin[a] + e;
-        cam->target[a] = origin[a] + vt_rand_unit(rng) * size[a];
-    }
-    if (vt_rand_unit(rng) < 0.2) /* along an axis */
-        for (int a = 0; a < 3; ++a)
-            if (a != 1)
-                cam->target[a] = cam->eye[a];
-    cam->fovy_deg = 20.0 + vt_rand_unit(rng) * 100.0;
-}
+/* random_chunk_world and random_view (scene_builder.h): chunk objects of voxel boxes, tie
+ * pairs of identical boxes and entities across chunk borders; cameras in and around them. */
 
 static void test_random_worlds_match_oracle(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint64_t rng = 12345;
     int worlds = vt_small() ? 3 : 10, cams = vt_small() ? 4 : 12;
     for (int wi = 0; wi < worlds; ++wi) {
         tworld w;
-        random_world(&w, &rng, 3, 2, 3);
+        random_chunk_world(&w, &rng, 3, 2, 3);
         uint32_t depth = wi % 3 == 2 ? 2 : 0; /* also shallow trees: big multi-chunk leaves */
         vis_scene *scene = make_scene(ctx, &w, NULL, depth);
         const double zero[3] = {0, 0, 0};
         for (int ci = 0; ci < cams; ++ci) {
             vis_camera cam;
-            random_camera(&cam, &rng, w.size, zero);
+            random_view(&cam, &rng, w.size, zero);
             check_view(ctx, scene, &w, &cam, 48, 40, "random world");
         }
         vis_scene_destroy(scene);
@@ -208,15 +125,22 @@ static void test_random_worlds_match_oracle(void **state)
 /* ---- hard cases ----------------------------------------------------------------------- */
 
 /* wall_world (scene_builder.h): a 1-voxel-thick wall with a corner and a floor, for cameras
- * that look along axes, lie in split planes and sit on chunk corners. */
+ * that look along axes, lie in split planes and sit on chunk corners; its scene on ctx. */
+static vis_scene *wall_scene(vis_context *ctx, tworld *w)
+{
+    wall_world(w);
+    return make_scene(ctx, w, NULL, 0);
+}
+
+/* A camera above the wall world's corner, looking at its middle. */
+static const vis_camera wall_view = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
 
 static void test_axis_rays_split_planes_and_corners(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     tworld w;
-    wall_world(&w);
-    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_scene *scene = wall_scene(ctx, &w);
     const double eyes[][6] = {
         {16, 6, 0, 16, 6, 32},   /* eye and target in the wall's plane x=16 (a split plane) */
         {16, 16, 16, 16, 0, 16}, /* straight down from a chunk corner: f parallel to -Y     */
@@ -246,7 +170,7 @@ static void test_axis_rays_split_planes_and_corners(void **state)
 static void test_closed_room_does_not_leak(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     tworld w;
     const float L = 10, H = 30;
     room_world(&w, L, H); /* the floor, object 50, is something outside to leak to */
@@ -289,7 +213,7 @@ static void test_closed_room_does_not_leak(void **state)
 static void test_ties_go_to_lowest_id(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     tworld w;
     memset(&w, 0, sizeof w);
     w.size[0] = w.size[1] = w.size[2] = 32.0f;
@@ -312,7 +236,7 @@ static void test_ties_go_to_lowest_id(void **state)
 static void test_camera_inside_solid(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     tworld w;
     memset(&w, 0, sizeof w);
     w.size[0] = w.size[1] = w.size[2] = 32.0f;
@@ -335,15 +259,15 @@ static void test_camera_inside_solid(void **state)
 static void test_far_from_origin(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint64_t rng = 777;
     tworld w;
-    random_world(&w, &rng, 2, 2, 2);
+    random_chunk_world(&w, &rng, 2, 2, 2);
     const double zero[3] = {0, 0, 0}, far_o[3] = {1048576.0, 0.0, -1048576.0};
     vis_scene *a = make_scene(ctx, &w, zero, 0), *b = make_scene(ctx, &w, far_o, 0);
     for (int i = 0; i < 6; ++i) {
         vis_camera ca;
-        random_camera(&ca, &rng, w.size, zero);
+        random_view(&ca, &rng, w.size, zero);
         vis_camera cb = ca;
         for (int k = 0; k < 3; ++k) {
             cb.eye[k] += far_o[k];
@@ -368,14 +292,14 @@ static void test_far_from_origin(void **state)
 static void test_leaf_ids_and_drawlist(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint64_t rng = 4242;
     tworld w;
-    random_world(&w, &rng, 3, 2, 3);
+    random_chunk_world(&w, &rng, 3, 2, 3);
     vis_scene *scene = make_scene(ctx, &w, NULL, 3); /* shallow: several chunks per leaf */
     vis_camera cam;
     const double zero[3] = {0, 0, 0};
-    random_camera(&cam, &rng, w.size, zero);
+    random_view(&cam, &rng, w.size, zero);
     cam.eye[0] = -20, cam.eye[1] = 40, cam.eye[2] = -20;
     cam.target[0] = 24, cam.target[1] = 8, cam.target[2] = 24;
     enum { W = 64, H = 48 };
@@ -433,6 +357,15 @@ static void test_leaf_ids_and_drawlist(void **state)
 
 /* ---- bad input ------------------------------------------------------------------------ */
 
+/* st must be `want`, with a message that names `needle`. */
+static void expect_error(vis_context *ctx, vis_status st, vis_status want, const char *needle)
+{
+    assert_int_equal(st, want);
+    const char *msg = vis_context_last_error(ctx);
+    if (!strstr(msg, needle))
+        fail_msg("message '%s' does not name '%s'", msg, needle);
+}
+
 static void expect_rejected(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t W, uint32_t H,
                             const char *needle)
 {
@@ -444,11 +377,7 @@ static void expect_rejected(vis_context *ctx, vis_scene *scene, const vis_camera
         depth[i] = -7.0f;
     }
     vis_trace_desc td = {W, H, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK, 0};
-    vis_status st = vis_trace(ctx, scene, cam, &td, ids, N, depth, N);
-    assert_int_equal(st, VIS_ERROR_INVALID_ARGUMENT);
-    const char *msg = vis_context_last_error(ctx);
-    if (!strstr(msg, needle))
-        fail_msg("message '%s' does not name '%s'", msg, needle);
+    expect_error(ctx, vis_trace(ctx, scene, cam, &td, ids, N, depth, N), VIS_ERROR_INVALID_ARGUMENT, needle);
     for (int i = 0; i < N; ++i) {
         assert_int_equal(ids[i], 0xABCDABCD);
         assert_true(depth[i] == -7.0f);
@@ -458,11 +387,10 @@ static void expect_rejected(vis_context *ctx, vis_scene *scene, const vis_camera
 static void test_bad_input_rejected(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     tworld w;
-    wall_world(&w);
-    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
-    vis_camera good = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
+    vis_scene *scene = wall_scene(ctx, &w);
+    vis_camera good = wall_view;
     vis_camera c = good;
     c.eye[0] = NAN;
     expect_rejected(ctx, scene, &c, 8, 8, "eye");
@@ -520,22 +448,17 @@ static void test_bad_input_rejected(void **state)
 #define CANARY_ID 0xC0FFEE11u
 #define CANARY_DEPTH -3.0f
 
-static uint32_t *canary_ids(size_t n)
+/* n IDs and n depths, each holding its canary. */
+static void canaries(size_t n, uint32_t **ids, float **depth)
 {
-    uint32_t *p = malloc(n * sizeof *p);
-    assert_non_null(p);
-    for (size_t i = 0; i < n; ++i)
-        p[i] = CANARY_ID;
-    return p;
-}
-
-static float *canary_depth(size_t n)
-{
-    float *p = malloc(n * sizeof *p);
-    assert_non_null(p);
-    for (size_t i = 0; i < n; ++i)
-        p[i] = CANARY_DEPTH;
-    return p;
+    *ids = malloc(n * sizeof **ids);
+    *depth = malloc(n * sizeof **depth);
+    assert_non_null(*ids);
+    assert_non_null(*depth);
+    for (size_t i = 0; i < n; ++i) {
+        (*ids)[i] = CANARY_ID;
+        (*depth)[i] = CANARY_DEPTH;
+    }
 }
 
 static void assert_untouched(const uint32_t *ids, const float *depth, size_t from, size_t to)
@@ -548,12 +471,10 @@ static void assert_untouched(const uint32_t *ids, const float *depth, size_t fro
     }
 }
 
+/* VIS_ERROR_CAPACITY, with a message that gives the elements needed. */
 static void expect_capacity(vis_context *ctx, vis_status st, const char *needed)
 {
-    assert_int_equal(st, VIS_ERROR_CAPACITY);
-    const char *msg = vis_context_last_error(ctx);
-    if (!strstr(msg, needed))
-        fail_msg("message '%s' does not give the %s elements needed", msg, needed);
+    expect_error(ctx, st, VIS_ERROR_CAPACITY, needed);
 }
 
 /* Every output comes with its capacity in elements: a short buffer is refused with
@@ -562,18 +483,18 @@ static void expect_capacity(vis_context *ctx, vis_status st, const char *needed)
 static void test_output_capacity(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     tworld w;
-    wall_world(&w);
-    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
-    vis_camera cam = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
+    vis_scene *scene = wall_scene(ctx, &w);
+    vis_camera cam = wall_view;
     enum { SLACK = 16 };
 
     /* A zeroed desc (512 x 512) into a 64 x 64 buffer. */
     vis_trace_desc zero;
     memset(&zero, 0, sizeof zero);
-    uint32_t *ids = canary_ids(64 * 64 + SLACK);
-    float *depth = canary_depth(64 * 64 + SLACK);
+    uint32_t *ids;
+    float *depth;
+    canaries(64 * 64 + SLACK, &ids, &depth);
     expect_capacity(ctx, vis_trace(ctx, scene, &cam, &zero, ids, 64 * 64, NULL, 0), "262144");
     expect_capacity(ctx, vis_trace(ctx, scene, &cam, &zero, ids, 64 * 64, depth, 64 * 64), "262144");
     assert_untouched(ids, depth, 0, 64 * 64 + SLACK);
@@ -600,8 +521,7 @@ static void test_output_capacity(void **state)
     vis_camera cams[COUNT] = {cam, cam, cam};
     cams[1].eye[0] = 3, cams[2].eye[2] = 5;
     td.width = BW, td.height = BH;
-    ids = canary_ids(COUNT * PX + SLACK);
-    depth = canary_depth(COUNT * PX + SLACK);
+    canaries(COUNT * PX + SLACK, &ids, &depth);
     expect_capacity(ctx, vis_trace_batch(ctx, scene, cams, COUNT, &td, ids, COUNT * PX - 1, NULL, 0), "144");
     expect_capacity(ctx, vis_trace_batch(ctx, scene, cams, COUNT, &td, ids, PX, depth, PX), "144");
     expect_capacity(ctx, vis_trace_batch(ctx, scene, cams, COUNT, &td, ids, COUNT * PX, depth, COUNT * PX - 1),
@@ -628,8 +548,7 @@ static void test_output_capacity(void **state)
     for (int i = 0; i < 16; ++i)
         many[i] = cam;
     td.width = td.height = VIS_MAX_RESOLUTION;
-    ids = canary_ids(64);
-    depth = canary_depth(64);
+    canaries(64, &ids, &depth);
     expect_capacity(ctx, vis_trace_batch(ctx, scene, many, 16, &td, ids, 64, NULL, 0), "4294967296");
     expect_capacity(ctx, vis_trace_batch(ctx, scene, many, 16, &td, ids, 64, depth, 64), "4294967296");
     assert_untouched(ids, depth, 0, 64);
@@ -736,11 +655,8 @@ typedef struct voxel_world {
 static void keep_chunk(uint32_t chunk, uint32_t id, const vw_mesh *m, void *user)
 {
     (void)chunk;
-    tobj *o = add_obj(user, id);
-    o->quads = malloc((m->count ? m->count : 1) * sizeof *o->quads);
-    assert_non_null(o->quads);
+    tobj *o = add_obj_quads(user, id, (uint32_t)m->count);
     world_scene_convert_quads(m->quads, m->count, o->quads);
-    o->nq = (uint32_t)m->count;
 }
 
 static void voxel_world_open(voxel_world *vw, vis_context *ctx, const char *spec)
@@ -769,22 +685,13 @@ static void voxel_world_close(voxel_world *vw)
 /* The stack method (and, if brute, the brute force) on one ray, through the shared code. */
 static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis_ray *r, int brute, vis_hit *h)
 {
-    const vis_kd_node *nodes = v->nodes;
-    const vis_flat_leaf *leaves = v->leaves;
-    const uint32_t *buckets = v->buckets;
-    const vis_flat_quad *quads = v->quads;
-    const vis_flat_tri *tris = v->tris;
-    const vis_flat_object *objects = v->objects;
-    const uint32_t *object_leaves = v->object_leaves;
-    const vis_rope_node *ropes = v->ropes;
-    const uint32_t *rope_index = v->rope_index;
     h->t = INFINITY;
     h->object = VIS_NO_OBJECT;
     h->id = 0;
     if (brute)
-        vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h);
+        vis_traverse_bruteforce(r, s, VIS_SCENE_VIEW_ARGS(v), h);
     else
-        vis_traverse_stack(r, s, VIS_SCENE_ARGS, h);
+        vis_traverse_stack(r, s, VIS_SCENE_VIEW_ARGS(v), h);
 }
 
 typedef struct aim_stats {
@@ -817,29 +724,8 @@ static void aim_direct(const voxel_world *vw, uint64_t *rng, int count, aim_stat
         double p[3];
         ref_edge_point(&vw->w, rng, p);
         vis_ray r;
-        if (i & 1) {
-            int D[3];
-            do {
-                for (int a = 0; a < 3; ++a)
-                    D[a] = vt_rand_unit(rng) < 0.15 ? 0 : (int)(vt_rand(rng) % 25) - 12;
-            } while (D[0] == 0 && D[1] == 0 && D[2] == 0);
-            double k = (double)(16 + vt_rand(rng) % 1009) / 16.0;
-            for (int a = 0; a < 3; ++a) {
-                r.o[a] = (float)(p[a] - k * D[a]); /* a multiple of 1/16 below 2^11: exact */
-                r.d[a] = (float)D[a];
-            }
-        } else {
-            double e[3], d[3], l = 0.0;
-            ref_random_eye(rng, vw->w.size, p, e);
-            for (int a = 0; a < 3; ++a) {
-                d[a] = p[a] - e[a];
-                l += d[a] * d[a];
-            }
-            for (int a = 0; a < 3; ++a) {
-                r.o[a] = (float)e[a];
-                r.d[a] = (float)(d[a] / sqrt(l));
-            }
-        }
+        /* odd i: through P with D in [-12, 12]^3, k a multiple of 1/16 (exact below 2^11) */
+        ref_aimed_ray(rng, vw->w.size, p, i & 1, 0.15, 12, 16, 1009, r.o, r.d);
         for (int a = 0; a < 3; ++a)
             r.inv[a] = 1.0f / r.d[a];
         r.t_near = 0.05f;
@@ -964,7 +850,7 @@ static void aim_cameras(vis_context *ctx, const voxel_world *vw, uint64_t *rng, 
 static void test_aimed_rays(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     static const char *const specs[] = {"gen:terrain:size=64x48x64:seed=3", "gen:city:size=64x48x64:seed=2"};
     int per_world = vt_small() ? 25000 : 500000;
     aim_stats direct = {0}, stack = {0}, packet = {0};
@@ -1000,7 +886,7 @@ static void test_aimed_rays(void **state)
 static void test_held_out_edge_view(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     voxel_world vw;
     voxel_world_open(&vw, ctx, "gen:terrain:size=256x64x256:seed=11");
     vis_scene_info info;

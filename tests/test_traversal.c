@@ -62,85 +62,17 @@ static const method methods[] = {
 /* ---- a test world: objects kept by the test for the oracle ------------------------------ */
 
 
-/* Chunk objects of voxel boxes (some with a face exactly on the chunk boundary), pairs of
- * identical boxes under two IDs (ties), and entities of triangles and off-grid quads that
- * straddle leaves. */
-static void random_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
-{
-    memset(w, 0, sizeof *w);
-    w->size[0] = 16.0f * nx;
-    w->size[1] = 16.0f * ny;
-    w->size[2] = 16.0f * nz;
-    for (int cz = 0; cz < nz; ++cz)
-        for (int cy = 0; cy < ny; ++cy)
-            for (int cx = 0; cx < nx; ++cx) {
-                if (vt_rand_unit(rng) < 0.35)
-                    continue;
-                tobj *o = add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz)));
-                int boxes = 1 + (int)(vt_rand(rng) % 5);
-                for (int b = 0; b < boxes; ++b) {
-                    float lo[3], hi[3];
-                    int c[3] = {cx, cy, cz};
-                    for (int a = 0; a < 3; ++a) {
-                        int l = (int)(vt_rand(rng) % 16), e = 1 + (int)(vt_rand(rng) % 8);
-                        if (vt_rand_unit(rng) < 0.2) /* touch the chunk boundary */
-                            l = vt_rand(rng) & 1 ? 0 : 16 - e;
-                        if (l + e > 16)
-                            e = 16 - l;
-                        lo[a] = (float)(c[a] * 16 + l);
-                        hi[a] = lo[a] + (float)e;
-                    }
-                    obj_box(o, lo, hi);
-                }
-                if (vt_rand_unit(rng) < 0.3) {
-                    uint32_t a = (uint32_t)(vt_rand(rng) % 3), u = (a + 1) % 3, v = (a + 2) % 3;
-                    int c[3] = {cx, cy, cz};
-                    float plane = (float)(c[a] * 16 + (vt_rand(rng) & 1 ? 16 : 0));
-                    obj_quad(o, a, plane, (float)(c[u] * 16), (float)(c[v] * 16), (float)(c[u] * 16 + 16),
-                             (float)(c[v] * 16 + 16));
-                }
-            }
-    for (int i = 0; i < 3; ++i) {
-        float lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = (float)(vt_rand(rng) % (uint64_t)(w->size[a] - 4));
-            hi[a] = lo[a] + 3;
-        }
-        obj_box(add_obj(w, 100001 + 2 * i), lo, hi);
-        obj_box(add_obj(w, 100000 + 2 * i), lo, hi);
-    }
-    for (int i = 0; i < 4; ++i) {
-        tobj *o = add_obj(w, 200000 + i);
-        float p[3];
-        for (int a = 0; a < 3; ++a)
-            p[a] = (float)(vt_rand_unit(rng) * (w->size[a] - 6.0) + 0.5);
-        float a0[3] = {p[0], p[1], p[2]}, a1[3] = {p[0] + 5.3f, p[1] + 0.7f, p[2]};
-        float a2[3] = {p[0], p[1] + 4.1f, p[2] + 5.2f}, a3[3] = {p[0] + 5.3f, p[1] + 4.1f, p[2] + 5.2f};
-        obj_tri(o, a0, a1, a2);
-        obj_tri(o, a1, a3, a2);
-        obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
-        /* an off-grid box across a chunk corner */
-        float lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            float c = 16.0f * (float)(1 + (int)(vt_rand(rng) % (uint64_t)(w->size[a] / 16.0f > 1 ? w->size[a] / 16.0f - 1 : 1)));
-            if (c >= w->size[a])
-                c = w->size[a] / 2;
-            lo[a] = c - 1.5f;
-            hi[a] = c + 2.25f;
-        }
-        obj_box(o, lo, hi);
-    }
-}
+/* Chunk objects of voxel boxes (some touching the chunk boundary, some with a face exactly on
+ * it, on any axis and side), pairs of identical boxes under two IDs (ties), and entities of
+ * triangles, off-grid quads and off-grid boxes that straddle leaves. */
+static const chunk_world_opts edgy_world = {0.35, 5, 0.2, 1, 3, 1};
 
 /* Full-chunk cubes in a 3D checkerboard: every chunk edge and corner is shared by filled and
  * empty chunks, so rays through them touch cube faces exactly where they cross several split
  * planes at once (the stack method's empty-interval leaves). */
 static void checker_world(tworld *w, int nx, int ny, int nz)
 {
-    memset(w, 0, sizeof *w);
-    w->size[0] = 16.0f * nx;
-    w->size[1] = 16.0f * ny;
-    w->size[2] = 16.0f * nz;
+    chunk_world_init(w, nx, ny, nz);
     for (int cz = 0; cz < nz; ++cz)
         for (int cy = 0; cy < ny; ++cy)
             for (int cx = 0; cx < nx; ++cx) {
@@ -180,17 +112,6 @@ static void oracle_ray(const tworld *w, const vis_ray *r, float *t_out, uint32_t
     }
     *t_out = best;
     *id_out = bid;
-}
-
-static vis_context *make_ctx(uint32_t threads)
-{
-    vis_context_desc cd;
-    vis_context_desc_defaults(&cd);
-    cd.backend = VIS_BACKEND_CPU;
-    cd.threads = threads;
-    vis_context *ctx = NULL;
-    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
-    return ctx;
 }
 
 /* ---- buffers: every method == stack == oracle ------------------------------------------- */
@@ -270,41 +191,14 @@ static void check_view(vis_context *ctx, vis_scene *scene, const tworld *w, cons
     check_view_ids(ctx, scene, w, &narrow, 64, 56, VIS_IDS_OBJECT, label);
 }
 
-static void random_camera(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
-{
-    memset(cam, 0, sizeof *cam);
-    for (int a = 0; a < 3; ++a) {
-        double e = vt_rand_unit(rng) * (size[a] * 1.6) - size[a] * 0.3;
-        double u = vt_rand_unit(rng);
-        if (u < 0.25)
-            e = floor(e / 16.0) * 16.0; /* on a split plane / chunk corner */
-        else if (u < 0.4)
-            e = floor(e); /* on a voxel plane */
-        cam->eye[a] = origin[a] + e;
-        cam->target[a] = origin[a] + vt_rand_unit(rng) * size[a];
-        if (vt_rand_unit(rng) < 0.3)
-            cam->target[a] = origin[a] + floor(cam->target[a] - origin[a]);
-    }
-    double u = vt_rand_unit(rng);
-    if (u < 0.15) { /* along an axis */
-        for (int a = 0; a < 3; ++a)
-            if (a != 1)
-                cam->target[a] = cam->eye[a];
-    } else if (u < 0.3) { /* along an exact diagonal: rays through cell corners */
-        double k = 8.0 + floor(vt_rand_unit(rng) * 16.0);
-        cam->target[0] = cam->eye[0] + (vt_rand(rng) & 1 ? k : -k);
-        cam->target[1] = cam->eye[1] + (vt_rand(rng) & 1 ? k : vt_rand(rng) & 1 ? -k : 0.0);
-        cam->target[2] = cam->eye[2] + (vt_rand(rng) & 1 ? k : -k);
-    }
-    cam->fovy_deg = 20.0 + vt_rand_unit(rng) * 100.0;
-    if (vt_rand_unit(rng) < 0.25) /* a far plane, sometimes exactly on a split distance */
-        cam->far_dist = 8.0 + floor(vt_rand_unit(rng) * 4.0) * 8.0;
-}
+/* Eyes on split planes, chunk corners and voxel planes, targets on integers, views along
+ * axes and exact diagonals, sometimes a far plane (scene_builder.h). */
+static const view_opts edgy_view = {0.25, 0.4, 0.3, 0.15, 0.3, 0.25};
 
 static void test_random_worlds(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint64_t rng = 20100601;
     /* Shapes in chunks: powers of two (every leaf at one depth) and not (leaves at several
      * depths, ropes-shortstack regions of mixed height). */
@@ -314,13 +208,13 @@ static void test_random_worlds(void **state)
     for (int wi = 0; wi < rounds; ++wi) {
         const int *sh = shapes[wi % 6];
         tworld w;
-        random_world(&w, &rng, sh[0], sh[1], sh[2]);
+        random_chunk_world_opts(&w, &rng, sh[0], sh[1], sh[2], &edgy_world);
         uint32_t depth = depths[wi % 5];
         vis_scene *scene = make_scene(ctx, &w, NULL, depth);
         const double zero[3] = {0, 0, 0};
         for (int ci = 0; ci < cams; ++ci) {
             vis_camera cam;
-            random_camera(&cam, &rng, w.size, zero);
+            random_view_opts(&cam, &rng, w.size, zero, &edgy_view);
             char what[96];
             snprintf(what, sizeof what, "world %d (%dx%dx%d chunks, kd_depth %u), camera %d", wi, sh[0], sh[1], sh[2],
                      depth, ci);
@@ -336,10 +230,10 @@ static void test_random_worlds(void **state)
 static void test_edits_between_passes(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint64_t rng = 77;
     tworld w;
-    random_world(&w, &rng, 4, 2, 3);
+    random_chunk_world_opts(&w, &rng, 4, 2, 3, &edgy_world);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_scene_stats before;
     assert_int_equal(vis_scene_get_stats(scene, &before), VIS_OK);
@@ -370,7 +264,7 @@ static void test_edits_between_passes(void **state)
         set_obj(scene, o);
         for (int c = 0; c < 3; ++c) {
             vis_camera cam;
-            random_camera(&cam, &rng, w.size, zero);
+            random_view_opts(&cam, &rng, w.size, zero, &edgy_view);
             check_view(ctx, scene, &w, &cam, 37, 29, "after edits");
         }
     }
@@ -387,7 +281,7 @@ static void test_edits_between_passes(void **state)
 static void test_packet_occupancy_follows_edits(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     tworld w;
     memset(&w, 0, sizeof w);
     w.size[0] = 64.0f, w.size[1] = 32.0f, w.size[2] = 64.0f;
@@ -437,7 +331,7 @@ static void wall_world_quads(tworld *w)
 static void test_hard_cases(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     tworld w;
     wall_world_quads(&w);
     static const uint32_t depths[] = {0, 1, 2};
@@ -488,7 +382,7 @@ static void test_hard_cases(void **state)
 static void test_checkerboard_views(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     tworld w;
     checker_world(&w, 4, 4, 4);
     const uint32_t depths[] = {0, 2, 4};
@@ -518,7 +412,7 @@ static void test_checkerboard_views(void **state)
 static void test_closed_room_ties_inside_solid(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     tworld w;
     const float L = 16, H = 32;
     room_world(&w, L, H);
@@ -559,19 +453,19 @@ static void test_closed_room_ties_inside_solid(void **state)
 static void test_far_origin_and_leaf_ids(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(2);
+    vis_context *ctx = make_cpu_ctx(2);
     uint64_t rng = 4242;
     tworld w;
-    random_world(&w, &rng, 3, 2, 3);
+    random_chunk_world_opts(&w, &rng, 3, 2, 3, &edgy_world);
     const double far_o[3] = {1048576.0, 0.0, -1048576.0};
     vis_scene *scene = make_scene(ctx, &w, far_o, 0);
     vis_scene *shallow = make_scene(ctx, &w, NULL, 3);
     const double zero[3] = {0, 0, 0};
     for (int i = 0; i < 4; ++i) {
         vis_camera cam;
-        random_camera(&cam, &rng, w.size, far_o);
+        random_view_opts(&cam, &rng, w.size, far_o, &edgy_view);
         check_view(ctx, scene, &w, &cam, 32, 32, "far from the origin");
-        random_camera(&cam, &rng, w.size, zero);
+        random_view_opts(&cam, &rng, w.size, zero, &edgy_view);
         check_view_ids(ctx, shallow, &w, &cam, 40, 30, VIS_IDS_LEAF, "leaf IDs");
     }
     vis_scene_destroy(scene);
@@ -584,26 +478,16 @@ static void test_far_origin_and_leaf_ids(void **state)
 
 static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis_ray *r, vis_hit *h)
 {
-    const vis_kd_node *nodes = v->nodes;
-    const vis_flat_leaf *leaves = v->leaves;
-    const uint32_t *buckets = v->buckets;
-    const vis_flat_quad *quads = v->quads;
-    const vis_flat_tri *tris = v->tris;
-    const vis_flat_object *objects = v->objects;
-    const uint32_t *object_leaves = v->object_leaves;
-    const vis_rope_node *ropes = v->ropes;
-    const uint32_t *rope_index = v->rope_index;
-    (void)object_leaves;
     h->t = INFINITY;
     h->object = VIS_NO_OBJECT;
     h->id = 0;
     switch (s->traversal) {
-    case VIS_TRAVERSAL_ID_STACK: vis_traverse_stack(r, s, VIS_SCENE_ARGS, h); break;
-    case VIS_TRAVERSAL_ID_RESTART: vis_traverse_restart(r, s, 0, 0, VIS_SCENE_ARGS, h); break;
-    case VIS_TRAVERSAL_ID_PUSHDOWN: vis_traverse_restart(r, s, 0, 1, VIS_SCENE_ARGS, h); break;
-    case VIS_TRAVERSAL_ID_SHORTSTACK: vis_traverse_restart(r, s, s->short_stack, 0, VIS_SCENE_ARGS, h); break;
-    case VIS_TRAVERSAL_ID_ROPES: vis_traverse_ropes(r, s, 0, VIS_SCENE_ARGS, h); break;
-    case VIS_TRAVERSAL_ID_ROPES_SHORTSTACK: vis_traverse_ropes(r, s, s->short_stack, VIS_SCENE_ARGS, h); break;
+    case VIS_TRAVERSAL_ID_STACK: vis_traverse_stack(r, s, VIS_SCENE_VIEW_ARGS(v), h); break;
+    case VIS_TRAVERSAL_ID_RESTART: vis_traverse_restart(r, s, 0, 0, VIS_SCENE_VIEW_ARGS(v), h); break;
+    case VIS_TRAVERSAL_ID_PUSHDOWN: vis_traverse_restart(r, s, 0, 1, VIS_SCENE_VIEW_ARGS(v), h); break;
+    case VIS_TRAVERSAL_ID_SHORTSTACK: vis_traverse_restart(r, s, s->short_stack, 0, VIS_SCENE_VIEW_ARGS(v), h); break;
+    case VIS_TRAVERSAL_ID_ROPES: vis_traverse_ropes(r, s, 0, VIS_SCENE_VIEW_ARGS(v), h); break;
+    case VIS_TRAVERSAL_ID_ROPES_SHORTSTACK: vis_traverse_ropes(r, s, s->short_stack, VIS_SCENE_VIEW_ARGS(v), h); break;
     default: fail_msg("unknown traversal %u", s->traversal);
     }
 }
@@ -621,10 +505,44 @@ static void make_ray(vis_ray *r, const float o[3], const int dir[3], float t_nea
     r->t_far = t_far;
 }
 
-/* lattice: origins on multiples of 8 and directions in {-1,0,1}^3 (exact diagonals through
- * chunk edges and corners); otherwise origins on split planes or integers, directions in
- * {-2..2}^3. */
-static void check_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int count, int lattice, const char *what)
+/* One ray: `stack` must equal the oracle and keep the conservative rule against the
+ * double-precision reference (every face the ray touches, edges and corners of chunks
+ * included, counts), and every per-ray method must equal `stack`. `ray` names it. */
+static void check_ray(const vis_scene_view *v, vis_ray_setup *s, const tworld *w, const ref_scene *rs, const vis_ray *r,
+                      const char *what, const char *ray)
+{
+    float ot;
+    uint32_t oid;
+    oracle_ray(w, r, &ot, &oid);
+    s->traversal = VIS_TRAVERSAL_ID_STACK;
+    vis_hit ref;
+    trace_ray(v, s, r, &ref);
+    if (ref.id != oid || memcmp(&ref.t, &ot, 4) != 0)
+        fail_msg("%s: %s: stack id %u t %.9g, oracle id %u t %.9g", what, ray, ref.id, (double)ref.t, oid, (double)ot);
+    ref_ray rr;
+    ref_ray_from_float(r->o, r->d, r->t_near, r->t_far, &rr);
+    char why[256];
+    if (ref_check(rs, &rr, ref.id, ref.t, NULL, why, sizeof why))
+        fail_msg("%s: %s against the double-precision reference: %s", what, ray, why);
+    for (size_t m = 0; m < METHOD_COUNT; ++m) {
+        if (methods[m].traversal == VIS_TRAVERSAL_PACKET)
+            continue; /* a packet is a camera's tile, not one ray: the views check it */
+        s->traversal = (uint32_t)methods[m].traversal - 1u; /* enum -> VIS_TRAVERSAL_ID_* */
+        s->short_stack = methods[m].n;
+        vis_hit h;
+        trace_ray(v, s, r, &h);
+        if (h.id != ref.id || memcmp(&h.t, &ref.t, 4) != 0 || h.object != ref.object)
+            fail_msg("%s, %s: %s: id %u t %.9g, stack (= oracle) id %u t %.9g", what, methods[m].name, ray, h.id,
+                     (double)h.t, ref.id, (double)ref.t);
+    }
+}
+
+/* Ray i of a stream (its vt_rand draws from rng), named in `ray`. */
+typedef void (*ray_gen)(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap);
+
+/* count rays of gen through the whole scene, each checked by check_ray. */
+static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, int count, ray_gen gen, int lattice,
+                             const char *what)
 {
     vis_scene_view v = vis_scene_get_view(scene);
     vis_ray_setup s;
@@ -635,65 +553,48 @@ static void check_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int cou
     ref_scene rs;
     ref_scene_init(&rs, w);
     for (int i = 0; i < count; ++i) {
-        float o[3];
-        int dir[3];
-        for (int a = 0; a < 3; ++a) {
-            double u = vt_rand_unit(rng);
-            double x = vt_rand_unit(rng) * (w->size[a] + 16.0) - 8.0;
-            if (lattice)
-                x = 8.0 * floor(x / 8.0 + 0.5);
-            else if (u < 0.45)
-                x = 16.0 * floor(x / 16.0 + 0.5); /* on a split plane / the scene boundary */
-            else if (u < 0.8)
-                x = floor(x);
-            o[a] = (float)x;
-            dir[a] = lattice ? (int)(vt_rand(rng) % 3) - 1 : (int)(vt_rand(rng) % 5) - 2;
-        }
-        if (dir[0] == 0 && dir[1] == 0 && dir[2] == 0)
-            dir[vt_rand(rng) % 3] = 1;
-        float t_far = INFINITY;
-        if (vt_rand_unit(rng) < 0.3)
-            t_far = (float)(1 + vt_rand(rng) % 40);
         vis_ray r;
-        make_ray(&r, o, dir, 0.05f, t_far);
-        float ot;
-        uint32_t oid;
-        oracle_ray(w, &r, &ot, &oid);
-        s.traversal = VIS_TRAVERSAL_ID_STACK;
-        vis_hit ref;
-        trace_ray(&v, &s, &r, &ref);
-        if (ref.id != oid || memcmp(&ref.t, &ot, 4) != 0)
-            fail_msg("%s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g: stack id %u t %.9g, oracle id %u t %.9g", what,
-                     (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2], (double)t_far, ref.id,
-                     (double)ref.t, oid, (double)ot);
-        /* The conservative rule against the double-precision reference on this very ray: every
-         * face it touches (edges and corners of chunks included) counts. */
-        ref_ray rr;
-        ref_ray_from_float(r.o, r.d, r.t_near, r.t_far, &rr);
-        char why[256];
-        if (ref_check(&rs, &rr, ref.id, ref.t, NULL, why, sizeof why))
-            fail_msg("%s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g against the double-precision reference: %s", what,
-                     (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2], (double)t_far, why);
-        for (size_t m = 0; m < METHOD_COUNT; ++m) {
-            if (methods[m].traversal == VIS_TRAVERSAL_PACKET)
-                continue; /* a packet is a camera's tile, not one ray: the views check it */
-            s.traversal = (uint32_t)methods[m].traversal - 1u; /* enum -> VIS_TRAVERSAL_ID_* */
-            s.short_stack = methods[m].n;
-            vis_hit h;
-            trace_ray(&v, &s, &r, &h);
-            if (h.id != ref.id || memcmp(&h.t, &ref.t, 4) != 0 || h.object != ref.object)
-                fail_msg("%s, %s: ray o=(%g,%g,%g) d=(%d,%d,%d) far %g: id %u t %.9g, stack (= oracle) id %u t %.9g",
-                         what, methods[m].name, (double)o[0], (double)o[1], (double)o[2], dir[0], dir[1], dir[2],
-                         (double)t_far, h.id, (double)h.t, ref.id, (double)ref.t);
-        }
+        char ray[192];
+        gen(rng, w, i, lattice, &r, ray, sizeof ray);
+        check_ray(&v, &s, w, &rs, &r, what, ray);
     }
     ref_scene_free(&rs);
+}
+
+/* lattice: origins on multiples of 8 and directions in {-1,0,1}^3 (exact diagonals through
+ * chunk edges and corners); otherwise origins on split planes or integers, directions in
+ * {-2..2}^3. */
+static void grid_ray(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap)
+{
+    (void)i;
+    float o[3];
+    int dir[3];
+    for (int a = 0; a < 3; ++a) {
+        double u = vt_rand_unit(rng);
+        double x = vt_rand_unit(rng) * (w->size[a] + 16.0) - 8.0;
+        if (lattice)
+            x = 8.0 * floor(x / 8.0 + 0.5);
+        else if (u < 0.45)
+            x = 16.0 * floor(x / 16.0 + 0.5); /* on a split plane / the scene boundary */
+        else if (u < 0.8)
+            x = floor(x);
+        o[a] = (float)x;
+        dir[a] = lattice ? (int)(vt_rand(rng) % 3) - 1 : (int)(vt_rand(rng) % 5) - 2;
+    }
+    if (dir[0] == 0 && dir[1] == 0 && dir[2] == 0)
+        dir[vt_rand(rng) % 3] = 1;
+    float t_far = INFINITY;
+    if (vt_rand_unit(rng) < 0.3)
+        t_far = (float)(1 + vt_rand(rng) % 40);
+    make_ray(r, o, dir, 0.05f, t_far);
+    snprintf(ray, cap, "ray o=(%g,%g,%g) d=(%d,%d,%d) far %g", (double)o[0], (double)o[1], (double)o[2], dir[0],
+             dir[1], dir[2], (double)t_far);
 }
 
 static void test_degenerate_rays(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     uint64_t rng = 31337;
     static const int shapes[][3] = {{4, 2, 4}, {3, 3, 3}, {5, 2, 3}, {2, 2, 2}};
     static const uint32_t depths[] = {0, 2, 3, 1};
@@ -701,19 +602,19 @@ static void test_degenerate_rays(void **state)
     for (int wi = 0; wi < rounds; ++wi) {
         tworld w;
         const int *sh = shapes[wi % 4];
-        random_world(&w, &rng, sh[0], sh[1], sh[2]);
+        random_chunk_world_opts(&w, &rng, sh[0], sh[1], sh[2], &edgy_world);
         vis_scene *scene = make_scene(ctx, &w, NULL, depths[wi % 4]);
         char what[64];
         snprintf(what, sizeof what, "world %d, kd_depth %u", wi, depths[wi % 4]);
-        check_rays(scene, &w, &rng, rays, 0, what);
+        check_ray_stream(scene, &w, &rng, rays, grid_ray, 0, what);
         vis_scene_destroy(scene);
         free_world(&w);
     }
     tworld w;
     wall_world_quads(&w);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
-    check_rays(scene, &w, &rng, rays, 0, "wall world");
-    check_rays(scene, &w, &rng, rays, 1, "wall world, lattice rays");
+    check_ray_stream(scene, &w, &rng, rays, grid_ray, 0, "wall world");
+    check_ray_stream(scene, &w, &rng, rays, grid_ray, 1, "wall world, lattice rays");
     vis_scene_destroy(scene);
     free_world(&w);
     static const int checkers[][4] = {{4, 4, 4, 0}, {5, 3, 4, 0}, {4, 4, 4, 3}, {6, 2, 5, 4}};
@@ -722,8 +623,8 @@ static void test_degenerate_rays(void **state)
         scene = make_scene(ctx, &w, NULL, (uint32_t)checkers[ci][3]);
         char what[64];
         snprintf(what, sizeof what, "checkerboard %d, kd_depth %d", ci, checkers[ci][3]);
-        check_rays(scene, &w, &rng, rays, 1, what);
-        check_rays(scene, &w, &rng, rays / 2, 0, what);
+        check_ray_stream(scene, &w, &rng, rays, grid_ray, 1, what);
+        check_ray_stream(scene, &w, &rng, rays / 2, grid_ray, 0, what);
         vis_scene_destroy(scene);
         free_world(&w);
     }
@@ -736,86 +637,24 @@ static void test_degenerate_rays(void **state)
  * float (d = fl(normalize(P - e))). There the tree walk meets split planes within rounding of
  * each other and of the hit: `stack` must equal the oracle and keep the conservative rule
  * against the double-precision reference, and every method must equal `stack`. */
-static void check_aimed_rays(vis_scene *scene, const tworld *w, uint64_t *rng, int count, const char *what)
+static void aimed_ray(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap)
 {
-    vis_scene_view v = vis_scene_get_view(scene);
-    vis_ray_setup s;
-    memset(&s, 0, sizeof s);
-    memcpy(s.size, w->size, sizeof s.size);
-    s.leaf_count = v.leaf_count;
-    ref_scene rs;
-    ref_scene_init(&rs, w);
-    for (int i = 0; i < count; ++i) {
-        double p[3];
-        ref_edge_point(w, rng, p);
-        vis_ray r;
-        if (i & 1) {
-            int D[3];
-            do {
-                for (int a = 0; a < 3; ++a)
-                    D[a] = vt_rand_unit(rng) < 0.2 ? 0 : (int)(vt_rand(rng) % 9) - 4;
-            } while (D[0] == 0 && D[1] == 0 && D[2] == 0);
-            double k = (double)(8 + vt_rand(rng) % 505) / 8.0;
-            for (int a = 0; a < 3; ++a) {
-                r.o[a] = (float)(p[a] - k * D[a]); /* exact */
-                r.d[a] = (float)D[a];
-            }
-        } else {
-            double e[3], d[3], l = 0.0;
-            ref_random_eye(rng, w->size, p, e);
-            for (int a = 0; a < 3; ++a) {
-                d[a] = p[a] - e[a];
-                l += d[a] * d[a];
-            }
-            for (int a = 0; a < 3; ++a) {
-                r.o[a] = (float)e[a];
-                r.d[a] = (float)(d[a] / sqrt(l));
-            }
-        }
-        for (int a = 0; a < 3; ++a)
-            r.inv[a] = 1.0f / r.d[a];
-        r.t_near = 0.05f;
-        r.t_far = INFINITY;
-        float ot;
-        uint32_t oid;
-        oracle_ray(w, &r, &ot, &oid);
-        s.traversal = VIS_TRAVERSAL_ID_STACK;
-        vis_hit ref;
-        trace_ray(&v, &s, &r, &ref);
-        if (ref.id != oid || memcmp(&ref.t, &ot, 4) != 0)
-            fail_msg("%s: ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g): stack id %u t %.9g, oracle id %u "
-                     "t %.9g",
-                     what, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
-                     (double)r.d[2], p[0], p[1], p[2], ref.id, (double)ref.t, oid, (double)ot);
-        ref_ray rr;
-        ref_ray_from_float(r.o, r.d, r.t_near, r.t_far, &rr);
-        char why[256];
-        if (ref_check(&rs, &rr, ref.id, ref.t, NULL, why, sizeof why))
-            fail_msg("%s: ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g) against the double-precision "
-                     "reference: %s",
-                     what, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
-                     (double)r.d[2], p[0], p[1], p[2], why);
-        for (size_t m = 0; m < METHOD_COUNT; ++m) {
-            if (methods[m].traversal == VIS_TRAVERSAL_PACKET)
-                continue;
-            s.traversal = (uint32_t)methods[m].traversal - 1u;
-            s.short_stack = methods[m].n;
-            vis_hit h;
-            trace_ray(&v, &s, &r, &h);
-            if (h.id != ref.id || memcmp(&h.t, &ref.t, 4) != 0 || h.object != ref.object)
-                fail_msg("%s, %s: ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g): id %u t %.9g, stack id %u "
-                         "t %.9g",
-                         what, methods[m].name, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0],
-                         (double)r.d[1], (double)r.d[2], p[0], p[1], p[2], h.id, (double)h.t, ref.id, (double)ref.t);
-        }
-    }
-    ref_scene_free(&rs);
+    (void)lattice;
+    double p[3];
+    ref_edge_point(w, rng, p);
+    ref_aimed_ray(rng, w->size, p, i & 1, 0.2, 4, 8, 505, r->o, r->d);
+    for (int a = 0; a < 3; ++a)
+        r->inv[a] = 1.0f / r->d[a];
+    r->t_near = 0.05f;
+    r->t_far = INFINITY;
+    snprintf(ray, cap, "ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g)", (double)r->o[0], (double)r->o[1],
+             (double)r->o[2], (double)r->d[0], (double)r->d[1], (double)r->d[2], p[0], p[1], p[2]);
 }
 
 static void test_aimed_at_chunk_edges(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     uint64_t rng = 8128;
     int rays = vt_small() ? 2000 : 20000;
     static const int checkers[][4] = {{4, 4, 4, 0}, {5, 3, 4, 2}, {4, 2, 6, 4}};
@@ -825,16 +664,16 @@ static void test_aimed_at_chunk_edges(void **state)
         vis_scene *scene = make_scene(ctx, &w, NULL, (uint32_t)checkers[ci][3]);
         char what[64];
         snprintf(what, sizeof what, "checkerboard %d, kd_depth %d", ci, checkers[ci][3]);
-        check_aimed_rays(scene, &w, &rng, rays, what);
+        check_ray_stream(scene, &w, &rng, rays, aimed_ray, 0, what);
         vis_scene_destroy(scene);
         free_world(&w);
     }
     static const int shapes[][3] = {{4, 2, 4}, {3, 3, 3}};
     for (int wi = 0; wi < 2; ++wi) {
         tworld w;
-        random_world(&w, &rng, shapes[wi][0], shapes[wi][1], shapes[wi][2]);
+        random_chunk_world_opts(&w, &rng, shapes[wi][0], shapes[wi][1], shapes[wi][2], &edgy_world);
         vis_scene *scene = make_scene(ctx, &w, NULL, (uint32_t)(wi * 2));
-        check_aimed_rays(scene, &w, &rng, rays, "random world");
+        check_ray_stream(scene, &w, &rng, rays, aimed_ray, 0, "random world");
         vis_scene_destroy(scene);
         free_world(&w);
     }
@@ -965,7 +804,7 @@ static void check_ropes(vis_context *ctx, const float size[3], uint32_t kd_depth
 static void test_ropes_definition(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     const float sizes[][3] = {{64, 32, 64}, {48, 32, 80}, {16, 16, 16}, {512, 128, 512}, {100, 40, 70}, {16, 16, 400}};
     const uint32_t depths[] = {0, 2, 5};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; ++i)
@@ -979,7 +818,7 @@ static void test_ropes_definition(void **state)
 static void test_desc_validation(void **state)
 {
     (void)state;
-    vis_context *ctx = make_ctx(1);
+    vis_context *ctx = make_cpu_ctx(1);
     tworld w;
     wall_world_quads(&w);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);

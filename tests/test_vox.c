@@ -1519,6 +1519,23 @@ static void test_fuzz_regressions(void **state)
 
 /* ---- the budget (vw_budget) and hostile files ---------------------------------------- */
 
+/* Group `group` of count transforms first.. (at most 64), transform i moving `child` by
+ * 256 i along .vox axis `axis`. */
+static void vb_row(vb *b, int group, int first, int count, int child, int axis)
+{
+    int kids[64];
+    char t[64];
+    for (int i = 0; i < count; i++)
+        kids[i] = first + i;
+    vb_grp(b, group, count, kids, NULL);
+    for (int i = 0; i < count; i++) {
+        int d[3] = {0, 0, 0};
+        d[axis] = 256 * i;
+        snprintf(t, sizeof t, "%d %d %d", d[0], d[1], d[2]);
+        vb_trn(b, first + i, child, -1, NULL, t, NULL);
+    }
+}
+
 /* A sparse 256^3 model, one voxel every 16 per axis (4,096 voxels, each alone in its chunk),
  * instanced nx * nz times through a two-level DAG (nx transforms sharing one group of nz):
  * the file stays small (about 20 KB for 32 x 32) while every instanced voxel lands in a chunk of
@@ -1540,23 +1557,9 @@ static void sparse_dag(vb *b, int nx, int nz)
     free(xyzi);
     /* 0 -> group 1 -> transforms 2.. (x = 256 i) -> group 1000 -> transforms 1001.. (.vox
      * y = 256 j) -> shape 3000. */
-    int kids[64];
-    char t[64];
     vb_trn(b, 0, 1, -1, NULL, NULL, NULL);
-    for (int i = 0; i < nx; i++)
-        kids[i] = 2 + i;
-    vb_grp(b, 1, nx, kids, NULL);
-    for (int i = 0; i < nx; i++) {
-        snprintf(t, sizeof t, "%d 0 0", 256 * i);
-        vb_trn(b, 2 + i, 1000, -1, NULL, t, NULL);
-    }
-    for (int j = 0; j < nz; j++)
-        kids[j] = 1001 + j;
-    vb_grp(b, 1000, nz, kids, NULL);
-    for (int j = 0; j < nz; j++) {
-        snprintf(t, sizeof t, "0 %d 0", 256 * j);
-        vb_trn(b, 1001 + j, 3000, -1, NULL, t, NULL);
-    }
+    vb_row(b, 1, 2, nx, 1000, 0);
+    vb_row(b, 1000, 1001, nz, 3000, 1);
     vb_shp(b, 3000, 0);
     vb_end(b);
 }

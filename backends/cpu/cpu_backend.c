@@ -36,20 +36,11 @@ typedef struct cpu_job {
 static void trace_tile(void *user, uint32_t tile)
 {
     const cpu_job *job = user;
-    const vis_scene_view *v = job->view;
+    const vis_scene_view v = *job->view; /* a local copy: its arrays stay in registers */
     const vis_ray_setup *s = job->setup;
-    const vis_kd_node *nodes = v->nodes;
-    const vis_flat_leaf *leaves = v->leaves;
-    const uint32_t *buckets = v->buckets;
-    const vis_flat_quad *quads = v->quads;
-    const vis_flat_tri *tris = v->tris;
-    const vis_flat_object *objects = v->objects;
-    const uint32_t *object_leaves = v->object_leaves;
-    const vis_rope_node *ropes = v->ropes;
-    const uint32_t *rope_index = v->rope_index;
     uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        vis_packet_trace_tile(s, v, job->occupied, job->wide, x0, y0, job->ids, job->depth);
+        vis_packet_trace_tile(s, &v, job->occupied, job->wide, x0, y0, job->ids, job->depth);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -58,7 +49,7 @@ static void trace_tile(void *user, uint32_t tile)
         for (uint32_t x = x0; x < x1; ++x) {
             uint32_t id;
             float t;
-            vis_trace_pixel(s, x, y, VIS_SCENE_ARGS, &id, &t);
+            vis_trace_pixel(s, x, y, VIS_SCENE_VIEW_ARGS(&v), &id, &t);
             size_t i = (size_t)y * s->width + x;
             job->ids[i] = id;
             if (job->depth)

@@ -220,57 +220,59 @@ static int exists_staged(const vis_scene *s, uint32_t id)
     return vis_scene_find(s, id) != VIS_NO_OBJECT;
 }
 
-vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
+/* The entry of the scene's public calls: a scene, its context entered, the error cleared. */
+static vis_status scene_enter(vis_scene *s)
 {
     if (!s)
         return VIS_ERROR_INVALID_ARGUMENT;
-    vis_context *ctx = s->ctx;
-    if (vis_enter(ctx) != VIS_OK)
+    if (vis_enter(s->ctx) != VIS_OK)
         return VIS_ERROR_BUSY;
-    vis_clear_error(ctx);
-    vis_status st;
+    vis_clear_error(s->ctx);
+    return VIS_OK;
+}
+
+/* Set (mesh) or remove (remove != 0) an object: staged under VIS_COMMIT_EXPLICIT, else applied
+ * now. */
+static vis_status edit_object(vis_scene *s, uint32_t id, const vis_mesh *mesh, int remove)
+{
+    vis_status st = scene_enter(s);
+    if (st != VIS_OK)
+        return st;
+    vis_context *ctx = s->ctx;
     if (s->desc.commit == VIS_COMMIT_EXPLICIT) {
-        st = vis_scene_check_mesh(s, id, mesh);
-        if (st == VIS_OK)
-            st = stage(s, id, mesh);
+        if (remove) {
+            st = exists_staged(s, id) ? stage(s, id, NULL)
+                                      : vis_fail(ctx, VIS_ERROR_NOT_FOUND, "no object with ID %u", id);
+        } else {
+            st = vis_scene_check_mesh(s, id, mesh);
+            if (st == VIS_OK)
+                st = stage(s, id, mesh);
+        }
     } else {
         begin_write(s);
-        st = vis_scene_apply_set(s, id, mesh);
+        st = remove ? vis_scene_apply_remove(s, id) : vis_scene_apply_set(s, id, mesh);
         end_write(s);
     }
     vis_leave(ctx);
     return st;
+}
+
+vis_status vis_scene_set_object(vis_scene *s, uint32_t id, const vis_mesh *mesh)
+{
+    return edit_object(s, id, mesh, 0);
 }
 
 vis_status vis_scene_remove_object(vis_scene *s, uint32_t id)
 {
-    if (!s)
-        return VIS_ERROR_INVALID_ARGUMENT;
-    vis_context *ctx = s->ctx;
-    if (vis_enter(ctx) != VIS_OK)
-        return VIS_ERROR_BUSY;
-    vis_clear_error(ctx);
-    vis_status st;
-    if (s->desc.commit == VIS_COMMIT_EXPLICIT) {
-        st = exists_staged(s, id) ? stage(s, id, NULL) : vis_fail(ctx, VIS_ERROR_NOT_FOUND, "no object with ID %u", id);
-    } else {
-        begin_write(s);
-        st = vis_scene_apply_remove(s, id);
-        end_write(s);
-    }
-    vis_leave(ctx);
-    return st;
+    return edit_object(s, id, NULL, 1);
 }
 
 vis_status vis_scene_commit(vis_scene *s)
 {
-    if (!s)
-        return VIS_ERROR_INVALID_ARGUMENT;
+    vis_status st = scene_enter(s);
+    if (st != VIS_OK)
+        return st;
     vis_context *ctx = s->ctx;
-    if (vis_enter(ctx) != VIS_OK)
-        return VIS_ERROR_BUSY;
-    vis_clear_error(ctx);
-    vis_status st = VIS_OK;
     if (s->staged_count) {
         begin_write(s);
         for (uint32_t i = 0; i < s->staged_count; ++i) {

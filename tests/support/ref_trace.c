@@ -426,3 +426,31 @@ void ref_random_eye(uint64_t *rng, const float size[3], const double p[3], doubl
             dd += (e[a] - p[a]) * (e[a] - p[a]);
     } while (dd < 1.0);
 }
+
+void ref_aimed_ray(uint64_t *rng, const float size[3], const double p[3], int through, double p_zero, int dmax,
+                   int kden, int ksteps, float o[3], float d[3])
+{
+    if (through) {
+        int D[3];
+        do {
+            for (int a = 0; a < 3; ++a)
+                D[a] = vt_rand_unit(rng) < p_zero ? 0 : (int)(vt_rand(rng) % (uint64_t)(2 * dmax + 1)) - dmax;
+        } while (D[0] == 0 && D[1] == 0 && D[2] == 0);
+        double k = (double)((uint64_t)kden + vt_rand(rng) % (uint64_t)ksteps) / (double)kden;
+        for (int a = 0; a < 3; ++a) {
+            o[a] = (float)(p[a] - k * D[a]);
+            d[a] = (float)D[a];
+        }
+    } else {
+        double e[3], v[3], l = 0.0;
+        ref_random_eye(rng, size, p, e);
+        for (int a = 0; a < 3; ++a) {
+            v[a] = p[a] - e[a];
+            l += v[a] * v[a];
+        }
+        for (int a = 0; a < 3; ++a) {
+            o[a] = (float)e[a];
+            d[a] = (float)(v[a] / sqrt(l));
+        }
+    }
+}

@@ -116,5 +116,11 @@ int ref_check(const ref_scene *s, const ref_ray *r, uint32_t id, float t, ref_hi
  * box around size[] widened by 16, at least 1 from p, sometimes in one of p's axis planes. */
 void ref_edge_point(const tworld *w, uint64_t *rng, double p[3]);
 void ref_random_eye(uint64_t *rng, const float size[3], const double p[3], double e[3]);
+/* A float ray (o, d) aimed exactly at p. through != 0: o = p - k D with D an integer vector,
+ * each component 0 with probability p_zero or else in [-dmax, dmax] (never all 0), and
+ * k = (kden + [0, ksteps)) / kden dyadic -- exact in float while p and k D are small. Else an
+ * eye of ref_random_eye and d = fl(normalize(p - e)). */
+void ref_aimed_ray(uint64_t *rng, const float size[3], const double p[3], int through, double p_zero, int dmax,
+                   int kden, int ksteps, float o[3], float d[3]);
 
 #endif

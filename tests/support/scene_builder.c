@@ -11,15 +11,33 @@
 
 #include "test_support.h"
 
-vis_context *make_cpu_ctx(uint32_t threads)
+vis_status cpu_ctx_create(uint32_t threads, const vis_allocator *a, vis_context **out)
 {
     vis_context_desc cd;
     vis_context_desc_defaults(&cd);
     cd.backend = VIS_BACKEND_CPU;
     cd.threads = threads;
+    if (a)
+        cd.allocator = *a;
+    *out = NULL;
+    return vis_context_create(&cd, out);
+}
+
+vis_context *make_cpu_ctx(uint32_t threads)
+{
     vis_context *ctx = NULL;
-    assert_int_equal(vis_context_create(&cd, &ctx), VIS_OK);
+    assert_int_equal(cpu_ctx_create(threads, NULL, &ctx), VIS_OK);
     return ctx;
+}
+
+vis_scene *make_cube_scene(vis_context *ctx, float side)
+{
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    d.size[0] = d.size[1] = d.size[2] = side;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    return s;
 }
 
 tobj *add_obj(tworld *w, uint32_t id)
@@ -32,6 +50,15 @@ tobj *add_obj(tworld *w, uint32_t id)
     tobj *o = &w->objs[w->n++];
     memset(o, 0, sizeof *o);
     o->id = id;
+    return o;
+}
+
+tobj *add_obj_quads(tworld *w, uint32_t id, uint32_t nq)
+{
+    tobj *o = add_obj(w, id);
+    o->quads = malloc((nq ? nq : 1) * sizeof *o->quads);
+    assert_non_null(o->quads);
+    o->nq = nq;
     return o;
 }
 
@@ -131,14 +158,18 @@ void wall_world(tworld *w)
 
 /* ---- random worlds and cameras ---------------------------------------------------------- */
 
+const chunk_world_opts chunk_world_default = {0.3, 6, 0.0, 0, 4, 0};
+
 /* Random boxes inside chunk c (a chunk object). */
-void obj_chunk_boxes(tobj *o, uint64_t *rng, const int c[3])
+void obj_chunk_boxes(tobj *o, uint64_t *rng, const int c[3], const chunk_world_opts *opt)
 {
-    int boxes = 1 + (int)(vt_rand(rng) % 6);
+    int boxes = 1 + (int)(vt_rand(rng) % (uint64_t)opt->max_boxes);
     for (int b = 0; b < boxes; ++b) {
         float lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
             int l = (int)(vt_rand(rng) % 16), e = 1 + (int)(vt_rand(rng) % 8);
+            if (opt->touch > 0.0 && vt_rand_unit(rng) < opt->touch) /* touch the chunk boundary */
+                l = vt_rand(rng) & 1 ? 0 : 16 - e;
             if (l + e > 16)
                 e = 16 - l;
             lo[a] = (float)(c[a] * 16 + l);
@@ -146,13 +177,22 @@ void obj_chunk_boxes(tobj *o, uint64_t *rng, const int c[3])
         }
         obj_box(o, lo, hi);
     }
-    if (vt_rand_unit(rng) < 0.3) /* a face exactly on the chunk boundary */
-        obj_quad(o, 0, (float)(c[0] * 16), (float)(c[1] * 16), (float)(c[2] * 16), (float)(c[1] * 16 + 16),
-                 (float)(c[2] * 16 + 16));
+    if (vt_rand_unit(rng) < 0.3) { /* a face exactly on the chunk boundary */
+        uint32_t a = 0;
+        int side = 0;
+        if (opt->any_face) {
+            a = (uint32_t)(vt_rand(rng) % 3);
+            side = vt_rand(rng) & 1 ? 16 : 0;
+        }
+        uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
+        obj_quad(o, a, (float)(c[a] * 16 + side), (float)(c[u] * 16), (float)(c[v] * 16), (float)(c[u] * 16 + 16),
+                 (float)(c[v] * 16 + 16));
+    }
 }
 
-/* An entity: two triangles sharing an edge and an off-grid quad, across chunk borders. */
-void obj_entity(tobj *o, uint64_t *rng, const float size[3])
+/* An entity: two triangles sharing an edge and an off-grid quad, across chunk borders, and
+ * with opt->entity_boxes an off-grid box across a chunk corner. */
+void obj_entity(tobj *o, uint64_t *rng, const float size[3], const chunk_world_opts *opt)
 {
     float p[3];
     for (int a = 0; a < 3; ++a)
@@ -162,47 +202,92 @@ void obj_entity(tobj *o, uint64_t *rng, const float size[3])
     obj_tri(o, a0, a1, a2);
     obj_tri(o, a1, a3, a2);
     obj_quad(o, 1, p[1] + 0.375f, p[2], p[0], p[2] + 5.5f, p[0] + 5.25f);
+    if (!opt->entity_boxes)
+        return;
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        float c = 16.0f * (float)(1 + (int)(vt_rand(rng) % (uint64_t)(size[a] / 16.0f > 1 ? size[a] / 16.0f - 1 : 1)));
+        if (c >= size[a])
+            c = size[a] / 2;
+        lo[a] = c - 1.5f;
+        hi[a] = c + 2.25f;
+    }
+    obj_box(o, lo, hi);
 }
 
-void random_chunk_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
+void chunk_world_init(tworld *w, int nx, int ny, int nz)
 {
     memset(w, 0, sizeof *w);
     w->size[0] = 16.0f * nx;
     w->size[1] = 16.0f * ny;
     w->size[2] = 16.0f * nz;
+}
+
+void random_chunk_world_opts(tworld *w, uint64_t *rng, int nx, int ny, int nz, const chunk_world_opts *opt)
+{
+    chunk_world_init(w, nx, ny, nz);
     for (int cz = 0; cz < nz; ++cz)
         for (int cy = 0; cy < ny; ++cy)
             for (int cx = 0; cx < nx; ++cx) {
-                if (vt_rand_unit(rng) < 0.3)
+                if (vt_rand_unit(rng) < opt->empty)
                     continue;
                 int c[3] = {cx, cy, cz};
-                obj_chunk_boxes(add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz))), rng, c);
+                obj_chunk_boxes(add_obj(w, 1u + (uint32_t)(cx + nx * (cy + ny * cz))), rng, c, opt);
             }
     /* Identical boxes in two objects: the lowest ID must win on both backends. */
-    for (int i = 0; i < 4; ++i) {
-        float lo[3] = {(float)(vt_rand(rng) % (uint64_t)(16 * nx - 4)), (float)(vt_rand(rng) % (uint64_t)(16 * ny - 4)),
-                       (float)(vt_rand(rng) % (uint64_t)(16 * nz - 4))};
-        float hi[3] = {lo[0] + 3, lo[1] + 3, lo[2] + 3};
+    for (int i = 0; i < opt->ties; ++i) {
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = (float)(vt_rand(rng) % (uint64_t)(w->size[a] - 4));
+            hi[a] = lo[a] + 3;
+        }
         obj_box(add_obj(w, 100001 + 2 * i), lo, hi);
         obj_box(add_obj(w, 100000 + 2 * i), lo, hi);
     }
     for (int i = 0; i < 4; ++i)
-        obj_entity(add_obj(w, 200000 + i), rng, w->size);
+        obj_entity(add_obj(w, 200000 + i), rng, w->size, opt);
 }
 
-void random_view(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
+void random_chunk_world(tworld *w, uint64_t *rng, int nx, int ny, int nz)
+{
+    random_chunk_world_opts(w, rng, nx, ny, nz, &chunk_world_default);
+}
+
+const view_opts view_default = {0.3, 0.3, 0.0, 0.2, 0.2, 0.0};
+
+void random_view_opts(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3],
+                      const view_opts *opt)
 {
     memset(cam, 0, sizeof *cam);
     for (int a = 0; a < 3; ++a) {
         double e = vt_rand_unit(rng) * (size[a] * 1.6) - size[a] * 0.3;
-        if (vt_rand_unit(rng) < 0.3)
+        double u = vt_rand_unit(rng);
+        if (u < opt->split)
             e = floor(e / 16.0) * 16.0; /* on a split plane or a chunk corner */
+        else if (u < opt->voxel)
+            e = floor(e); /* on a voxel plane */
         cam->eye[a] = origin[a] + e;
         cam->target[a] = origin[a] + vt_rand_unit(rng) * size[a];
+        if (opt->target_snap > 0.0 && vt_rand_unit(rng) < opt->target_snap)
+            cam->target[a] = origin[a] + floor(cam->target[a] - origin[a]);
     }
-    if (vt_rand_unit(rng) < 0.2) /* along an axis */
+    double u = vt_rand_unit(rng);
+    if (u < opt->axis) { /* along an axis */
         for (int a = 0; a < 3; ++a)
             if (a != 1)
                 cam->target[a] = cam->eye[a];
+    } else if (u < opt->diagonal) { /* along an exact diagonal: rays through cell corners */
+        double k = 8.0 + floor(vt_rand_unit(rng) * 16.0);
+        cam->target[0] = cam->eye[0] + (vt_rand(rng) & 1 ? k : -k);
+        cam->target[1] = cam->eye[1] + (vt_rand(rng) & 1 ? k : vt_rand(rng) & 1 ? -k : 0.0);
+        cam->target[2] = cam->eye[2] + (vt_rand(rng) & 1 ? k : -k);
+    }
     cam->fovy_deg = 20.0 + vt_rand_unit(rng) * 100.0;
+    if (opt->far > 0.0 && vt_rand_unit(rng) < opt->far) /* a far plane, sometimes exactly on a split distance */
+        cam->far_dist = 8.0 + floor(vt_rand_unit(rng) * 4.0) * 8.0;
+}
+
+void random_view(vis_camera *cam, uint64_t *rng, const float size[3], const double origin[3])
+{
+    random_view_opts(cam, rng, size, origin, &view_default);
 }
