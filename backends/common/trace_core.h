@@ -193,6 +193,17 @@ VIS_INLINE int vis_hit_better(float t, uint32_t id, const vis_hit *h)
     return t < h->t || (t == h->t && id < h->id);
 }
 
+/* Makes (t, object slot obj) the ray's hit when it beats the current one (vis_hit_better). */
+VIS_INLINE void vis_hit_offer(float t, uint32_t obj, const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
+{
+    uint32_t id = objects[obj].id;
+    if (vis_hit_better(t, id, h)) {
+        h->t = t;
+        h->object = obj;
+        h->id = id;
+    }
+}
+
 /* Distance slack: two distances computed independently (each within 3 ulps of the exact
  * distance of the float ray: t = fl(fl(c - o[a]) * fl(1/d[a])), 3 roundings) are taken to
  * coincide when they are within 2^-20 relative of each other. 2^-20 = 16 units of 2^-24,
@@ -290,13 +301,7 @@ VIS_INLINE void vis_test_quad(const vis_ray *r, const VIS_GLOBAL vis_flat_quad *
         return;
     if (t < r->t_near || t > r->t_far || t > h->t)
         return;
-    uint32_t obj = VIS_META_OBJECT(meta);
-    uint32_t id = objects[obj].id;
-    if (vis_hit_better(t, id, h)) {
-        h->t = t;
-        h->object = obj;
-        h->id = id;
-    }
+    vis_hit_offer(t, VIS_META_OBJECT(meta), objects, h);
 }
 
 /* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013), two-sided. Returns the
@@ -367,13 +372,7 @@ VIS_INLINE void vis_test_tri(const vis_ray *r, const VIS_GLOBAL vis_flat_tri *tr
         return;
     if (!(t >= r->t_near) || t > r->t_far || t > h->t)
         return;
-    uint32_t obj = VIS_META_OBJECT(tri->meta);
-    uint32_t id = objects[obj].id;
-    if (vis_hit_better(t, id, h)) {
-        h->t = t;
-        h->object = obj;
-        h->id = id;
-    }
+    vis_hit_offer(t, VIS_META_OBJECT(tri->meta), objects, h);
 }
 
 /* ---- one leaf ----------------------------------------------------------------------- */
@@ -485,13 +484,7 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
                  * t_far] and no farther than the best hit. */
                 if (!vis_quad_slab(r, u, v, t, q->u0, q->v0, q->u1, q->v1))
                     continue;
-                uint32_t obj = VIS_META_OBJECT(q->meta);
-                uint32_t id = objects[obj].id;
-                if (vis_hit_better(t, id, h)) {
-                    h->t = t;
-                    h->object = obj;
-                    h->id = id;
-                }
+                vis_hit_offer(t, VIS_META_OBJECT(q->meta), objects, h);
             }
         }
         if (k[a] == kend[a]) {

@@ -65,7 +65,6 @@ static vis_status check_capacity(vis_context *ctx, uint64_t needed, size_t ids_c
                     ids_short ? ids_capacity : depth_capacity);
 }
 
-
 static void record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t upload, uint64_t rays, uint32_t views)
 {
     vis_timing *t = &ctx->timing;
