@@ -83,7 +83,7 @@ typedef struct vis_scene_view {
     uint32_t leaf_count;
     const uint32_t *buckets;
     uint32_t bucket_count;
-    const vis_flat_quad *quads;
+    const uint32_t *quads;        /* the quad pool, in words (trace_core.h, vis_flat_leaf) */
     uint32_t quad_count;
     const vis_flat_tri *tris;
     uint32_t tri_count;

@@ -62,30 +62,50 @@ typedef struct vis_kd_node {
 
 #define VIS_NODE_LEAF 3u
 
-/* A leaf (64 bytes). Quads whose plane lies on an integer offset k in [0, E[a]] from lo[a]
- * are "bucketed": sorted by axis then k, bucket (a, k) spans
- * [buckets[bucket_offset + base(a) + k], ... + 1) relative to quad_offset, where base(0) = 0,
- * base(1) = E0 + 1, base(2) = E0 + E1 + 2. Other quads are "loose" and always tested. */
+/* A leaf (64 bytes). Its primitives live in two pools: triangles in the triangle pool, quads
+ * in the quad pool of 4-byte words, where the leaf's slot holds, in this order:
+ *  - its object table at table_offset: the object slots of its packed quads (the table index
+ *    is what a packed quad names, so a quad takes one word and not a 24-bit slot);
+ *  - its packed quads at quad_offset (quad_count words, vis_packed_quad below): quads whose
+ *    plane lies on an integer offset k in [0, E[a]] from lo[a] and whose rectangle lies on
+ *    integer offsets in [0, 31] from the leaf's lower corner, sorted by axis then k: bucket
+ *    (a, k) spans [buckets[bucket_offset + base(a) + k], ... + 1) relative to quad_offset,
+ *    where base(0) = 0, base(1) = E0 + 1, base(2) = E0 + E1 + 2;
+ *  - its loose quads at loose_offset (loose_count vis_flat_quad, six words each): every other
+ *    quad, always tested.
+ * Packed coordinates are exact: the scene packs a quad only when lo + offset gives back its
+ * float coordinates bit for bit, so the tests see the same numbers either way. */
 typedef struct vis_flat_leaf {
     float lo[3];
     float hi[3];
-    uint32_t quad_offset;   /* first bucketed quad in the quad pool                        */
-    uint32_t quad_count;    /* bucketed quads                                              */
+    uint32_t quad_offset;   /* first packed quad (word) in the quad pool                   */
+    uint32_t quad_count;    /* packed quads                                                */
     uint32_t bucket_offset; /* first entry of this leaf's bucket table                     */
     uint32_t dims_xy;       /* E0 | E1 << 16                                               */
     uint32_t dims_z;        /* E2                                                          */
-    uint32_t loose_offset;  /* loose quads in the quad pool                                */
+    uint32_t loose_offset;  /* loose quads in the quad pool (a word index)                  */
     uint32_t loose_count;
     uint32_t tri_offset;    /* triangles in the triangle pool                              */
     uint32_t tri_count;
-    uint32_t pad;
+    uint32_t table_offset;  /* the object table in the quad pool (a word index)             */
 } vis_flat_leaf;
 
-/* A quad as traced (24 bytes): meta = object_index << 8 | flags << 2 | axis. */
+/* A quad as given (24 bytes; loose quads are stored so): meta = object_index << 8 | flags << 2 | axis. */
 typedef struct vis_flat_quad {
     float plane, u0, v0, u1, v1;
     uint32_t meta;
 } vis_flat_quad;
+
+/* A packed quad (one uint32_t word): u0 | v0 << 5 | u1 << 10 | v1 << 15 | flags << 20 |
+ * table index << 22, the rectangle as offsets from the leaf's lower corner on the bucket's u
+ * and v axes. */
+#define VIS_LOOSE_WORDS 6u /* words of a loose quad in the quad pool                      */
+#define VIS_PQ_COORD_MAX 31u
+#define VIS_PQ_FLAGS_MAX 3u
+#define VIS_PQ_TABLE_MAX 1023u
+#define VIS_PQ_FIELD(w, i) (((w) >> (5u * (i))) & 31u) /* i: 0 u0, 1 v0, 2 u1, 3 v1 */
+#define VIS_PQ_FLAGS(w) (((w) >> 20) & 3u)
+#define VIS_PQ_TABLE(w) ((w) >> 22)
 
 /* A triangle as traced (40 bytes), meta as for quads (axis bits unused). */
 typedef struct vis_flat_tri {
@@ -145,7 +165,7 @@ typedef struct vis_ray_setup {
  * of pointers. */
 #define VIS_SCENE_PARAMS                                                                     \
     const VIS_GLOBAL vis_kd_node *nodes, const VIS_GLOBAL vis_flat_leaf *leaves,              \
-        const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL vis_flat_quad *quads,            \
+        const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL uint32_t *quads,                  \
         const VIS_GLOBAL vis_flat_tri *tris, const VIS_GLOBAL vis_flat_object *objects,       \
         const VIS_GLOBAL uint32_t *object_leaves, const VIS_GLOBAL vis_rope_node *ropes,       \
         const VIS_GLOBAL uint32_t *rope_index
@@ -292,16 +312,37 @@ VIS_INLINE int vis_quad_intersect(const vis_ray *r, uint32_t axis, float plane, 
     return vis_quad_slab(r, u, v, t, u0, v0, u1, v1);
 }
 
-VIS_INLINE void vis_test_quad(const vis_ray *r, const VIS_GLOBAL vis_flat_quad *q,
-                              const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
+/* The loose quads of a leaf (six-word records in the quad pool). */
+VIS_INLINE const VIS_GLOBAL vis_flat_quad *vis_loose_quads(const VIS_GLOBAL uint32_t *quads,
+                                                           const VIS_GLOBAL vis_flat_leaf *leaf)
+{
+    return (const VIS_GLOBAL vis_flat_quad *)(quads + leaf->loose_offset);
+}
+
+/* Packed quad w of the leaf's bucket (a, k), unpacked: the numbers it was packed from. */
+VIS_INLINE vis_flat_quad vis_unpack_quad(uint32_t w, uint32_t a, int k, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                         const VIS_GLOBAL uint32_t *quads)
+{
+    uint32_t u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+    vis_flat_quad q;
+    q.plane = leaf->lo[a] + (float)k;
+    q.u0 = leaf->lo[u] + (float)VIS_PQ_FIELD(w, 0u);
+    q.v0 = leaf->lo[v] + (float)VIS_PQ_FIELD(w, 1u);
+    q.u1 = leaf->lo[u] + (float)VIS_PQ_FIELD(w, 2u);
+    q.v1 = leaf->lo[v] + (float)VIS_PQ_FIELD(w, 3u);
+    q.meta = quads[leaf->table_offset + VIS_PQ_TABLE(w)] << 8 | VIS_PQ_FLAGS(w) << 2 | a;
+    return q;
+}
+
+VIS_INLINE void vis_test_quad(const vis_ray *r, vis_flat_quad q, const VIS_GLOBAL vis_flat_object *objects,
+                              vis_hit *h)
 {
     float t;
-    uint32_t meta = q->meta;
-    if (!vis_quad_intersect(r, VIS_META_AXIS(meta), q->plane, q->u0, q->v0, q->u1, q->v1, &t))
+    if (!vis_quad_intersect(r, VIS_META_AXIS(q.meta), q.plane, q.u0, q.v0, q.u1, q.v1, &t))
         return;
     if (t < r->t_near || t > r->t_far || t > h->t)
         return;
-    vis_hit_offer(t, VIS_META_OBJECT(meta), objects, h);
+    vis_hit_offer(t, VIS_META_OBJECT(q.meta), objects, h);
 }
 
 /* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013), two-sided. Returns the
@@ -398,14 +439,15 @@ VIS_INLINE int vis_clamp_plane(float x, int lo, int hi)
  * is the minimum over all primitives tested, whatever order they come in. */
 VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
                                    const VIS_GLOBAL uint32_t *buckets,
-                                   const VIS_GLOBAL vis_flat_quad *quads,
+                                   const VIS_GLOBAL uint32_t *quads,
                                    const VIS_GLOBAL vis_flat_tri *tris,
                                    const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
                                    vis_hit *h)
 {
     uint32_t n = leaf->loose_count;
+    const VIS_GLOBAL vis_flat_quad *loose = vis_loose_quads(quads, leaf);
     for (uint32_t i = 0; i < n; ++i)
-        vis_test_quad(r, &quads[leaf->loose_offset + i], objects, h);
+        vis_test_quad(r, loose[i], objects, h);
     n = leaf->tri_count;
     for (uint32_t i = 0; i < n; ++i)
         vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
@@ -450,7 +492,8 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
         }
         tk[a] = vis_plane_t(r, a, lo[a], k[a]);
     }
-    uint32_t qbase = leaf->quad_offset;
+    const VIS_GLOBAL uint32_t *packed = quads + leaf->quad_offset;
+    const VIS_GLOBAL uint32_t *table = quads + leaf->table_offset;
     const VIS_GLOBAL uint32_t *bk = buckets + leaf->bucket_offset;
     for (;;) {
         int a = 0;
@@ -474,17 +517,19 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
             uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
             uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
             float ou = r->o[u], du = r->d[u], iu = r->inv[u], tl = vis_t_limit(t);
+            float lu = lo[u], lv = lo[v];
             for (uint32_t i = bk[b]; i < end; ++i) {
-                const VIS_GLOBAL vis_flat_quad *q = &quads[qbase + i];
-                float c = q->u0;
+                uint32_t w = packed[i];
+                float c = lu + (float)VIS_PQ_FIELD(w, 0u);
                 if (du > 0.0f ? (c - ou) * iu > tl : du < 0.0f ? t > vis_t_limit((c - ou) * iu) : c > ou)
                     break;
                 /* vis_test_quad, with what this walk already knows: the plane's distance t
                  * (vis_quad_intersect's t for each quad of the bucket), within [t_near,
                  * t_far] and no farther than the best hit. */
-                if (!vis_quad_slab(r, u, v, t, q->u0, q->v0, q->u1, q->v1))
+                if (!vis_quad_slab(r, u, v, t, c, lv + (float)VIS_PQ_FIELD(w, 1u), lu + (float)VIS_PQ_FIELD(w, 2u),
+                                   lv + (float)VIS_PQ_FIELD(w, 3u)))
                     continue;
-                vis_hit_offer(t, VIS_META_OBJECT(q->meta), objects, h);
+                vis_hit_offer(t, table[VIS_PQ_TABLE(w)], objects, h);
             }
         }
         if (k[a] == kend[a]) {
@@ -664,10 +709,23 @@ VIS_INLINE void vis_traverse_bruteforce(const vis_ray *r, const vis_ray_setup *s
 {
     for (uint32_t l = 0; l < s->leaf_count; ++l) {
         const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[l];
-        for (uint32_t i = 0; i < leaf->quad_count; ++i)
-            vis_test_quad(r, &quads[leaf->quad_offset + i], objects, h);
+        if (leaf->quad_count) {
+            const VIS_GLOBAL uint32_t *bk = buckets + leaf->bucket_offset;
+            uint32_t E[3];
+            E[0] = leaf->dims_xy & 0xFFFFu;
+            E[1] = leaf->dims_xy >> 16;
+            E[2] = leaf->dims_z;
+            uint32_t b = 0;
+            for (uint32_t a = 0; a < 3u; ++a)
+                for (uint32_t k = 0; k <= E[a]; ++k, ++b)
+                    for (uint32_t i = bk[b]; i < bk[b + 1u]; ++i) {
+                        vis_flat_quad q = vis_unpack_quad(quads[leaf->quad_offset + i], a, (int)k, leaf, quads);
+                        vis_test_quad(r, q, objects, h);
+                    }
+        }
+        const VIS_GLOBAL vis_flat_quad *loose = vis_loose_quads(quads, leaf);
         for (uint32_t i = 0; i < leaf->loose_count; ++i)
-            vis_test_quad(r, &quads[leaf->loose_offset + i], objects, h);
+            vis_test_quad(r, loose[i], objects, h);
         for (uint32_t i = 0; i < leaf->tri_count; ++i)
             vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
     }

@@ -448,13 +448,23 @@ PK_INLINE void plane_bounds_units(const packet *p, int a, plane_bounds *pb)
 /* The quads of bucket [first, end) of axis a, culled by the tile's rectangle, then by the
  * units'. The bucket is sorted by u0 (scene.c): the scan stops at the first quad starting
  * past the tile's rectangle. */
-PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint32_t first, uint32_t end,
-                             const vis_flat_object *objects, uint32_t leaf_units, plane_bounds *pb)
+PK_INLINE void packet_bucket(packet *p, int a, float plane, const vis_flat_leaf *leaf, const uint32_t *packed,
+                             const uint32_t *table, uint32_t first, uint32_t end, const vis_flat_object *objects,
+                             uint32_t leaf_units, plane_bounds *pb)
 {
     int bounds = 0, hit = 0;
     uint32_t crossed = 0; /* units whose crossing of this plane is computed */
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    float lu = leaf->lo[u], lv = leaf->lo[v];
     for (uint32_t j = first; j < end; ++j) {
-        const vis_flat_quad *q = &quads[j];
+        uint32_t w = packed[j];
+        vis_flat_quad qd;
+        const vis_flat_quad *q = &qd;
+        qd.plane = plane;
+        qd.u0 = lu + (float)VIS_PQ_FIELD(w, 0u);
+        qd.v0 = lv + (float)VIS_PQ_FIELD(w, 1u);
+        qd.u1 = lu + (float)VIS_PQ_FIELD(w, 2u);
+        qd.v1 = lv + (float)VIS_PQ_FIELD(w, 3u);
         uint32_t units = leaf_units;
         if (pb->bounded) {
             if (q->u0 > pb->uhi)
@@ -477,10 +487,12 @@ PK_INLINE void packet_bucket(packet *p, int a, const vis_flat_quad *quads, uint3
         if (!units)
             continue;
         if (units & ~crossed) {
-            packet_cross_plane(p, a, q->plane, units & ~crossed);
+            packet_cross_plane(p, a, plane, units & ~crossed);
             crossed |= units;
         }
-        hit |= packet_test_quad(p, a, q, objects[VIS_META_OBJECT(q->meta)].id, units);
+        uint32_t obj = table[VIS_PQ_TABLE(w)];
+        qd.meta = obj << 8 | VIS_PQ_FLAGS(w) << 2 | (uint32_t)a;
+        hit |= packet_test_quad(p, a, q, objects[obj].id, units);
     }
     if (hit)
         packet_update_max_best(p);
@@ -501,10 +513,11 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     uint32_t leaf_units = packet_box_units(p, leaf->lo, leaf->hi);
     if (!leaf_units)
         return;
-    const vis_flat_quad *quads = view->quads;
+    const uint32_t *quads = view->quads;
     const vis_flat_object *objects = view->objects;
+    const vis_flat_quad *loose = vis_loose_quads(quads, leaf);
     for (uint32_t i = 0; i < leaf->loose_count; ++i)
-        packet_loose_quad(p, &quads[leaf->loose_offset + i], objects);
+        packet_loose_quad(p, &loose[i], objects);
     for (uint32_t i = 0; i < leaf->tri_count; ++i)
         packet_triangle(p, &view->tris[leaf->tri_offset + i], objects);
     if (leaf->quad_count == 0u)
@@ -512,7 +525,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     int E[3] = {(int)(leaf->dims_xy & 0xFFFFu), (int)(leaf->dims_xy >> 16), (int)leaf->dims_z};
     int base[3] = {0, E[0] + 1, E[0] + E[1] + 2};
     const uint32_t *bk = view->buckets + leaf->bucket_offset;
-    const vis_flat_quad *lq = quads + leaf->quad_offset;
+    const uint32_t *packed = quads + leaf->quad_offset, *table = quads + leaf->table_offset;
     /* Where the tile's rays can be inside the leaf's box (packet_traverse has found it open). */
     float t0 = p->t_near, t1 = p->t_far;
     for (int a = 0; a < 3; ++a)
@@ -527,7 +540,8 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             pb.bounded = 0;
             for (int k = 0; k <= E[a]; ++k) {
                 uint32_t b = (uint32_t)(base[a] + k);
-                packet_bucket(p, a, lq, bk[b], bk[b + 1u], objects, leaf_units, &pb);
+                packet_bucket(p, a, leaf->lo[a] + (float)k, leaf, packed, table, bk[b], bk[b + 1u], objects,
+                              leaf_units, &pb);
             }
             continue;
         }
@@ -546,7 +560,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             if (first == end)
                 continue;
             /* Each lane's t is c * inv, rounded: monotone in inv, so these bound it exactly. */
-            float c = lq[first].plane - p->o[a];
+            float plane = leaf->lo[a] + (float)k, c = plane - p->o[a];
             float ta = c * p->imin[a], tb = c * p->imax[a];
             float tlo = pk_min(ta, tb), thi = pk_max(ta, tb);
             if (thi < p->t_near)
@@ -560,7 +574,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             if (pb.uhi < leaf->lo[u] - p->slack || pb.ulo > leaf->hi[u] + p->slack ||
                 pb.vhi < leaf->lo[v] - p->slack || pb.vlo > leaf->hi[v] + p->slack)
                 continue;
-            packet_bucket(p, a, lq, first, end, objects, leaf_units, &pb);
+            packet_bucket(p, a, plane, leaf, packed, table, first, end, objects, leaf_units, &pb);
         }
     }
 }

@@ -153,17 +153,10 @@ static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *
         st = write_range(u, &sc->buckets, v->buckets, lf->bucket_offset, nb, "bucket table");
     if (st != VIS_OK)
         return st;
-    /* Bucketed quads then loose ones: one range when they are adjacent (they are, by layout). */
-    size_t q0 = lf->quad_offset, q1 = (size_t)lf->quad_offset + lf->quad_count;
-    size_t l0 = lf->loose_offset, l1 = (size_t)lf->loose_offset + lf->loose_count;
-    if (lf->quad_count && lf->loose_count && q1 == l0) {
-        st = write_range(u, &sc->quads, v->quads, q0, l1 - q0, "quads");
-    } else {
-        if (lf->quad_count)
-            st = write_range(u, &sc->quads, v->quads, q0, q1 - q0, "quads");
-        if (st == VIS_OK && lf->loose_count)
-            st = write_range(u, &sc->quads, v->quads, l0, l1 - l0, "quads");
-    }
+    /* The slot's object table, packed quads and loose quads lie one after the other. */
+    size_t q0 = lf->table_offset, q1 = (size_t)lf->loose_offset + (size_t)lf->loose_count * VIS_LOOSE_WORDS;
+    if (q1 > q0)
+        st = write_range(u, &sc->quads, v->quads, q0, q1 - q0, "quads");
     if (st == VIS_OK && lf->tri_count)
         st = write_range(u, &sc->tris, v->tris, lf->tri_offset, lf->tri_count, "triangles");
     return st;
@@ -259,7 +252,7 @@ int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_v
         sc->nodes.elem = sizeof(vis_kd_node);
         sc->leaves.elem = sizeof(vis_flat_leaf);
         sc->buckets.elem = sizeof(uint32_t);
-        sc->quads.elem = sizeof(vis_flat_quad);
+        sc->quads.elem = sizeof(uint32_t);
         sc->tris.elem = sizeof(vis_flat_tri);
         sc->objects.elem = sizeof(vis_flat_object);
         sc->object_leaves.elem = sizeof(uint32_t);

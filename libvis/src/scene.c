@@ -402,108 +402,307 @@ static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap
     return 1;
 }
 
-/* Insertion sort (stable): buckets hold a handful of quads, and a leaf rebuild must not
+/* The packed word of a quad in the leaf (trace_core.h, vis_packed_quad) and its bucket, when
+ * it can be packed: its plane on a bucket, its rectangle on whole offsets in [0, 31] from the
+ * leaf's corner that give its coordinates back exactly, small flags, and a table index that
+ * fits. Returns 0 for a quad that stays loose. */
+static int pack_quad(const vis_flat_leaf *lf, const vis_flat_quad *q, uint32_t local, uint32_t *bucket, uint32_t *word)
+{
+    uint32_t b = quad_bucket(lf, q);
+    if (b == UINT32_MAX || local > VIS_PQ_TABLE_MAX || VIS_META_FLAGS(q->meta) > VIS_PQ_FLAGS_MAX)
+        return 0;
+    uint32_t a = VIS_META_AXIS(q->meta), u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+    const float c[4] = {q->u0, q->v0, q->u1, q->v1}, base[4] = {lf->lo[u], lf->lo[v], lf->lo[u], lf->lo[v]};
+    uint32_t w = VIS_META_FLAGS(q->meta) << 20 | local << 22;
+    for (uint32_t i = 0; i < 4; ++i) {
+        float k = c[i] - base[i];
+        if (!(k >= 0.0f && k <= (float)VIS_PQ_COORD_MAX) || k != floorf(k) || base[i] + k != c[i])
+            return 0;
+        w |= (uint32_t)k << (5u * i);
+    }
+    *bucket = b;
+    *word = w;
+    return 1;
+}
+
+/* Insertion sort (stable) by u0: buckets hold a handful of quads, and a leaf rebuild must not
  * allocate. */
-static void sort_by_u0(vis_flat_quad *q, uint32_t n)
+static void sort_by_u0(uint32_t *w, uint32_t n)
 {
     for (uint32_t i = 1; i < n; ++i) {
-        vis_flat_quad x = q[i];
-        uint32_t j = i;
-        while (j > 0 && q[j - 1].u0 > x.u0) {
-            q[j] = q[j - 1];
+        uint32_t x = w[i], j = i;
+        while (j > 0 && VIS_PQ_FIELD(w[j - 1], 0u) > VIS_PQ_FIELD(x, 0u)) {
+            w[j] = w[j - 1];
             --j;
         }
-        q[j] = x;
+        w[j] = x;
     }
 }
 
-static vis_status rebuild_leaf(vis_scene *s, uint32_t li)
+/* Position of `slot` in the leaf's ascending object list (where it is or would go). */
+static uint32_t list_position(const vis_leaf_host *lh, uint32_t slot)
+{
+    uint32_t lo = 0, hi = lh->object_count;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (lh->objects[mid] < slot)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* An object in a single leaf keeps no copy of its quads: its leaf holds them all (packed or
+ * loose) and gives them back (gather_leaf, vis_scene_object_quads). Objects over several
+ * leaves keep theirs, since each leaf holds only the quads that overlap it. */
+static int object_resident(const vis_scene *s, uint32_t slot) { return s->objects[slot].leaf_count == 1; }
+
+typedef void (*quad_visitor)(void *user, const vis_flat_quad *q);
+
+/* Visits every quad the leaf stores (packed ones unpacked; meta with the object slot). */
+static void visit_stored(const vis_scene *s, uint32_t li, quad_visitor visit, void *user)
+{
+    const vis_flat_leaf *lf = &s->leaves[li];
+    if (lf->quad_count) {
+        const uint32_t *bk = &s->buckets[lf->bucket_offset];
+        uint32_t E[3], b = 0;
+        leaf_dims(lf, E);
+        for (uint32_t a = 0; a < 3; ++a)
+            for (uint32_t k = 0; k <= E[a]; ++k, ++b)
+                for (uint32_t i = bk[b]; i < bk[b + 1]; ++i) {
+                    vis_flat_quad q = vis_unpack_quad(s->quads[lf->quad_offset + i], a, (int)k, lf, s->quads);
+                    visit(user, &q);
+                }
+    }
+    if (lf->loose_count) {
+        const vis_flat_quad *loose = vis_loose_quads(s->quads, lf);
+        for (uint32_t i = 0; i < lf->loose_count; ++i)
+            visit(user, &loose[i]);
+    }
+}
+
+static int in_list(const vis_leaf_host *lh, uint32_t slot)
+{
+    uint32_t p = list_position(lh, slot);
+    return p < lh->object_count && lh->objects[p] == slot;
+}
+
+/* gather_leaf's filter of a leaf's stored quads: those of its resident objects other than the
+ * one being set. */
+typedef struct kept_quads {
+    const vis_scene *s;
+    const vis_leaf_host *lh;
+    uint32_t slot;
+    quad_visitor visit;
+    void *user;
+    uint32_t count;
+} kept_quads;
+
+static void visit_kept(void *user, const vis_flat_quad *q)
+{
+    kept_quads *k = user;
+    uint32_t o = VIS_META_OBJECT(q->meta);
+    if (o == k->slot || !object_resident(k->s, o) || !in_list(k->lh, o))
+        return;
+    k->visit(k->user, q);
+    ++k->count;
+}
+
+/* Visits the quads a rebuild of leaf li puts in it, as flat quads (meta with the object slot):
+ * the quads of its resident objects from its slot as it is now, the others' from their
+ * copies, and `mesh` for the object in `slot` (VIS_NO_OBJECT: none) when `mesh_in` (over n
+ * leaves; its old quads are left out). Objects no longer in the leaf's list are left out.
+ * Returns the count. */
+static uint32_t gather_leaf(const vis_scene *s, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
+                            int mesh_in, quad_visitor visit, void *user)
+{
+    const vis_flat_leaf *lf = &s->leaves[li];
+    const vis_leaf_host *lh = &s->leaf_host[li];
+    kept_quads k = {s, lh, slot, visit, user, 0};
+    visit_stored(s, li, visit_kept, &k);
+    uint32_t count = k.count;
+    for (uint32_t i = 0; i < lh->object_count; ++i) {
+        uint32_t o = lh->objects[i];
+        if (o == slot || object_resident(s, o))
+            continue;
+        const vis_object_host *oh = &s->object_host[o];
+        for (uint32_t q = 0; q < oh->quad_count; ++q)
+            if (quad_overlaps_leaf(lf, &oh->quads[q])) {
+                visit(user, &oh->quads[q]);
+                ++count;
+            }
+    }
+    if (mesh_in)
+        for (uint32_t q = 0; q < mesh->quad_count; ++q) {
+            const vis_quad *mq = &mesh->quads[q];
+            if (!(n == 1 || quad_in_leaf(lf, mq->axis, mq->plane, mq->u0, mq->v0, mq->u1, mq->v1)))
+                continue;
+            vis_flat_quad fq = {mq->plane, mq->u0, mq->v0, mq->u1, mq->v1, slot << 8 | mq->flags << 2 | mq->axis};
+            visit(user, &fq);
+            ++count;
+        }
+    return count;
+}
+
+/* vis_scene_visit_object_quads's filter: one object's quads. */
+typedef struct object_quads {
+    uint32_t slot;
+    quad_visitor visit;
+    void *user;
+} object_quads;
+
+static void visit_object(void *user, const vis_flat_quad *q)
+{
+    object_quads *o = user;
+    if (VIS_META_OBJECT(q->meta) == o->slot)
+        o->visit(o->user, q);
+}
+
+void vis_scene_visit_object_quads(const vis_scene *s, uint32_t slot, quad_visitor visit, void *user)
+{
+    const vis_object_host *oh = &s->object_host[slot];
+    if (!object_resident(s, slot)) {
+        for (uint32_t q = 0; q < oh->quad_count; ++q)
+            visit(user, &oh->quads[q]);
+        return;
+    }
+    object_quads o = {slot, visit, user};
+    visit_stored(s, s->object_leaves[s->objects[slot].leaf_offset], visit_object, &o);
+}
+
+static void visit_nothing(void *user, const vis_flat_quad *q)
+{
+    (void)user;
+    (void)q;
+}
+
+typedef struct gather_array {
+    vis_flat_quad *q;
+    uint32_t n;
+} gather_array;
+
+static void visit_append(void *user, const vis_flat_quad *q)
+{
+    gather_array *g = user;
+    g->q[g->n++] = *q;
+}
+
+/* gather_leaf into a fresh array (freed by the caller with vis_free; NULL when empty). */
+static vis_status gather_leaf_alloc(const vis_scene *s, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
+                                    int mesh_in, vis_flat_quad **out, uint32_t *count)
+{
+    *count = gather_leaf(s, li, slot, mesh, n, mesh_in, visit_nothing, NULL);
+    *out = NULL;
+    if (*count == 0)
+        return VIS_OK;
+    gather_array g = {vis_alloc(s->ctx, (size_t)*count * sizeof *g.q), 0};
+    if (!g.q)
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory gathering a leaf's quads");
+    gather_leaf(s, li, slot, mesh, n, mesh_in, visit_append, &g);
+    *out = g.q;
+    return VIS_OK;
+}
+
+/* The edit in progress (set by set_object_located around its rebuilds): the object whose
+ * quads come from `mesh` rather than from its old copy or leaf. */
+typedef struct pending_edit {
+    uint32_t slot;
+    const vis_mesh *mesh;
+} pending_edit;
+
+/* Refills the leaf's slot: [object table | packed quads by bucket, each bucket by u0 | loose
+ * quads] (trace_core.h, vis_flat_leaf), and its triangles. */
+static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe)
 {
     vis_flat_leaf *lf = &s->leaves[li];
     vis_leaf_host *lh = &s->leaf_host[li];
-    /* Count what the leaf will hold. */
-    uint32_t nq = 0, nt = 0;
+    uint32_t slot = pe ? pe->slot : VIS_NO_OBJECT;
+    int mesh_in = pe && in_list(lh, slot);
+    vis_flat_quad *g = NULL;
+    uint32_t ng = 0;
+    vis_status st = gather_leaf_alloc(s, li, slot, pe ? pe->mesh : NULL, pe ? s->objects[slot].leaf_count : 0, mesh_in,
+                                      &g, &ng);
+    if (st != VIS_OK)
+        return st;
+    int can_pack = leaf_has_buckets(lf);
+    uint32_t packed = 0, nt = 0, b, w;
+    for (uint32_t i = 0; i < ng; ++i)
+        packed += can_pack && pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &b, &w);
     for (uint32_t i = 0; i < lh->object_count; ++i) {
         const vis_object_host *oh = &s->object_host[lh->objects[i]];
         int single = s->objects[lh->objects[i]].leaf_count == 1;
-        for (uint32_t q = 0; q < oh->quad_count; ++q)
-            nq += single || quad_overlaps_leaf(lf, &oh->quads[q]);
         for (uint32_t t = 0; t < oh->tri_count; ++t)
             nt += single || tri_overlaps_leaf(lf, &oh->tris[t]);
     }
+    uint32_t table = 0;
+    if (packed)
+        table = lh->object_count < VIS_PQ_TABLE_MAX + 1u ? lh->object_count : VIS_PQ_TABLE_MAX + 1u;
+    uint64_t words = (uint64_t)table + packed + (uint64_t)(ng - packed) * VIS_LOOSE_WORDS;
     uint32_t qoff = lh->quad_slot;
     int moved_q = 0, moved_t = 0;
-    if (!reserve_slot(s, (void **)&s->quads, &s->quad_used, &s->quad_cap, sizeof *s->quads, &qoff, &lh->quad_cap, nq,
-                      &moved_q) ||
-        !reserve_slot(s, (void **)&s->tris, &s->tri_used, &s->tri_cap, sizeof *s->tris, &lf->tri_offset, &lh->tri_cap,
-                      nt, &moved_t))
-        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory growing the primitive pools");
+    if (words > 0xFFFFFF00u)
+        st = vis_fail(s->ctx, VIS_ERROR_CAPACITY, "leaf %u would hold %llu quad words, more than the pool can address",
+                      li, (unsigned long long)words);
+    else if (!reserve_slot(s, (void **)&s->quads, &s->quad_used, &s->quad_cap, sizeof *s->quads, &qoff,
+                           &lh->quad_cap, (uint32_t)words, &moved_q) ||
+             !reserve_slot(s, (void **)&s->tris, &s->tri_used, &s->tri_cap, sizeof *s->tris, &lf->tri_offset,
+                           &lh->tri_cap, nt, &moved_t))
+        st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory growing the primitive pools");
+    /* Bucket table: allocated the first time the leaf holds packed quads; its size is fixed
+     * by the leaf's extent, so it never moves afterwards. */
+    uint32_t nb = can_pack ? bucket_table_size(lf) : 0;
+    if (st == VIS_OK && nb && lf->bucket_offset == VIS_KD_NO_BUCKETS && packed) {
+        if (!grow(s->ctx, (void **)&s->buckets, &s->bucket_cap, s->bucket_count + nb, sizeof *s->buckets))
+            st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for bucket tables");
+        else {
+            lf->bucket_offset = s->bucket_count;
+            memset(&s->buckets[lf->bucket_offset], 0, nb * sizeof *s->buckets);
+            s->bucket_count += nb;
+        }
+    }
+    if (st != VIS_OK) {
+        vis_free(s->ctx, g);
+        return st;
+    }
     lh->quad_slot = qoff;
     s->relocations += (uint64_t)moved_q + (uint64_t)moved_t;
 
-    /* Bucket table: allocated the first time the leaf holds bucketed quads; its size is fixed
-     * by the leaf's extent, so it never moves afterwards. */
-    uint32_t nb = leaf_has_buckets(lf) ? bucket_table_size(lf) : 0;
-    if (nb && lf->bucket_offset == VIS_KD_NO_BUCKETS && nq) {
-        if (!grow(s->ctx, (void **)&s->buckets, &s->bucket_cap, s->bucket_count + nb, sizeof *s->buckets))
-            return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for bucket tables");
-        lf->bucket_offset = s->bucket_count;
+    /* Counting sort by bucket: counts into the table, then prefix offsets; the scatter
+     * advances the entries, which are shifted back afterwards. */
+    uint32_t *bk = packed ? &s->buckets[lf->bucket_offset] : NULL;
+    uint32_t *tab = &s->quads[qoff], *dst = tab + table;
+    vis_flat_quad *dst_loose = (vis_flat_quad *)(dst + packed);
+    for (uint32_t i = 0; i < table; ++i)
+        tab[i] = lh->objects[i];
+    if (nb && lf->bucket_offset != VIS_KD_NO_BUCKETS)
         memset(&s->buckets[lf->bucket_offset], 0, nb * sizeof *s->buckets);
-        s->bucket_count += nb;
-    }
-    int use_buckets = nb && lf->bucket_offset != VIS_KD_NO_BUCKETS;
-
-    /* Counting sort by bucket: counts into the table, then prefix offsets. */
-    uint32_t *bk = use_buckets ? &s->buckets[lf->bucket_offset] : NULL;
-    if (bk)
-        memset(bk, 0, nb * sizeof *bk);
-    uint32_t bucketed = 0;
-    for (uint32_t i = 0; i < lh->object_count; ++i) {
-        const vis_object_host *oh = &s->object_host[lh->objects[i]];
-        int single = s->objects[lh->objects[i]].leaf_count == 1;
-        for (uint32_t q = 0; q < oh->quad_count; ++q) {
-            if (!single && !quad_overlaps_leaf(lf, &oh->quads[q]))
-                continue;
-            uint32_t b = use_buckets ? quad_bucket(lf, &oh->quads[q]) : UINT32_MAX;
-            if (b != UINT32_MAX) {
-                ++bk[b + 1];
-                ++bucketed;
-            }
-        }
-    }
-    if (bk)
-        for (uint32_t b = 1; b < nb; ++b)
-            bk[b] += bk[b - 1];
-    /* Scatter: bucketed quads at [qoff, qoff + bucketed), loose ones after them. The table's
-     * entries are advanced while scattering and shifted back afterwards. */
-    vis_flat_quad *dst = &s->quads[qoff];
-    uint32_t loose = 0;
-    for (uint32_t i = 0; i < lh->object_count; ++i) {
-        const vis_object_host *oh = &s->object_host[lh->objects[i]];
-        int single = s->objects[lh->objects[i]].leaf_count == 1;
-        for (uint32_t q = 0; q < oh->quad_count; ++q) {
-            if (!single && !quad_overlaps_leaf(lf, &oh->quads[q]))
-                continue;
-            uint32_t b = use_buckets ? quad_bucket(lf, &oh->quads[q]) : UINT32_MAX;
-            if (b != UINT32_MAX)
-                dst[bk[b]++] = oh->quads[q];
-            else
-                dst[bucketed + loose++] = oh->quads[q];
-        }
-    }
+    uint32_t nl = 0;
+    for (uint32_t i = 0; i < ng; ++i)
+        if (bk && pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &b, &w))
+            ++bk[b + 1];
+        else
+            dst_loose[nl++] = g[i];
     if (bk) {
-        for (uint32_t b = nb - 1; b > 0; --b)
-            bk[b] = bk[b - 1];
+        for (uint32_t k = 1; k < nb; ++k)
+            bk[k] += bk[k - 1];
+        for (uint32_t i = 0; i < ng; ++i)
+            if (pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &b, &w))
+                dst[bk[b]++] = w;
+        for (uint32_t k = nb - 1; k > 0; --k)
+            bk[k] = bk[k - 1];
         bk[0] = 0;
         /* Within a bucket, ascending u0 lets the traversal stop at the first quad that starts
-         * beyond the crossing point (trace_core.h). Stable, so equal u0 keep object order. */
-        for (uint32_t b = 0; b + 1 < nb; ++b)
-            sort_by_u0(dst + bk[b], bk[b + 1] - bk[b]);
+         * beyond the crossing point (trace_core.h). Stable, so equal u0 keep their order. */
+        for (uint32_t k = 0; k + 1 < nb; ++k)
+            sort_by_u0(dst + bk[k], bk[k + 1] - bk[k]);
     }
-    lf->quad_offset = qoff;
-    lf->quad_count = bucketed;
-    lf->loose_offset = qoff + bucketed;
-    lf->loose_count = loose;
+    vis_free(s->ctx, g);
+    lf->table_offset = qoff;
+    lf->quad_offset = qoff + table;
+    lf->quad_count = packed;
+    lf->loose_offset = qoff + table + packed;
+    lf->loose_count = nl;
 
     uint32_t t_out = 0;
     for (uint32_t i = 0; i < lh->object_count; ++i) {
@@ -632,6 +831,44 @@ static vis_status check_growth(vis_scene *s, uint64_t add, const char *what, uin
                     (unsigned long long)s->desc.max_bytes);
 }
 
+/* What leaf_words_after counts: packed and loose quads as rebuild_leaf will classify them. */
+typedef struct word_count {
+    const vis_scene *s;
+    const vis_flat_leaf *lf;
+    const vis_leaf_host *lh;
+    uint32_t slot;  /* the object being set                                                */
+    int in;         /* already in the leaf's list                                          */
+    int can_pack;
+    uint64_t packed, loose;
+} word_count;
+
+static void visit_count(void *user, const vis_flat_quad *q)
+{
+    word_count *c = user;
+    uint32_t o = VIS_META_OBJECT(q->meta), b, w;
+    /* The table index once `slot` is in the list. */
+    uint32_t local = list_position(c->lh, o) + (!c->in && c->slot < o);
+    if (c->can_pack && pack_quad(c->lf, q, local, &b, &w))
+        ++c->packed;
+    else
+        ++c->loose;
+}
+
+/* The quad words rebuild_leaf will give leaf li once the object in `slot` holds `mesh` (and
+ * lies in n leaves), counted as rebuild_leaf counts them; *packed gets the packed quads. */
+static uint64_t leaf_words_after(const vis_scene *s, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
+                                 uint32_t *packed)
+{
+    const vis_leaf_host *lh = &s->leaf_host[li];
+    word_count c = {s, &s->leaves[li], lh, slot, contains(lh->objects, lh->object_count, slot),
+                    leaf_has_buckets(&s->leaves[li]), 0, 0};
+    gather_leaf(s, li, slot, mesh, n, 1, visit_count, &c);
+    uint32_t objects = lh->object_count + !c.in;
+    uint64_t table = c.packed ? (objects < VIS_PQ_TABLE_MAX + 1u ? objects : VIS_PQ_TABLE_MAX + 1u) : 0;
+    *packed = (uint32_t)c.packed;
+    return table + c.packed + c.loose * VIS_LOOSE_WORDS;
+}
+
 /* The bytes vis_scene_set_object(id, mesh) will add, walking its allocations step by step
  * without making them: the slot and ID map of a new object, the object's copy of the mesh,
  * the object lists of the leaves it joins, its leaf list, the leaves' new slots in the
@@ -645,9 +882,10 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
     uint32_t quad_cap = 0, tri_cap = 0;
     int dirty = 0;
     const vis_object_host *oh = NULL;
-    uint32_t old_count = 0;
+    uint32_t old_count = 0, slot_after = slot;
     const uint32_t *old = NULL;
     if (slot == VIS_NO_OBJECT) {
+        slot_after = s->free_count ? s->free_slots[s->free_count - 1] : s->object_slots;
         add = vis_sat_add(add, growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t)));
         if (s->free_count) { /* alloc_slot reuses the last free slot, capacities and all */
             uint32_t reuse = s->free_slots[s->free_count - 1];
@@ -669,7 +907,8 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         old_count = s->objects[slot].leaf_count;
         old = old_count ? &s->object_leaves[s->objects[slot].leaf_offset] : NULL;
     }
-    add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
+    if (n != 1) /* a resident object keeps no copy of its quads (object_resident) */
+        add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
     add = vis_sat_add(add, growth(tri_cap, mesh->triangle_count, sizeof(vis_flat_tri)));
     if ((n > old_count || old_count == 0) && n)
         add = vis_sat_add(add, growth(s->object_leaf_cap, (uint64_t)s->object_leaf_used + n, sizeof(uint32_t)));
@@ -682,17 +921,11 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         int was_in = old && contains(old, old_count, li);
         if (!was_in)
             add = vis_sat_add(add, growth(lh->object_cap, (uint64_t)lh->object_count + 1, sizeof(uint32_t)));
-        uint64_t nq = (uint64_t)lf->quad_count + lf->loose_count, nt = lf->tri_count;
-        if (was_in) {
-            for (uint32_t q = 0; q < oh->quad_count; ++q)
-                nq -= old_count == 1 || quad_overlaps_leaf(lf, &oh->quads[q]);
+        uint32_t packed = 0;
+        uint64_t nq = leaf_words_after(s, li, slot_after, mesh, n, &packed), nt = lf->tri_count;
+        if (was_in)
             for (uint32_t t = 0; t < oh->tri_count; ++t)
                 nt -= old_count == 1 || tri_overlaps_leaf(lf, &oh->tris[t]);
-        }
-        for (uint32_t q = 0; q < mesh->quad_count; ++q) {
-            const vis_quad *mq = &mesh->quads[q];
-            nq += n == 1 || quad_in_leaf(lf, mq->axis, mq->plane, mq->u0, mq->v0, mq->u1, mq->v1);
-        }
         for (uint32_t t = 0; t < mesh->triangle_count; ++t) {
             const vis_triangle *mt = &mesh->triangles[t];
             nt += n == 1 || tri_in_leaf(lf, mt->v[0], mt->v[1], mt->v[2]);
@@ -702,12 +935,12 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
             q_used += nq + (uint64_t)((double)nq * s->desc.leaf_slack) + 4u;
         if (nt > lh->tri_cap)
             t_used += nt + (uint64_t)((double)nt * s->desc.leaf_slack) + 4u;
-        if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && nq)
+        if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && packed)
             b_used += bucket_table_size(lf);
     }
     if (q_used > 0xFFFFFF00u || t_used > 0xFFFFFF00u)
         return UINT64_MAX;
-    add = vis_sat_add(add, growth(s->quad_cap, q_used, sizeof(vis_flat_quad)));
+    add = vis_sat_add(add, growth(s->quad_cap, q_used, sizeof *s->quads));
     add = vis_sat_add(add, growth(s->tri_cap, t_used, sizeof(vis_flat_tri)));
     add = vis_sat_add(add, growth(s->bucket_cap, b_used, sizeof(uint32_t)));
     if (!dirty)
@@ -717,7 +950,8 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
 
 /* Moves an object to a new leaf set: the leaves it leaves and the leaves it joins (and, when
  * its primitives changed, the leaves it stays in) are rebuilt. */
-static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves, uint32_t new_count, int content_changed)
+static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves, uint32_t new_count,
+                         const pending_edit *pe)
 {
     vis_flat_object *ob = &s->objects[slot];
     uint32_t old_count = ob->leaf_count;
@@ -751,10 +985,9 @@ static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves
         mark_object_leaves(s, ob->leaf_offset, ob->leaf_offset + new_count);
         for (uint32_t i = 0; i < old_count && st == VIS_OK; ++i)
             if (!contains(new_leaves, new_count, old[i]))
-                st = rebuild_leaf(s, old[i]);
+                st = rebuild_leaf(s, old[i], pe);
         for (uint32_t i = 0; i < new_count && st == VIS_OK; ++i)
-            if (content_changed || !contains(old, old_count, new_leaves[i]))
-                st = rebuild_leaf(s, new_leaves[i]);
+            st = rebuild_leaf(s, new_leaves[i], pe);
     }
     if (old != old_buf)
         vis_free(s->ctx, old);
@@ -784,7 +1017,9 @@ static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, c
     }
     vis_object_host *oh = &s->object_host[slot];
     uint64_t prim_bytes = (uint64_t)oh->quad_cap * sizeof *oh->quads + (uint64_t)oh->tri_cap * sizeof *oh->tris;
-    int copied = grow(s->ctx, (void **)&oh->quads, &oh->quad_cap, mesh->quad_count, sizeof *oh->quads) &&
+    /* The quads are copied only for an object over several leaves (object_resident); the
+     * rebuilds take them from the mesh (pending_edit). */
+    int copied = (n == 1 || grow(s->ctx, (void **)&oh->quads, &oh->quad_cap, mesh->quad_count, sizeof *oh->quads)) &&
                  grow(s->ctx, (void **)&oh->tris, &oh->tri_cap, mesh->triangle_count, sizeof *oh->tris);
     s->object_prim_bytes += (uint64_t)oh->quad_cap * sizeof *oh->quads + (uint64_t)oh->tri_cap * sizeof *oh->tris -
                             prim_bytes;
@@ -792,7 +1027,7 @@ static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, c
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory copying a mesh");
     s->quad_total -= oh->quad_count;
     s->tri_total -= oh->tri_count;
-    for (uint32_t i = 0; i < mesh->quad_count; ++i) {
+    for (uint32_t i = 0; n != 1 && i < mesh->quad_count; ++i) {
         const vis_quad *q = &mesh->quads[i];
         vis_flat_quad *fq = &oh->quads[i];
         fq->plane = q->plane;
@@ -819,7 +1054,8 @@ static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, c
     memcpy(oh->box_hi, hi, sizeof oh->box_hi);
     s->quad_total += oh->quad_count;
     s->tri_total += oh->tri_count;
-    st = relink(s, slot, leaves, n, 1);
+    pending_edit pe = {slot, mesh};
+    st = relink(s, slot, leaves, n, &pe);
     if (st != VIS_OK)
         return st;
     if (!mark_object(s, slot))
@@ -902,7 +1138,7 @@ vis_status vis_scene_apply_remove(vis_scene *s, uint32_t id)
     s->tri_total -= oh->tri_count;
     oh->quad_count = 0;
     oh->tri_count = 0;
-    st = relink(s, slot, NULL, 0, 1);
+    st = relink(s, slot, NULL, 0, NULL);
     if (st != VIS_OK)
         return st;
     map_remove(s, id);

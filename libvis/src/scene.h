@@ -33,8 +33,8 @@ typedef struct vis_object_host {
 
 /* Per-leaf host bookkeeping (not sent to devices). */
 typedef struct vis_leaf_host {
-    uint32_t quad_slot;       /* slot start in the quad pool                                 */
-    uint32_t quad_cap;        /* slot capacity in the quad pool (bucketed + loose)          */
+    uint32_t quad_slot;       /* slot start in the quad pool (words)                         */
+    uint32_t quad_cap;        /* slot capacity in the quad pool, in words                    */
     uint32_t tri_cap;         /* slot capacity in the triangle pool                          */
     uint32_t *objects;        /* object slots referenced by the leaf, ascending              */
     uint32_t object_count, object_cap;
@@ -57,7 +57,7 @@ struct vis_scene {
     uint32_t *buckets;        /* per-leaf bucket tables, allocated on first use              */
     uint32_t bucket_count, bucket_cap;
 
-    vis_flat_quad *quads;     /* pool of leaf slots                                          */
+    uint32_t *quads;          /* pool of leaf slots, in words (trace_core.h, vis_flat_leaf) */
     uint32_t quad_used, quad_cap;
     vis_flat_tri *tris;
     uint32_t tri_used, tri_cap;
@@ -103,6 +103,11 @@ struct vis_scene {
 };
 
 vis_scene_view vis_scene_get_view(const vis_scene *scene);
+
+/* Calls visit for every quad of the object in `slot`, meta holding the slot: from its copy,
+ * or from its leaf where it lies in one leaf (which then holds its only copy, scene.c). */
+void vis_scene_visit_object_quads(const vis_scene *scene, uint32_t slot,
+                                  void (*visit)(void *user, const vis_flat_quad *q), void *user);
 
 /* Saturating arithmetic for sizes that may not fit (plans of trees too big to build). */
 static inline uint64_t vis_sat_add(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }

@@ -232,6 +232,18 @@ static vis_status zc_resolve_desc(vis_context *ctx, const vis_zcull_desc *in, vi
                         (int)d->simd);
     return VIS_OK;
 }
+/* vis_scene_visit_object_quads's callback: one occluder quad into the buffer. */
+typedef struct zc_quad_draw {
+    vis_zc_target *t;
+    const vis_zc_view *v;
+} zc_quad_draw;
+
+static void zc_draw_visited_quad(void *user, const vis_flat_quad *q)
+{
+    const zc_quad_draw *d = user;
+    vis_zc_draw_quad(d->t, d->v, q);
+}
+
 
 static vis_status zcull_run(vis_zcull *zc, const vis_scene *scene, const vis_camera *camera,
                             const vis_zcull_desc *desc, vis_draw_entry *out, size_t capacity, size_t *out_count,
@@ -321,8 +333,8 @@ static vis_status zcull_run(vis_zcull *zc, const vis_scene *scene, const vis_cam
             s.occluders_hidden++;
             continue;
         }
-        for (uint32_t q = 0; q < o->quad_count; q++)
-            vis_zc_draw_quad(t, &v, &o->quads[q]);
+        zc_quad_draw qd = {t, &v};
+        vis_scene_visit_object_quads(scene, i, zc_draw_visited_quad, &qd);
         for (uint32_t q = 0; q < o->tri_count; q++)
             vis_zc_draw_tri(t, &v, &o->tris[q]);
         used += tris;

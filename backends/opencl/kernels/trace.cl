@@ -23,7 +23,7 @@ typedef char vis_cl_check_rope[sizeof(vis_rope_node) == VIS_CL_ROPE_SIZE ? 1 : -
  * a mismatch fails the build. */
 #define VIS_CL_SCENE_PARAMS                                                                  \
     const __global vis_kd_node *restrict nodes, const __global vis_flat_leaf *restrict leaves, \
-        const __global uint *restrict buckets, const __global vis_flat_quad *restrict quads,  \
+        const __global uint *restrict buckets, const __global uint *restrict quads,            \
         const __global vis_flat_tri *restrict tris, const __global vis_flat_object *restrict objects, \
         const __global uint *restrict object_leaves, const __global vis_rope_node *restrict ropes, \
         const __global uint *restrict rope_index
