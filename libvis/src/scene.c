@@ -2,8 +2,10 @@
  *
  * The tree never changes after vis_scene_create (kdtree.c). An edit replaces one object's
  * primitives and rewrites only the leaves that reference it: each leaf owns a slot in the
- * primitive pools with spare capacity (desc.leaf_slack); a leaf that outgrows its slot moves
- * to a new slot at the end of the pool (vis_scene_stats.relocations) — the tree is untouched.
+ * primitive pools with spare capacity (desc.leaf_slack, rounded up to a size class); a leaf
+ * that outgrows its slot moves to a free slot of the new size, or to the end of the pool
+ * (vis_scene_stats.relocations), and its old slot is free for the next leaf of that size
+ * (slot_free.h) — the tree is untouched.
  * Within a slot, quads on integer planes are sorted into (axis, plane) buckets so the
  * traversal can visit planes in ray order (trace_core.h). An edit's growth in bytes is
  * computed before anything changes (set_object_growth) and held to desc.max_bytes, so a
@@ -19,16 +21,19 @@
 /* ---- small dynamic arrays ----------------------------------------------------------- */
 
 /* The capacity grow() gives an array of capacity cap that must hold need: cap when it
- * suffices, else the first of cap, cap * 3/2 + 16, ... (from 16 when cap is 0) that does;
- * 0 when need is beyond 32-bit counts. Growing one array several times ends where growing it
- * once to the largest need ends: every growth steps along the same sequence. */
+ * suffices, else the first of cap, cap * 3/2 + 16, ... (from 16 when cap is 0) that does,
+ * growing by 1/8 instead once past 2^20 entries (the primitive pools of large scenes: spare
+ * capacity is memory the scene holds, and one more copy of a large array every 1/8 is still
+ * linear time in all); 0 when need is beyond 32-bit counts. Growing one array several times
+ * ends where growing it once to the largest need ends: every growth steps along the same
+ * sequence. */
 static uint64_t grown_cap(uint32_t cap, uint64_t need)
 {
     if (need <= cap)
         return cap;
     uint64_t n = cap ? cap : 16;
     while (n < need)
-        n = n * 3 / 2 + 16;
+        n = n < ((uint64_t)1 << 20) ? n * 3 / 2 + 16 : n + n / 8;
     if (n > 0xFFFFFFF0u)
         n = 0xFFFFFFF0u;
     return n < need ? 0 : n;
@@ -382,23 +387,37 @@ static int tri_overlaps_leaf(const vis_flat_leaf *lf, const vis_flat_tri *t)
     return tri_in_leaf(lf, t->v0, t->v1, t->v2);
 }
 
-/* Reserves `need` entries for a leaf slot in a pool, moving the slot to the end when it is
- * too small. Returns 0 on allocation failure. */
-static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap, size_t elem, uint32_t *slot_offset,
-                        uint32_t *slot_cap, uint32_t need, int *moved)
+/* The class of the slot a leaf that must hold `need` entries gets: need plus the slack, and
+ * 4 more, rounded up to a size class. */
+static uint32_t slot_class_for(const vis_scene *s, uint64_t need)
+{
+    return vis_slot_class(need + (uint64_t)((double)need * s->desc.leaf_slack) + 4u);
+}
+
+/* Reserves `need` entries for a leaf slot in a pool: in place when it fits, else a free slot
+ * of its class or a new one at the end of the pool; the old slot goes to its class's free
+ * list. Returns 0 on allocation failure (nothing changed). */
+static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap, size_t elem, vis_slot_free *fl,
+                        uint32_t *slot_offset, uint32_t *slot_cap, uint32_t need, int *moved)
 {
     *moved = 0;
     if (need <= *slot_cap)
         return 1;
-    uint64_t want = (uint64_t)need + (uint64_t)((double)need * s->desc.leaf_slack) + 4u;
-    if (*used + want > 0xFFFFFF00u)
-        return 0;
-    if (!grow(s->ctx, pool, cap, (uint32_t)(*used + want), elem))
-        return 0;
-    *moved = *slot_cap != 0;
-    *slot_offset = *used;
+    uint32_t c = slot_class_for(s, need);
+    uint64_t want = vis_slot_class_size(c);
+    uint32_t off = vis_slot_take(fl, *pool, elem, c);
+    if (off == UINT32_MAX) {
+        if (*used + want > 0xFFFFFF00u || !grow(s->ctx, pool, cap, (uint32_t)(*used + want), elem))
+            return 0;
+        off = *used;
+        *used += (uint32_t)want;
+    }
+    if (*slot_cap) {
+        vis_slot_give(fl, *pool, elem, *slot_offset, vis_slot_class(*slot_cap));
+        *moved = 1;
+    }
+    *slot_offset = off;
     *slot_cap = (uint32_t)want;
-    *used += (uint32_t)want;
     return 1;
 }
 
@@ -644,10 +663,10 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
     if (words > 0xFFFFFF00u)
         st = vis_fail(s->ctx, VIS_ERROR_CAPACITY, "leaf %u would hold %llu quad words, more than the pool can address",
                       li, (unsigned long long)words);
-    else if (!reserve_slot(s, (void **)&s->quads, &s->quad_used, &s->quad_cap, sizeof *s->quads, &qoff,
-                           &lh->quad_cap, (uint32_t)words, &moved_q) ||
-             !reserve_slot(s, (void **)&s->tris, &s->tri_used, &s->tri_cap, sizeof *s->tris, &lf->tri_offset,
-                           &lh->tri_cap, nt, &moved_t))
+    else if (!reserve_slot(s, (void **)&s->quads, &s->quad_used, &s->quad_cap, sizeof *s->quads, &s->quad_free,
+                           &qoff, &lh->quad_cap, (uint32_t)words, &moved_q) ||
+             !reserve_slot(s, (void **)&s->tris, &s->tri_used, &s->tri_cap, sizeof *s->tris, &s->tri_free,
+                           &lf->tri_offset, &lh->tri_cap, nt, &moved_t))
         st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory growing the primitive pools");
     /* Bucket table: allocated the first time the leaf holds packed quads; its size is fixed
      * by the leaf's extent, so it never moves afterwards. */
@@ -914,6 +933,8 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         add = vis_sat_add(add, growth(s->object_leaf_cap, (uint64_t)s->object_leaf_used + n, sizeof(uint32_t)));
     /* Leaves the object leaves only shrink; every leaf of the new set is rebuilt. */
     uint64_t q_used = s->quad_used, t_used = s->tri_used, b_used = s->bucket_count;
+    uint32_t q_taken[VIS_SLOT_CLASSES] = {0}, q_freed[VIS_SLOT_CLASSES] = {0};
+    uint32_t t_taken[VIS_SLOT_CLASSES] = {0}, t_freed[VIS_SLOT_CLASSES] = {0};
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t li = leaves[i];
         const vis_flat_leaf *lf = &s->leaves[li];
@@ -930,11 +951,26 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
             const vis_triangle *mt = &mesh->triangles[t];
             nt += n == 1 || tri_in_leaf(lf, mt->v[0], mt->v[1], mt->v[2]);
         }
-        /* reserve_slot's rule */
-        if (nq > lh->quad_cap)
-            q_used += nq + (uint64_t)((double)nq * s->desc.leaf_slack) + 4u;
-        if (nt > lh->tri_cap)
-            t_used += nt + (uint64_t)((double)nt * s->desc.leaf_slack) + 4u;
+        /* reserve_slot's rule, in the order rebuild_leaf follows: a free slot of the class if
+         * one is left, else the end of the pool; then the old slot is free. */
+        if (nq > lh->quad_cap) {
+            uint32_t c = slot_class_for(s, nq);
+            if (s->quad_free.count[c] + q_freed[c] > q_taken[c])
+                ++q_taken[c];
+            else
+                q_used += vis_slot_class_size(c);
+            if (lh->quad_cap)
+                ++q_freed[vis_slot_class(lh->quad_cap)];
+        }
+        if (nt > lh->tri_cap) {
+            uint32_t c = slot_class_for(s, nt);
+            if (s->tri_free.count[c] + t_freed[c] > t_taken[c])
+                ++t_taken[c];
+            else
+                t_used += vis_slot_class_size(c);
+            if (lh->tri_cap)
+                ++t_freed[vis_slot_class(lh->tri_cap)];
+        }
         if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && packed)
             b_used += bucket_table_size(lf);
     }

@@ -4,6 +4,7 @@
 
 #include "backend.h"
 #include "context.h"
+#include "slot_free.h"
 
 /* Another context's backend copy of the scene (scene_share.c). */
 typedef struct vis_scene_copy {
@@ -61,6 +62,7 @@ struct vis_scene {
     uint32_t quad_used, quad_cap;
     vis_flat_tri *tris;
     uint32_t tri_used, tri_cap;
+    vis_slot_free quad_free, tri_free; /* freed leaf slots by size class (slot_free.h)         */
 
     vis_flat_object *objects; /* slots, index = meta object index                            */
     vis_object_host *object_host;

@@ -73,6 +73,8 @@ int cmd_info(const cli_args *a)
         json_uint(&w, "bytes", si.bytes + wi.bytes);
         json_uint(&w, "scene_bytes", si.bytes);
         json_uint(&w, "world_bytes", wi.bytes);
+        /* Everything the traced scene holds (tree, leaves, quads, tables, slack), per quad. */
+        json_number(&w, "bytes_per_quad", si.quads ? (double)si.bytes / (double)si.quads : 0.0);
         json_number(&w, "load_ms", world.load_ms);
         json_number(&w, "build_ms", s.build.total_ms);
         if (is_vdb) {
@@ -103,6 +105,8 @@ int cmd_info(const cli_args *a)
         printf("kd-tree     depth %u, %u nodes, %u leaves\n", si.kd_depth, si.nodes, si.leaves);
         printf("memory      %.1f MiB (scene %.1f MiB, world %.1f MiB)\n", (double)(si.bytes + wi.bytes) / 1048576.0,
                (double)si.bytes / 1048576.0, (double)wi.bytes / 1048576.0);
+        if (si.quads)
+            printf("            scene %.2f bytes per quad\n", (double)si.bytes / (double)si.quads);
         printf("time        loaded in %.0f ms, scene built in %.0f ms\n", world.load_ms, s.build.total_ms);
         if (is_vdb)
             printf("grids\n%s%s", grids, grids[0] && grids[strlen(grids) - 1] != '\n' ? "\n" : "");

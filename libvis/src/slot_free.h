@@ -1,0 +1,64 @@
+/* slot_free.h — internal: size classes of leaf slots in a primitive pool, and the lists of
+ * freed slots per class, so that a leaf that outgrows its slot leaves it for the next leaf of
+ * that size instead of abandoning it (bounded memory under endless edits).
+ *
+ * Classes follow the usual allocator scheme (e.g. jemalloc's size classes): every size up to
+ * 16 elements, then 8 classes per power of two, so a slot is at most 1/8 larger than asked.
+ * A freed slot is linked through its first 4 bytes (every slot holds at least one element of
+ * at least 4 bytes): the lists need no memory of their own, which keeps an edit's growth in
+ * bytes exactly predictable (scene.c, set_object_growth). */
+#ifndef VIS_SLOT_FREE_H
+#define VIS_SLOT_FREE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#define VIS_SLOT_CLASSES 240u
+
+typedef struct vis_slot_free {
+    uint32_t head[VIS_SLOT_CLASSES];  /* first free slot of the class (valid when count > 0) */
+    uint32_t count[VIS_SLOT_CLASSES];
+} vis_slot_free;
+
+/* The class of a slot of n >= 1 elements (n < 2^31). */
+static inline uint32_t vis_slot_class(uint64_t n)
+{
+    if (n <= 16u)
+        return n ? (uint32_t)n - 1u : 0u;
+    uint32_t e = 63u - (uint32_t)__builtin_clzll(n - 1u); /* 2^e < n <= 2^(e+1), e >= 4 */
+    uint64_t step = (uint64_t)1 << (e - 3u);
+    uint64_t k = (n - ((uint64_t)1 << e) + step - 1u) / step; /* 1..8 */
+    return 16u + (e - 4u) * 8u + (uint32_t)k - 1u;
+}
+
+/* Elements of a slot of class c. */
+static inline uint64_t vis_slot_class_size(uint32_t c)
+{
+    if (c < 16u)
+        return c + 1u;
+    uint32_t e = 4u + (c - 16u) / 8u, k = (c - 16u) % 8u + 1u;
+    return ((uint64_t)1 << e) + (uint64_t)k * ((uint64_t)1 << (e - 3u));
+}
+
+/* Takes a free slot of class c from the pool (element size elem); returns its offset, or
+ * UINT32_MAX when the class has none. */
+static inline uint32_t vis_slot_take(vis_slot_free *f, const void *pool, size_t elem, uint32_t c)
+{
+    if (!f->count[c])
+        return UINT32_MAX;
+    uint32_t off = f->head[c];
+    memcpy(&f->head[c], (const char *)pool + (size_t)off * elem, sizeof(uint32_t));
+    --f->count[c];
+    return off;
+}
+
+/* Gives the slot at `off` of class c back. */
+static inline void vis_slot_give(vis_slot_free *f, void *pool, size_t elem, uint32_t off, uint32_t c)
+{
+    memcpy((char *)pool + (size_t)off * elem, &f->head[c], sizeof(uint32_t));
+    f->head[c] = off;
+    ++f->count[c];
+}
+
+#endif
