@@ -167,6 +167,58 @@ static void test_axis_rays_split_planes_and_corners(void **state)
 
 /* Walls hit edge-on and at corners must not leak: behind a closed 1-voxel room, nothing of
  * the outside may be seen from inside. */
+/* The packed layout's limits (trace_core.h, vis_flat_leaf): one 16^3 leaf holding 1,100
+ * objects (more than a leaf's object table indexes, so the last ones' quads stay loose), quads
+ * off the integer grid, quads with flags above the packed field, and an object over all eight
+ * leaves; every method against the brute force and the double-precision reference, before and
+ * after edits that move objects in and out of the crowded leaf. */
+static void test_crowded_leaf_and_packing_limits(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = w.size[1] = w.size[2] = 32;
+    uint64_t rng = 777;
+    const uint32_t crowd = 1100;
+    for (uint32_t i = 0; i < crowd; ++i) { /* 1x1 tiles on the planes y = 1..15 of leaf (0,0,0) */
+        tobj *o = add_obj(&w, 10 + i * 3);
+        float x = (float)(i % 15), z = (float)((i / 15) % 15), y = (float)(1 + (i / 225) * 3 % 15);
+        if (i % 50 == 7) /* off the grid: loose */
+            obj_quad(o, 1, y, z + 0.25f, x, z + 1.0f, x + 1.0f);
+        else
+            obj_quad(o, 1, y, z, x, z + 1.0f, x + 1.0f);
+        if (i % 40 == 3)
+            o->quads[0].flags = 5; /* above the packed flags field: loose */
+    }
+    tobj *big = add_obj(&w, 5); /* across every leaf */
+    float lo[3] = {3, 20, 3}, hi[3] = {29, 23, 29};
+    obj_box(big, lo, hi);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_scene_stats st;
+    assert_int_equal(vis_scene_get_stats(scene, &st), VIS_OK);
+    assert_int_equal(st.quads_in_leaves, crowd + 16); /* the box: top and bottom in 4 leaves, the sides in 2 */
+    vis_camera cams[3] = {{{7.3, 40, 7.9}, {7.5, 0, 7.5}, 80, 0, 0},
+                          {{-6, 9.5, -5}, {8, 6, 8}, 70, 0, 0},
+                          {{31, 18.5, 30}, {6, 2, 6}, 60, 0, 0}};
+    for (int round = 0; round < 3; ++round) {
+        for (int c = 0; c < 3; ++c)
+            check_view(ctx, scene, &w, &cams[c], 45, 33, "crowded leaf");
+        /* Move some tiles: replaced, removed (their slots then reused by new IDs). */
+        for (int e = 0; e < 60; ++e) {
+            tobj *o = &w.objs[vt_rand(&rng) % crowd];
+            float x = (float)(vt_rand(&rng) % 15), z = (float)(vt_rand(&rng) % 15);
+            o->quads[0].plane = (float)(1 + vt_rand(&rng) % 15);
+            o->quads[0].u0 = z, o->quads[0].u1 = z + 1.0f;
+            o->quads[0].v0 = x, o->quads[0].v1 = x + 1.0f;
+            set_obj(scene, o);
+        }
+    }
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 static void test_closed_room_does_not_leak(void **state)
 {
     (void)state;
@@ -955,6 +1007,7 @@ int main(void)
         cmocka_unit_test(test_held_out_edge_view),
         cmocka_unit_test(test_random_worlds_match_oracle),
         cmocka_unit_test(test_axis_rays_split_planes_and_corners),
+        cmocka_unit_test(test_crowded_leaf_and_packing_limits),
         cmocka_unit_test(test_closed_room_does_not_leak),
         cmocka_unit_test(test_ties_go_to_lowest_id),
         cmocka_unit_test(test_camera_inside_solid),

@@ -22,7 +22,7 @@
 
 /* The capacity grow() gives an array of capacity cap that must hold need: cap when it
  * suffices, else the first of cap, cap * 3/2 + 16, ... (from 16 when cap is 0) that does,
- * growing by 1/8 instead once past 2^20 entries (the primitive pools of large scenes: spare
+ * growing by 1/8 instead once past 2^14 entries (the primitive pools of large scenes: spare
  * capacity is memory the scene holds, and one more copy of a large array every 1/8 is still
  * linear time in all); 0 when need is beyond 32-bit counts. Growing one array several times
  * ends where growing it once to the largest need ends: every growth steps along the same
@@ -33,7 +33,7 @@ static uint64_t grown_cap(uint32_t cap, uint64_t need)
         return cap;
     uint64_t n = cap ? cap : 16;
     while (n < need)
-        n = n < ((uint64_t)1 << 20) ? n * 3 / 2 + 16 : n + n / 8;
+        n = n < ((uint64_t)1 << 14) ? n * 3 / 2 + 16 : n + n / 8;
     if (n > 0xFFFFFFF0u)
         n = 0xFFFFFFF0u;
     return n < need ? 0 : n;
@@ -142,7 +142,7 @@ static void map_remove(vis_scene *s, uint32_t id)
 
 /* ---- dirty tracking ------------------------------------------------------------------ */
 
-static void mark_leaf(vis_scene *s, uint32_t leaf)
+void vis_scene_mark_leaf(vis_scene *s, uint32_t leaf)
 {
     if (s->leaf_host[leaf].dirty)
         return;
@@ -395,18 +395,23 @@ static uint32_t slot_class_for(const vis_scene *s, uint64_t need)
 }
 
 /* Reserves `need` entries for a leaf slot in a pool: in place when it fits, else a free slot
- * of its class or a new one at the end of the pool; the old slot goes to its class's free
- * list. Returns 0 on allocation failure (nothing changed). */
+ * of its class or of one of the next VIS_SLOT_REUSE_CLASSES - 1 (up to twice its size: freed
+ * slots are taken rather than left to pile up in classes no leaf asks for), else a new one at
+ * the end of the pool; the old slot goes to its class's free list. Returns 0 on allocation
+ * failure (nothing changed). */
 static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap, size_t elem, vis_slot_free *fl,
                         uint32_t *slot_offset, uint32_t *slot_cap, uint32_t need, int *moved)
 {
     *moved = 0;
     if (need <= *slot_cap)
         return 1;
-    uint32_t c = slot_class_for(s, need);
-    uint64_t want = vis_slot_class_size(c);
-    uint32_t off = vis_slot_take(fl, *pool, elem, c);
+    uint32_t c = slot_class_for(s, need), c_end = c + VIS_SLOT_REUSE_CLASSES, off = UINT32_MAX;
+    for (; off == UINT32_MAX && c < c_end && c < VIS_SLOT_CLASSES; ++c)
+        off = vis_slot_take(fl, *pool, elem, c);
+    uint64_t want = vis_slot_class_size(c - 1u);
     if (off == UINT32_MAX) {
+        c = slot_class_for(s, need);
+        want = vis_slot_class_size(c);
         if (*used + want > 0xFFFFFF00u || !grow(s->ctx, pool, cap, (uint32_t)(*used + want), elem))
             return 0;
         off = *used;
@@ -435,9 +440,12 @@ static int pack_quad(const vis_flat_leaf *lf, const vis_flat_quad *q, uint32_t l
     uint32_t w = VIS_META_FLAGS(q->meta) << 20 | local << 22;
     for (uint32_t i = 0; i < 4; ++i) {
         float k = c[i] - base[i];
-        if (!(k >= 0.0f && k <= (float)VIS_PQ_COORD_MAX) || k != floorf(k) || base[i] + k != c[i])
+        if (!(k >= 0.0f && k <= (float)VIS_PQ_COORD_MAX))
             return 0;
-        w |= (uint32_t)k << (5u * i);
+        uint32_t ki = (uint32_t)k; /* whole, and giving the coordinate back exactly */
+        if ((float)ki != k || base[i] + (float)ki != c[i])
+            return 0;
+        w |= ki << (5u * i);
     }
     *bucket = b;
     *word = w;
@@ -539,7 +547,11 @@ static uint32_t gather_leaf(const vis_scene *s, uint32_t li, uint32_t slot, cons
     const vis_flat_leaf *lf = &s->leaves[li];
     const vis_leaf_host *lh = &s->leaf_host[li];
     kept_quads k = {s, lh, slot, visit, user, 0};
-    visit_stored(s, li, visit_kept, &k);
+    int others_resident = 0; /* the common edit: the object alone in its leaf reads nothing back */
+    for (uint32_t i = 0; i < lh->object_count && !others_resident; ++i)
+        others_resident = lh->objects[i] != slot && object_resident(s, lh->objects[i]);
+    if (others_resident)
+        visit_stored(s, li, visit_kept, &k);
     uint32_t count = k.count;
     for (uint32_t i = 0; i < lh->object_count; ++i) {
         uint32_t o = lh->objects[i];
@@ -615,7 +627,8 @@ static vis_status gather_leaf_alloc(const vis_scene *s, uint32_t li, uint32_t sl
     *out = NULL;
     if (*count == 0)
         return VIS_OK;
-    gather_array g = {vis_alloc(s->ctx, (size_t)*count * sizeof *g.q), 0};
+    /* Room after the quads for rebuild_leaf's packed words and buckets (two per quad). */
+    gather_array g = {vis_alloc(s->ctx, (size_t)*count * (sizeof *g.q + 2 * sizeof(uint32_t))), 0};
     if (!g.q)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory gathering a leaf's quads");
     gather_leaf(s, li, slot, mesh, n, mesh_in, visit_append, &g);
@@ -645,9 +658,12 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
     if (st != VIS_OK)
         return st;
     int can_pack = leaf_has_buckets(lf);
-    uint32_t packed = 0, nt = 0, b, w;
-    for (uint32_t i = 0; i < ng; ++i)
-        packed += can_pack && pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &b, &w);
+    uint32_t packed = 0, nt = 0;
+    uint32_t *gw = (uint32_t *)(g + ng), *gb = gw + ng; /* each quad's word and bucket, or loose */
+    for (uint32_t i = 0; i < ng; ++i) {
+        gb[i] = UINT32_MAX;
+        packed += can_pack && pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &gb[i], &gw[i]);
+    }
     for (uint32_t i = 0; i < lh->object_count; ++i) {
         const vis_object_host *oh = &s->object_host[lh->objects[i]];
         int single = s->objects[lh->objects[i]].leaf_count == 1;
@@ -698,16 +714,16 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
         memset(&s->buckets[lf->bucket_offset], 0, nb * sizeof *s->buckets);
     uint32_t nl = 0;
     for (uint32_t i = 0; i < ng; ++i)
-        if (bk && pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &b, &w))
-            ++bk[b + 1];
+        if (gb[i] != UINT32_MAX)
+            ++bk[gb[i] + 1];
         else
             dst_loose[nl++] = g[i];
     if (bk) {
         for (uint32_t k = 1; k < nb; ++k)
             bk[k] += bk[k - 1];
         for (uint32_t i = 0; i < ng; ++i)
-            if (pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &b, &w))
-                dst[bk[b]++] = w;
+            if (gb[i] != UINT32_MAX)
+                dst[bk[gb[i]]++] = gw[i];
         for (uint32_t k = nb - 1; k > 0; --k)
             bk[k] = bk[k - 1];
         bk[0] = 0;
@@ -732,7 +748,7 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
                 s->tris[lf->tri_offset + t_out++] = oh->tris[t];
     }
     lf->tri_count = t_out;
-    mark_leaf(s, li);
+    vis_scene_mark_leaf(s, li);
     return VIS_OK;
 }
 
@@ -837,9 +853,10 @@ static vis_status alloc_slot(vis_scene *s, uint32_t *out)
 /* ---- budget ------------------------------------------------------------------------- */
 
 /* Refuses an edit that would take the scene past max_bytes, before anything changes. */
-static vis_status check_growth(vis_scene *s, uint64_t add, const char *what, uint32_t id)
+static vis_status check_growth(vis_scene *s, uint64_t add, uint64_t shrink, const char *what, uint32_t id)
 {
     uint64_t now = vis_scene_bytes(s), after = vis_sat_add(now, add);
+    after = add == UINT64_MAX ? after : after - (shrink < after ? shrink : after);
     if (after <= s->desc.max_bytes)
         return VIS_OK;
     if (add == UINT64_MAX)
@@ -888,16 +905,66 @@ static uint64_t leaf_words_after(const vis_scene *s, uint32_t li, uint32_t slot,
     return table + c.packed + c.loose * VIS_LOOSE_WORDS;
 }
 
+/* reserve_slot's choice for a slot of slot_cap that must hold need, without making it, with
+ * the slots earlier moves of the same edit took and freed (per class): returns the entries
+ * it appends to the pool (0 when a free slot serves). */
+typedef struct pool_sim {
+    const vis_slot_free *fl;
+    uint32_t taken[VIS_SLOT_CLASSES], freed[VIS_SLOT_CLASSES]; /* by earlier moves of the edit */
+    uint64_t used, free_entries;
+} pool_sim;
+
+static void pool_sim_init(pool_sim *p, const vis_slot_free *fl, uint32_t used)
+{
+    memset(p, 0, sizeof *p);
+    p->fl = fl;
+    p->used = used;
+    p->free_entries = fl->entries;
+}
+
+/* reserve_slot's choice for a slot of slot_cap that must hold need, without making it. */
+static void simulate_reserve(const vis_scene *s, pool_sim *p, uint64_t need, uint32_t slot_cap)
+{
+    uint32_t c0 = slot_class_for(s, need), c = c0;
+    for (; c < c0 + VIS_SLOT_REUSE_CLASSES && c < VIS_SLOT_CLASSES; ++c)
+        if (p->fl->count[c] + p->freed[c] > p->taken[c])
+            break;
+    if (c < c0 + VIS_SLOT_REUSE_CLASSES && c < VIS_SLOT_CLASSES) {
+        ++p->taken[c];
+        p->free_entries -= vis_slot_class_size(c);
+    } else {
+        p->used += vis_slot_class_size(c0);
+    }
+    if (slot_cap) {
+        ++p->freed[vis_slot_class(slot_cap)];
+        p->free_entries += slot_cap;
+    }
+}
+
+/* The pool's capacity after the edit: grown to its use, then compacted if it will be
+ * (scene_compact.c). */
+static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap)
+{
+    uint64_t c = p->used <= cap ? cap : grown_cap(cap, p->used); /* 0: past 32-bit counts */
+    if (c && vis_slot_should_compact(p->used, p->free_entries))
+        c = vis_slot_compact_cap(p->used - p->free_entries, c);
+    return c;
+}
+
 /* The bytes vis_scene_set_object(id, mesh) will add, walking its allocations step by step
  * without making them: the slot and ID map of a new object, the object's copy of the mesh,
  * the object lists of the leaves it joins, its leaf list, the leaves' new slots in the
  * primitive pools (rebuild_leaf's reserve_slot, from the primitive counts each leaf will
- * hold), first-time bucket tables and the dirty list. Pools that move several slots grow
- * as if once to their final need (grown_cap). `leaves` are the n leaves of the new mesh. */
+ * hold, taking freed slots as reserve_slot does), first-time bucket tables and the dirty
+ * list. Pools that move several slots grow as if once to their final need (grown_cap). What
+ * the compaction after the edit gives back (scene_compact.c) goes to *shrink. `leaves` are the
+ * n leaves of the new mesh. */
 static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
-                                  uint32_t n)
+                                  uint32_t n, uint64_t *shrink)
 {
     uint64_t add = 0;
+    *shrink = 0;
+    pool_sim sims[2];
     uint32_t quad_cap = 0, tri_cap = 0;
     int dirty = 0;
     const vis_object_host *oh = NULL;
@@ -929,12 +996,14 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
     if (n != 1) /* a resident object keeps no copy of its quads (object_resident) */
         add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
     add = vis_sat_add(add, growth(tri_cap, mesh->triangle_count, sizeof(vis_flat_tri)));
-    if ((n > old_count || old_count == 0) && n)
+    uint32_t leaf_range = slot_after < s->object_slots ? s->object_host[slot_after].leaf_range : 0;
+    if (n > leaf_range)
         add = vis_sat_add(add, growth(s->object_leaf_cap, (uint64_t)s->object_leaf_used + n, sizeof(uint32_t)));
     /* Leaves the object leaves only shrink; every leaf of the new set is rebuilt. */
-    uint64_t q_used = s->quad_used, t_used = s->tri_used, b_used = s->bucket_count;
-    uint32_t q_taken[VIS_SLOT_CLASSES] = {0}, q_freed[VIS_SLOT_CLASSES] = {0};
-    uint32_t t_taken[VIS_SLOT_CLASSES] = {0}, t_freed[VIS_SLOT_CLASSES] = {0};
+    uint64_t b_used = s->bucket_count;
+    pool_sim *ps = sims, *qs = &ps[0], *ts = &ps[1];
+    pool_sim_init(qs, &s->quad_free, s->quad_used);
+    pool_sim_init(ts, &s->tri_free, s->tri_used);
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t li = leaves[i];
         const vis_flat_leaf *lf = &s->leaves[li];
@@ -953,31 +1022,27 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         }
         /* reserve_slot's rule, in the order rebuild_leaf follows: a free slot of the class if
          * one is left, else the end of the pool; then the old slot is free. */
-        if (nq > lh->quad_cap) {
-            uint32_t c = slot_class_for(s, nq);
-            if (s->quad_free.count[c] + q_freed[c] > q_taken[c])
-                ++q_taken[c];
-            else
-                q_used += vis_slot_class_size(c);
-            if (lh->quad_cap)
-                ++q_freed[vis_slot_class(lh->quad_cap)];
-        }
-        if (nt > lh->tri_cap) {
-            uint32_t c = slot_class_for(s, nt);
-            if (s->tri_free.count[c] + t_freed[c] > t_taken[c])
-                ++t_taken[c];
-            else
-                t_used += vis_slot_class_size(c);
-            if (lh->tri_cap)
-                ++t_freed[vis_slot_class(lh->tri_cap)];
-        }
+        if (nq > lh->quad_cap)
+            simulate_reserve(s, qs, nq, lh->quad_cap);
+        if (nt > lh->tri_cap)
+            simulate_reserve(s, ts, nt, lh->tri_cap);
         if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && packed)
             b_used += bucket_table_size(lf);
     }
-    if (q_used > 0xFFFFFF00u || t_used > 0xFFFFFF00u)
+    if (qs->used > 0xFFFFFF00u || ts->used > 0xFFFFFF00u)
         return UINT64_MAX;
-    add = vis_sat_add(add, growth(s->quad_cap, q_used, sizeof *s->quads));
-    add = vis_sat_add(add, growth(s->tri_cap, t_used, sizeof(vis_flat_tri)));
+    uint64_t qcap = pool_sim_cap(qs, s->quad_cap), tcap = pool_sim_cap(ts, s->tri_cap);
+    if ((qcap == 0 && qs->used) || (tcap == 0 && ts->used))
+        return UINT64_MAX;
+    /* Pools only grow within the edit; a compaction after it gives bytes back. */
+    if (qcap >= s->quad_cap)
+        add = vis_sat_add(add, (qcap - s->quad_cap) * sizeof *s->quads);
+    else
+        *shrink += (s->quad_cap - qcap) * sizeof *s->quads;
+    if (tcap >= s->tri_cap)
+        add = vis_sat_add(add, (tcap - s->tri_cap) * sizeof *s->tris);
+    else
+        *shrink += (s->tri_cap - tcap) * sizeof *s->tris;
     add = vis_sat_add(add, growth(s->bucket_cap, b_used, sizeof(uint32_t)));
     if (!dirty)
         add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
@@ -1004,13 +1069,16 @@ static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves
     for (uint32_t i = 0; i < new_count && st == VIS_OK; ++i)
         if (!contains(old, old_count, new_leaves[i]) && !leaf_add_object(s, new_leaves[i], slot))
             st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for leaf object lists");
-    /* The object's own leaf list: rewritten in place when it fits, else appended. */
-    if (st == VIS_OK && (new_count > old_count || old_count == 0) && new_count) {
+    /* The object's own leaf list: rewritten in place when it fits the range the slot holds
+     * (kept through removals, for the next object in the slot), else appended. */
+    vis_object_host *oh = &s->object_host[slot];
+    if (st == VIS_OK && new_count > oh->leaf_range) {
         if (!grow(s->ctx, (void **)&s->object_leaves, &s->object_leaf_cap, s->object_leaf_used + new_count,
                   sizeof(uint32_t)))
             st = vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for object leaf lists");
         else {
             ob->leaf_offset = s->object_leaf_used;
+            oh->leaf_range = new_count;
             s->object_leaf_used += new_count;
         }
     }
@@ -1096,6 +1164,7 @@ static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, c
         return st;
     if (!mark_object(s, slot))
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory tracking changes");
+    vis_scene_compact_pools(s);
     ++s->edits;
     ++s->generation;
     return VIS_OK;
@@ -1146,7 +1215,8 @@ vis_status vis_scene_apply_set(vis_scene *s, uint32_t id, const vis_mesh *mesh)
             return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory locating an object");
         vis_kdtree_leaves_of_box(s, lo, hi, leaves, n);
     }
-    st = check_growth(s, set_object_growth(s, slot, mesh, leaves, n), "setting the mesh", id);
+    uint64_t shrink = 0, add = set_object_growth(s, slot, mesh, leaves, n, &shrink);
+    st = check_growth(s, add, shrink, "setting the mesh", id);
     if (st == VIS_OK)
         st = set_object_located(s, id, slot, mesh, lo, hi, leaves, n);
     if (leaves != leaves_buf)
@@ -1163,7 +1233,7 @@ vis_status vis_scene_apply_remove(vis_scene *s, uint32_t id)
     uint64_t add = growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t));
     if (!s->object_dirty_flag[slot])
         add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
-    vis_status st = check_growth(s, add, "removing", id);
+    vis_status st = check_growth(s, add, 0, "removing", id);
     if (st != VIS_OK)
         return st;
     if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)) ||

@@ -30,6 +30,7 @@ typedef struct vis_object_host {
     uint32_t quad_count, quad_cap;
     vis_flat_tri *tris;
     uint32_t tri_count, tri_cap;
+    uint32_t leaf_range;      /* entries of object_leaves the slot holds from leaf_offset      */
 } vis_object_host;
 
 /* Per-leaf host bookkeeping (not sent to devices). */
@@ -105,6 +106,12 @@ struct vis_scene {
 };
 
 vis_scene_view vis_scene_get_view(const vis_scene *scene);
+
+/* Lists the leaf for the backends' next sync (dirty tracking). */
+void vis_scene_mark_leaf(vis_scene *scene, uint32_t leaf);
+
+/* Compacts the primitive pools whose freed slots have piled up (scene_compact.c). */
+void vis_scene_compact_pools(vis_scene *scene);
 
 /* Calls visit for every quad of the object in `slot`, meta holding the slot: from its copy,
  * or from its leaf where it lies in one leaf (which then holds its only copy, scene.c). */

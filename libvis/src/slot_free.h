@@ -15,11 +15,29 @@
 #include <string.h>
 
 #define VIS_SLOT_CLASSES 240u
+#define VIS_SLOT_REUSE_CLASSES 8u /* a free slot up to 8 classes (twice the size) up serves  */
 
 typedef struct vis_slot_free {
     uint32_t head[VIS_SLOT_CLASSES];  /* first free slot of the class (valid when count > 0) */
     uint32_t count[VIS_SLOT_CLASSES];
+    uint64_t entries;                 /* elements in all free slots                          */
 } vis_slot_free;
+
+/* Slots of classes no leaf asks for would still pile up (leaves that keep growing leave their
+ * smaller slots behind), so a pool whose free slots exceed 1/16 of its used entries is
+ * compacted after the edit (scene_compact.c): its slots copied in leaf order to a new array
+ * of the live entries and 1/16 more. */
+static inline int vis_slot_should_compact(uint64_t used, uint64_t free_entries)
+{
+    return used >= 4096u && free_entries * 16u > used;
+}
+
+/* The capacity a pool of cap entries keeps when compacted to `live` entries. */
+static inline uint64_t vis_slot_compact_cap(uint64_t live, uint64_t cap)
+{
+    uint64_t c = live + live / 16u + 16u;
+    return c < cap ? c : cap;
+}
 
 /* The class of a slot of n >= 1 elements (n < 2^31). */
 static inline uint32_t vis_slot_class(uint64_t n)
@@ -50,6 +68,7 @@ static inline uint32_t vis_slot_take(vis_slot_free *f, const void *pool, size_t 
     uint32_t off = f->head[c];
     memcpy(&f->head[c], (const char *)pool + (size_t)off * elem, sizeof(uint32_t));
     --f->count[c];
+    f->entries -= vis_slot_class_size(c);
     return off;
 }
 
@@ -59,6 +78,7 @@ static inline void vis_slot_give(vis_slot_free *f, void *pool, size_t elem, uint
     memcpy((char *)pool + (size_t)off * elem, &f->head[c], sizeof(uint32_t));
     f->head[c] = off;
     ++f->count[c];
+    f->entries += vis_slot_class_size(c);
 }
 
 #endif

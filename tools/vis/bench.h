@@ -44,6 +44,8 @@ typedef struct edit_result {
     int upload;                                /* an OpenCL copy mirrored the edits      */
     char upload_device[128];
     double upload_median_bytes, upload_max_bytes, scene_bytes;
+    uint64_t edited_bytes, fresh_bytes;        /* the edited scene, and one built afresh from
+                                                  the edited world (0: not measured)       */
 } edit_result;
 
 typedef struct bench {

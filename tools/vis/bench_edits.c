@@ -236,6 +236,24 @@ int bench_run_edits(bench *b)
         vis_scene_get_info(world_scene_scene(mirror.ws), &mi);
         er->scene_bytes = (double)mi.bytes;
     }
+    /* Memory after the edits against a fresh build of the edited world (freed leaf slots are
+     * reused: the two should stay close however many edits ran). */
+    {
+        vis_scene_info ei, fi;
+        world_scene *fresh = NULL;
+        world_scene_options o;
+        memset(&o, 0, sizeof o);
+        o.kd_depth = a->kd_depth;
+        vw_error err;
+        if (vis_scene_get_info(world_scene_scene(b->keep.ws), &ei) == VIS_OK &&
+            world_scene_create(b->keep.ctx, w, &o, &fresh, NULL, &err) == 0 &&
+            vis_scene_get_info(world_scene_scene(fresh), &fi) == VIS_OK) {
+            er->edited_bytes = ei.bytes;
+            er->fresh_bytes = fi.bytes;
+        }
+        if (fresh)
+            world_scene_destroy(fresh);
+    }
     er->per_s = sum_ms > 0.0 ? (double)k / (sum_ms / 1e3) : 0.0;
     er->chunks_per_edit = (double)chunks / (double)k;
     er->max_ms = vc_max(total, k);
@@ -258,6 +276,10 @@ int bench_run_edits(bench *b)
             printf("  embree    dynamic scene, replace geometry + rtcCommitScene: median %.4f ms, p99 %.4f ms "
                    "(remesh not included)\n",
                    er->embree_median_ms, er->embree_p99_ms);
+        if (er->fresh_bytes)
+            printf("  memory    edited scene %.2f MB, a fresh build of the edited world %.2f MB (%+.1f %%)\n",
+                   (double)er->edited_bytes / 1e6, (double)er->fresh_bytes / 1e6,
+                   100.0 * ((double)er->edited_bytes / (double)er->fresh_bytes - 1.0));
         if (er->upload)
             printf("  opencl    bytes uploaded per edit (%s): median %.0f, max %.0f (the host scene holds %.0f)\n",
                    er->upload_device, er->upload_median_bytes, er->upload_max_bytes, er->scene_bytes);

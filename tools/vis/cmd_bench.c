@@ -258,6 +258,10 @@ static void print_json(const bench *b)
         json_number(&w, "remesh_median_ms", er->remesh_median_ms);
         json_number(&w, "update_median_ms", er->update_median_ms);
         json_number(&w, "chunks_per_edit", er->chunks_per_edit);
+        if (er->fresh_bytes) {
+            json_uint(&w, "edited_scene_bytes", er->edited_bytes);
+            json_uint(&w, "fresh_scene_bytes", er->fresh_bytes);
+        }
         if (er->upload) {
             json_string(&w, "upload_device", er->upload_device);
             json_number(&w, "upload_bytes_median", er->upload_median_bytes);
