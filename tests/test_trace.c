@@ -116,6 +116,11 @@ static void test_random_worlds_match_oracle(void **state)
             random_view(&cam, &rng, w.size, zero);
             check_view(ctx, scene, &w, &cam, 48, 40, "random world");
         }
+        /* From far away through a narrow field of view: tiles whose nearest hit lies past
+         * PACKET_MAX_FOOTPRINT voxels per pixel go ray by ray, the others stay packets
+         * (backends/cpu/packet.c); both must still equal the brute force. */
+        vis_camera far = {{24.0 - 1100.0, 900.0, 24.0 - 1000.0}, {24, 8, 24}, 8, 0, 0};
+        check_one_view(ctx, scene, &w, &far, 64, 56, "random world from far away");
         vis_scene_destroy(scene);
         free_world(&w);
     }

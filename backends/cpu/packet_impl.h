@@ -72,6 +72,9 @@ typedef struct packet {
     float slack;             /* absolute widening of boxes                                  */
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
     int unhit;               /* lanes without a hit yet                                     */
+    float give_up_t;         /* a first leaf entered past this: the tile is far (packet.c)  */
+    int leaves_entered;
+    int given_up;
 } packet;
 
 #if defined(VIS_PACKET_PROFILE) /* every step its own symbol, for perf */
@@ -127,6 +130,9 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
     for (int r = 0; r < UNITS; ++r)
         p->unit_best[r] = INFINITY;
     p->unhit = LANES;
+    p->give_up_t = INFINITY;
+    p->leaves_entered = 0;
+    p->given_up = 0;
     float extent = 1.0f;
     for (int a = 0; a < 3; ++a) {
         p->o[a] = s->origin[a];
@@ -531,6 +537,12 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     for (int a = 0; a < 3; ++a)
         if (!packet_slab(p, a, leaf->lo[a], leaf->hi[a], &t0, &t1))
             return;
+    /* The walk goes near side first, so the first leaf the tile enters shows how far away its
+     * hits lie; past give_up_t its rays spread over several leaves and go one by one. */
+    if (p->leaves_entered++ == 0 && t0 > p->give_up_t) {
+        p->given_up = 1;
+        return;
+    }
     t0 -= t0 * T_SLACK;
     t1 += t1 * T_SLACK;
     plane_bounds pb;
@@ -596,7 +608,7 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         stack[0].hi[a] = view->size[a];
     }
     sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
-    while (sp > 0) {
+    while (sp > 0 && !p->given_up) {
         packet_frame f = stack[--sp];
         if (!packet_box_open(p, f.lo, f.hi))
             continue;
@@ -626,19 +638,22 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
     }
 }
 
-void PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, uint32_t x0,
-              uint32_t y0, uint32_t *ids, float *depth);
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
 __attribute__((target_clones("avx2", "default")))
 #endif
-void PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, uint32_t x0,
-              uint32_t y0, uint32_t *ids, float *depth)
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth)
 {
     packet p;
     packet_rays(&p, setup, x0, y0);
+    p.give_up_t = give_up_t;
     packet_bounds(&p);
     packet_traverse(&p, view, occupied);
+    if (p.given_up)
+        return 0;
     for (int i = 0; i < LANES; ++i) {
         uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
         if (x >= setup->width || y >= setup->height)
@@ -659,4 +674,5 @@ void PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint
         if (depth)
             depth[at] = p.best_t[i];
     }
+    return 1;
 }
