@@ -94,6 +94,21 @@ static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, 
     return hits;
 }
 
+/* The view at the two image sizes whose tiles take the smaller packets (backends/cpu/packet.c):
+ * 96x72 at 45 degrees (8x8) and 72x72 at 60 (4x4). */
+static void check_small_packets(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam,
+                                const char *what)
+{
+    char label[192];
+    vis_camera c = *cam;
+    c.fovy_deg = 45.0;
+    snprintf(label, sizeof label, "%s, 8x8 packets", what);
+    check_one_view(ctx, scene, w, &c, 96, 72, label);
+    c.fovy_deg = 60.0;
+    snprintf(label, sizeof label, "%s, 4x4 packets", what);
+    check_one_view(ctx, scene, w, &c, 72, 72, label);
+}
+
 /* ---- random worlds -------------------------------------------------------------------- */
 
 /* random_chunk_world and random_view (scene_builder.h): chunk objects of voxel boxes, tie
@@ -115,6 +130,8 @@ static void test_random_worlds_match_oracle(void **state)
             vis_camera cam;
             random_view(&cam, &rng, w.size, zero);
             check_view(ctx, scene, &w, &cam, 48, 40, "random world");
+            if (ci < 2)
+                check_small_packets(ctx, scene, &w, &cam, "random world");
         }
         /* From far away through a narrow field of view: tiles whose nearest hit lies past
          * PACKET_MAX_FOOTPRINT voxels per pixel go ray by ray, the others stay packets

@@ -30,7 +30,7 @@ typedef struct cpu_job {
     uint32_t *ids;
     float *depth;
     uint32_t side, tiles_x; /* tile edge in pixels, tiles per row */
-    int wide;               /* packets: vis_packet_wide */
+    uint32_t packet_side;   /* packets: vis_packet_side */
 } cpu_job;
 
 static void trace_tile(void *user, uint32_t tile)
@@ -40,7 +40,7 @@ static void trace_tile(void *user, uint32_t tile)
     const vis_ray_setup *s = job->setup;
     uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        vis_packet_trace_tile(s, &v, job->occupied, job->wide, x0, y0, job->ids, job->depth);
+        vis_packet_trace_tile(s, &v, job->occupied, job->packet_side, x0, y0, job->ids, job->depth);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -109,7 +109,7 @@ static vis_status cpu_trace(void *impl, void *scene_data, const vis_scene_view *
     const vis_occupancy *occ = scene_data;
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
     cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
-                   setup->traversal == VIS_TRAVERSAL_ID_PACKET && vis_packet_wide(setup)};
+                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u};
     uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
     if (b->parallel_for)
         b->parallel_for(tiles, trace_tile_job, &job, b->parallel_for_user);

@@ -3,58 +3,76 @@
  * A packet's bounds are only as tight as its rays are close: a 16x16 tile at 512x512 and a
  * 60 degree field of view spans about 2 degrees, and its culls remove almost everything; the
  * same tile of a 32x32 image spans 30 degrees and culls almost nothing, so every leaf in view
- * is opened for it. Where the tile would spread wider than PACKET_MAX_SPREAD, each of its rays
- * is traced alone, as a packet of one (as fast as the per-ray stack method there, and exact
- * in the same way).
+ * is opened for it. So a pass takes the largest packets (16x16, 8x8 or 4x4) whose tiles spread
+ * no wider than PACKET_MAX_SPREAD; where even 4x4 would, each ray is a packet of its own.
  *
- * Far away the same happens at normal fields of view: a tile whose hits lie where a pixel
- * covers more than PACKET_MAX_FOOTPRINT voxels spans several leaves, its bounds stop culling,
- * and every quad in its rectangle is tested against its rays (docs/performance.md, "Where the
- * time goes": past 2-4 voxels per pixel single rays are cheaper). The packet walk goes near
- * side first, so the first leaf it enters tells: entered beyond that distance, the packet gives
- * up and its rays go one by one. Both give the same pixels: the brute force's. */
+ * Far away the same happens at any image size: a tile whose hits lie where it covers more than
+ * PACKET_MAX_TILE_SPAN scene units (three 16-voxel leaves) spans several leaves, its bounds stop
+ * culling, and every quad in its rectangle is tested against its rays (docs/performance.md,
+ * "Where the time goes": past 2-4 voxels per pixel, 16x16 tiles cost more than single rays).
+ * The packet walk goes near side first, so the first leaf it enters tells: entered beyond that
+ * distance, the packet gives up and its rays go one by one. Every path gives the same pixels:
+ * the brute force's. */
 #include <math.h>
 
 #include "cpu/packet.h"
 
 int vis_packet_trace_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
                            float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+int vis_packet_trace_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+int vis_packet_trace_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
 int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
                          float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
 
-/* Scene units a pixel may cover where a tile enters its first leaf for the tile to stay a
- * packet. */
-#ifndef PACKET_MAX_FOOTPRINT
-#  define PACKET_MAX_FOOTPRINT 3.0f
-#endif
-
 /* Widest tile, as its extent on the image plane at distance 1 (tangent units): at 60 degrees,
- * 512x512 tiles span 0.036 and 256x256 ones 0.072 (16x16 packets 2.5-3.5x faster than single
- * rays there), 128x128 ones 0.144 (a tie); docs/traversal.md. */
+ * 512x512 tiles of 16 span 0.036 and 256x256 ones 0.072 (16x16 packets 2.5-3.5x faster than
+ * single rays there), 128x128 ones 0.144 (a tie); docs/traversal.md. */
 #ifndef PACKET_MAX_SPREAD
 #  define PACKET_MAX_SPREAD 0.1f
 #endif
 
+/* Scene units a tile may cover where it enters its first leaf for it to stay a packet. */
+#ifndef PACKET_MAX_TILE_SPAN
+#  define PACKET_MAX_TILE_SPAN 48.0f
+#endif
+
 static float vec_len(const float *v) { return sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
 
-int vis_packet_wide(const vis_ray_setup *setup)
+/* A pixel's extent on the image plane at distance 1, the larger of its two sides. */
+static float pixel_extent(const vis_ray_setup *setup)
 {
-    /* Pixels step 2/W along `right` and 2/H along `up` on the image plane at distance 1. */
-    float sx = VIS_PACKET_SIDE * 2.0f * vec_len(setup->right) / (float)setup->width;
-    float sy = VIS_PACKET_SIDE * 2.0f * vec_len(setup->up) / (float)setup->height;
-    return sx > PACKET_MAX_SPREAD || sy > PACKET_MAX_SPREAD;
+    /* Pixels step 2/W along `right` and 2/H along `up`. */
+    return fmaxf(2.0f * vec_len(setup->right) / (float)setup->width, 2.0f * vec_len(setup->up) / (float)setup->height);
 }
 
-void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           int wide, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth)
+uint32_t vis_packet_side(const vis_ray_setup *setup)
 {
-    if (!wide) {
-        float pixel = fmaxf(2.0f * vec_len(setup->right) / (float)setup->width,
-                            2.0f * vec_len(setup->up) / (float)setup->height);
-        if (vis_packet_trace_16x16(setup, view, occupied, PACKET_MAX_FOOTPRINT / pixel, x0, y0, ids, depth))
-            return;
-    }
-    for (uint32_t y = y0; y < y0 + VIS_PACKET_SIDE && y < setup->height; y += 1u)
-        for (uint32_t x = x0; x < x0 + VIS_PACKET_SIDE && x < setup->width; x += 1u)
-            vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth);
+    float pixel = pixel_extent(setup);
+    for (uint32_t side = VIS_PACKET_SIDE; side >= 4u; side /= 2u)
+        if ((float)side * pixel <= PACKET_MAX_SPREAD)
+            return side;
+    return 1u;
+}
+
+typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, uint32_t, uint32_t,
+                         uint32_t *, float *);
+
+void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth)
+{
+    packet_fn fn = side == 16u ? vis_packet_trace_16x16 : side == 8u ? vis_packet_trace_8x8
+                 : side == 4u ? vis_packet_trace_4x4 : NULL;
+    float give_up_t = PACKET_MAX_TILE_SPAN / (pixel_extent(setup) * (float)side);
+    uint32_t x_end = x0 + VIS_PACKET_SIDE < setup->width ? x0 + VIS_PACKET_SIDE : setup->width;
+    uint32_t y_end = y0 + VIS_PACKET_SIDE < setup->height ? y0 + VIS_PACKET_SIDE : setup->height;
+    for (uint32_t ty = y0; ty < y_end; ty += side)
+        for (uint32_t tx = x0; tx < x_end; tx += side) {
+            if (fn && fn(setup, view, occupied, give_up_t, tx, ty, ids, depth))
+                continue;
+            for (uint32_t y = ty; y < ty + side && y < y_end; ++y)
+                for (uint32_t x = tx; x < tx + side && x < x_end; ++x)
+                    vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth);
+        }
 }

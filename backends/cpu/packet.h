@@ -9,8 +9,9 @@
 /* The tile the CPU backend hands to a thread for packets, in pixels. */
 #define VIS_PACKET_SIDE 16u
 
-/* Whether a pass's tiles spread too wide for 16x16 packets (then each ray is its own packet). */
-int vis_packet_wide(const vis_ray_setup *setup);
+/* The packet side a pass's tiles are traced with: 16, 8 or 4, the largest whose tiles do not
+ * spread too wide, or 1 (each ray its own packet). */
+uint32_t vis_packet_side(const vis_ray_setup *setup);
 
 /* Traces the pixels [x0, x0 + VIS_PACKET_SIDE) x [y0, y0 + VIS_PACKET_SIDE) of the view in
  * `setup` (clipped to the image) and writes their IDs and depths (depth may be NULL): per
@@ -19,6 +20,6 @@ int vis_packet_wide(const vis_ray_setup *setup);
  * flags the kd nodes whose subtree holds a primitive (occupancy.h); `wide` is
  * vis_packet_wide(setup). */
 void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           int wide, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
 
 #endif /* VIS_CPU_PACKET_H */
