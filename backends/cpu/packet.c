@@ -6,13 +6,14 @@
  * is opened for it. So a pass takes the largest packets (16x16, 8x8 or 4x4) whose tiles spread
  * no wider than PACKET_MAX_SPREAD; where even 4x4 would, each ray is a packet of its own.
  *
- * Far away the same happens at any image size: a tile whose hits lie where it covers more than
- * PACKET_MAX_TILE_SPAN scene units (three 16-voxel leaves) spans several leaves, its bounds stop
- * culling, and every quad in its rectangle is tested against its rays (docs/performance.md,
- * "Where the time goes": past 2-4 voxels per pixel, 16x16 tiles cost more than single rays).
- * The packet walk goes near side first, so the first leaf it enters tells: entered beyond that
- * distance, the packet gives up and its rays go one by one. Every path gives the same pixels:
- * the brute force's. */
+ * Far away the same happens at any image size: where a pixel covers more than
+ * PACKET_MAX_FOOTPRINT scene units, a tile spans several leaves, its bounds stop culling, and
+ * every quad in its rectangle is tested against its rays (docs/performance.md, "Where the time
+ * goes": past 2-4 voxels per pixel, 16x16 tiles cost more than single rays; measured again for
+ * 8x8 and 4x4 tiles, the same footprint holds: a fixed span of the tile would keep small
+ * tiles that cost 4-7x their single rays on gen:city's overview). The packet walk goes near
+ * side first, so the first leaf it enters tells: entered beyond that distance, the packet
+ * gives up and its rays go one by one. Every path gives the same pixels: the brute force's. */
 #include <math.h>
 
 #include "cpu/packet.h"
@@ -33,9 +34,9 @@ int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view,
 #  define PACKET_MAX_SPREAD 0.1f
 #endif
 
-/* Scene units a tile may cover where it enters its first leaf for it to stay a packet. */
-#ifndef PACKET_MAX_TILE_SPAN
-#  define PACKET_MAX_TILE_SPAN 48.0f
+/* Scene units a pixel may cover where a tile enters its first leaf for it to stay a packet. */
+#ifndef PACKET_MAX_FOOTPRINT
+#  define PACKET_MAX_FOOTPRINT 3.0f
 #endif
 
 static float vec_len(const float *v) { return sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
@@ -64,7 +65,7 @@ void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *vie
 {
     packet_fn fn = side == 16u ? vis_packet_trace_16x16 : side == 8u ? vis_packet_trace_8x8
                  : side == 4u ? vis_packet_trace_4x4 : NULL;
-    float give_up_t = PACKET_MAX_TILE_SPAN / (pixel_extent(setup) * (float)side);
+    float give_up_t = PACKET_MAX_FOOTPRINT / pixel_extent(setup);
     uint32_t x_end = x0 + VIS_PACKET_SIDE < setup->width ? x0 + VIS_PACKET_SIDE : setup->width;
     uint32_t y_end = y0 + VIS_PACKET_SIDE < setup->height ? y0 + VIS_PACKET_SIDE : setup->height;
     for (uint32_t ty = y0; ty < y_end; ty += side)
