@@ -165,12 +165,22 @@ void vv_overlay_depth(vv_overlays *o, const float *depth, uint32_t w, uint32_t h
 {
     if (w > TEX || h > TEX)
         return;
-    float lf = logf(1.0f + (far_depth > 1.0f ? far_depth : 1.0f));
-    for (size_t i = 0, n = (size_t)w * h; i < n; ++i) {
+    /* Grey from the nearest to the farthest depth in the buffer (at most far_depth), near
+     * bright: the range of one view, so that its shapes read. */
+    size_t n = (size_t)w * h;
+    float lo = INFINITY, hi = 0.0f;
+    for (size_t i = 0; i < n; ++i)
+        if (isfinite(depth[i])) {
+            lo = depth[i] < lo ? depth[i] : lo;
+            hi = depth[i] > hi ? depth[i] : hi;
+        }
+    hi = hi > far_depth ? far_depth : hi;
+    float span = hi > lo ? hi - lo : 1.0f;
+    for (size_t i = 0; i < n; ++i) {
         float d = depth[i];
         uint32_t g = 0;
         if (isfinite(d)) {
-            float t = 1.0f - logf(1.0f + (d > 0.0f ? d : 0.0f)) / lf;
+            float t = 1.0f - (d - lo) / span;
             t = t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t;
             g = 40u + (uint32_t)(t * 215.0f);
         }

@@ -19,7 +19,8 @@ uint32_t vv_id_colour(uint32_t id);
 
 /* Pictures: the IDs or depths of a W x H pass (top row first), drawn into the screen
  * rectangle (x, y, w, h) in pixels from the top left of an fb_w x fb_h framebuffer. Depth is
- * shown as grey, near bright, on a log scale up to `far_depth`; +inf black. */
+ * shown as grey from the nearest depth in the buffer (bright) to the farthest, at most
+ * `far_depth` (dark); +inf black. */
 void vv_overlay_ids(vv_overlays *o, const uint32_t *ids, uint32_t w, uint32_t h, int x, int y, int sw, int sh,
                     int fb_w, int fb_h);
 void vv_overlay_depth(vv_overlays *o, const float *depth, uint32_t w, uint32_t h, float far_depth, int x, int y,

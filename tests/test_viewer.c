@@ -280,7 +280,7 @@ static void test_vox_scene(void **state)
         skip();
     char spec[1024];
     snprintf(spec, sizeof spec, "%s", vox);
-    const char *cam = "150,90,40,62,10,-62";
+    const char *cam = "110,70,110,0,-20,0";
     vt_run_result r = run_viewer("--scene '%s' --camera %s --frames 2 --no-hud --screenshot '%s' --drawlist '%s'", spec,
                                  cam, tmp_path("vox.png"), tmp_path("vox.txt"));
     vt_assert_exit(r, 0);
