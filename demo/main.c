@@ -319,7 +319,7 @@ static int frame(vv_app *a, uint32_t index, int scripted, int last)
     vv_lines_begin(a->ovl);
     if (a->frozen)
         frustum_lines(a);
-    if (a->opt.boxes)
+    if (a->opt.boxes && a->cull.method != VV_METHOD_NONE)
         culled_boxes(a);
     vv_lines_end(a->ovl, mvp);
     glViewport(0, 0, a->win.fb_w, a->win.fb_h);
