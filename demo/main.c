@@ -374,6 +374,12 @@ static int run(vv_app *a)
         double dt = (now - a->last_frame_t) / 1000.0;
         a->frame_ms = now - a->last_frame_t;
         a->last_frame_t = now;
+        if (scripted && a->opt.keys && i >= 1 && i - 1 < strlen(a->opt.keys)) {
+            /* GLFW's key codes of letters and [ ] , . are their (capital) ASCII codes. */
+            char k = a->opt.keys[i - 1];
+            a->win.in.pressed[(unsigned char)(k >= 'a' && k <= 'z' ? k - 'a' + 'A' : k)] = 1;
+            handle_keys(a, 0.0);
+        }
         if (!scripted) {
             handle_keys(a, dt > 0.25 ? 0.25 : dt);
             if (a->win.in.clicked) {

@@ -14,12 +14,14 @@ static const char *usage =
     "                  [--overlay none|ids|depth] [--boxes] [--no-hud] [--material N]\n"
     "  scripted mode:  --frames N [--screenshot FILE.png] [--drawlist FILE] [--freeze]\n"
     "                  [--cull-camera EX,EY,EZ,TX,TY,TZ[,FOVY]] [--edit add|remove|paint:PX,PY[,R]]\n"
+    "                  [--keys KEYS]\n"
     "SPEC is any scene `vis` takes (gen:NAME[:k=v...], a .vox or .vdb file); default gen:default.\n"
     "--res is the pass (each side 1..1024; the 3D view takes its aspect). Without --camera the\n"
     "scripted mode flies the camera path of `vis run`, one view per frame. --drawlist writes the\n"
     "last frame's draw list as `vis cull --dump-list` does (ID PIXELS per line); --cull-camera\n"
     "freezes culling at that camera while the view is --camera; --edit edits at pixel (PX, PY)\n"
-    "of the pass with a brush of radius R (default 0) before the second frame.\n";
+    "of the pass with a brush of radius R (default 0) before the second frame; --keys presses\n"
+    "the keys of KEYS (letters and [ ] , .), one per frame from the second frame on.\n";
 
 static int usage_error(const char *fmt, const char *arg)
 {
@@ -170,6 +172,11 @@ int vv_options_parse(int argc, char **argv, vv_options *o)
             o->material = (uint8_t)n;
         } else if (!strcmp(a, "--screenshot")) {
             o->screenshot = v;
+        } else if (!strcmp(a, "--keys")) {
+            for (const char *c = v; *c; ++c)
+                if (!((*c >= 'A' && *c <= 'Z') || (*c >= 'a' && *c <= 'z') || strchr("[],.", *c)))
+                    return usage_error("--keys takes letters and [ ] , . only, not \"%s\"", v);
+            o->keys = v;
         } else if (!strcmp(a, "--drawlist")) {
             o->drawlist = v;
         } else if (!strcmp(a, "--edit")) {
@@ -181,9 +188,11 @@ int vv_options_parse(int argc, char **argv, vv_options *o)
         }
     }
     o->method = none ? VV_METHOD_NONE : zbuf ? VV_METHOD_ZBUF : leaf ? VV_METHOD_RAY_LEAF : VV_METHOD_RAY_OBJECT;
-    if (!o->frames && (o->screenshot || o->drawlist || o->freeze || o->have_cull_camera || o->have_edit))
-        return usage_error("%s", "--screenshot, --drawlist, --freeze, --cull-camera and --edit belong to the "
-                                 "scripted mode: add --frames N");
+    if (!o->frames && (o->screenshot || o->drawlist || o->freeze || o->have_cull_camera || o->have_edit || o->keys))
+        return usage_error("%s", "--screenshot, --drawlist, --freeze, --cull-camera, --edit and --keys belong to "
+                                 "the scripted mode: add --frames N");
+    if (o->keys && strlen(o->keys) >= o->frames)
+        return usage_error("%s", "--keys: one key per frame from the second on needs more --frames than keys");
     if (o->have_edit && (o->edit_px < 0 || o->edit_py < 0 || o->edit_px >= o->width || o->edit_py >= o->height))
         return usage_error("%s", "--edit: the pixel lies outside the pass (--res)");
     return VV_EXIT_OK;

@@ -30,6 +30,7 @@ typedef struct vv_options {
     double edit_px, edit_py;
     int edit_radius;
     uint8_t material;            /* --material N: for add and paint (default 1)            */
+    const char *keys;            /* --keys: key presses, one per frame from the second on  */
 } vv_options;
 
 /* Parses argv. Returns VV_EXIT_OK, VV_EXIT_USAGE after printing the problem, or -1 after

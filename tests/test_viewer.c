@@ -412,6 +412,29 @@ static void test_edit(void **state)
     vt_run_free(&r);
 }
 
+/* Live switches through the keys (--keys: one press per frame): overlay, boxes, help, tool,
+ * then M twice (ray pass -> leaf IDs -> z-buffer culler) and P (512^2 -> 1024^2). The last
+ * frame's list must be the z-buffer culler's at 1024^2, as `vis cull` gives it. */
+static void test_live_switches(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    vt_run_result r = run_viewer("--camera " CAM_DEFAULT " --frames 8 --keys OCHTMMP --drawlist '%s'",
+                                 tmp_path("keys.txt"));
+    vt_assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "z-buffer culler"));
+    assert_non_null(strstr(r.out, "pass 1024x1024"));
+    vt_run_result c = vt_run(VIS_EXE, tmp_dir, NULL,
+                             "cull --scene gen:default --camera " CAM_DEFAULT " --method zbuf --res 1024x1024 "
+                             "--dump-list '%s'",
+                             tmp_path("keys_ref.txt"));
+    vt_assert_exit(c, 0);
+    assert_same_file(tmp_path("keys.txt"), tmp_path("keys_ref.txt"));
+    vt_run_free(&c);
+    vt_run_free(&r);
+}
+
 static void test_bad_arguments(void **state)
 {
     (void)state;
@@ -434,6 +457,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_no_display), cmocka_unit_test(test_bad_arguments), cmocka_unit_test(test_default_world),
         cmocka_unit_test(test_vox_scene),  cmocka_unit_test(test_frozen),        cmocka_unit_test(test_edit),
+        cmocka_unit_test(test_live_switches),
     };
     return cmocka_run_group_tests(tests, setup, vt_tmp_dir_teardown);
 }
