@@ -429,8 +429,10 @@ VIS_API vis_status vis_camera_validate(vis_context *context, const vis_camera *c
  * projection[1][1]); near and far come from projection[2][2] and projection[3][2]; the
  * aspect projection[1][1] / projection[0][0] must be the pass's width / height (which
  * vis_trace takes the aspect from) within 1e-4. The result gets eye, a target along the
- * forward axis, fovy_deg, near_dist and far_dist (+inf for an infinite far plane as 0), and
- * is then checked as vis_camera_validate checks it.
+ * forward axis, fovy_deg, near_dist and far_dist (0, which means +inf, for an infinite far
+ * plane), and is then checked as vis_camera_validate checks it. Like vis_camera_validate it
+ * is a call on the context (another thread's call meanwhile gets VIS_ERROR_BUSY); it
+ * allocates nothing.
  *
  * The eye/target form has no roll (its up follows +Y), so a view whose right axis leaves the
  * horizontal plane (|right.y| > 1e-6), or, looking straight along Y, whose right axis is not
