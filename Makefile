@@ -11,9 +11,10 @@ VIS        := $(BUILD)/tools/vis
 # Debian packages: the compiler and build tools, then every optional feature's library.
 DEB_PACKAGES := build-essential cmake pkg-config libcmocka-dev libpng-dev \
                 ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
-                libopenvdb-dev libboost-iostreams-dev libglfw3-dev libepoxy-dev libembree-dev gnuplot-nox clang
+                libopenvdb-dev libboost-iostreams-dev libglfw3-dev libepoxy-dev libembree-dev gnuplot-nox clang \
+                xvfb xauth
 
-.PHONY: all deps configure build run test test-release test-asan test-tsan bench fuzz install-test clean
+.PHONY: all deps configure build run viewer test test-release test-asan test-tsan bench fuzz install-test clean
 
 all: build
 
@@ -45,7 +46,15 @@ build: $(BUILD)/CMakeCache.txt
 run: build
 	$(VIS) run
 
-# Every test, in a release build and again under AddressSanitizer + UBSan; the threading
+# The GLFW viewer (demo/, docs/viewer.md) on the default world, or VIEWER_ARGS (e.g.
+# VIEWER_ARGS="--scene ../shared/data/vox/mmmm_scene_store8.vox"). Needs a display.
+VIEWER_ARGS ?=
+viewer: build
+	@test -x $(BUILD)/demo/vis-viewer || { echo "vis-viewer was not built (needs libglfw3-dev, libepoxy-dev, libpng-dev)"; exit 1; }
+	$(BUILD)/demo/vis-viewer $(VIEWER_ARGS)
+
+# Every test, in a release build and again under AddressSanitizer + UBSan (the viewer test
+# too: vis-viewer is built with ASan and run under Xvfb, demo/lsan.supp); the threading
 # tests once more under ThreadSanitizer.
 test: test-release test-asan test-tsan
 
@@ -53,7 +62,7 @@ test-release: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 test-asan: deps
-	cmake -S . -B $(BUILD_ASAN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVIS_SANITIZE=ON -DVIS_BUILD_DEMO=OFF $(CMAKE_ARGS)
+	cmake -S . -B $(BUILD_ASAN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVIS_SANITIZE=ON -DVIS_BUILD_DEMO=ON $(CMAKE_ARGS)
 	cmake --build $(BUILD_ASAN) -j $(JOBS)
 	cd $(BUILD_ASAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  VIS_TEST_SCALE=small ctest --output-on-failure -j $(JOBS)

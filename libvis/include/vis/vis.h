@@ -417,6 +417,38 @@ VIS_API void vis_trace_desc_defaults(vis_trace_desc *desc);
  * 0 < near < far. Returns VIS_ERROR_INVALID_ARGUMENT with a message naming the problem. */
 VIS_API vis_status vis_camera_validate(vis_context *context, const vis_camera *camera);
 
+/* ---- The engine's camera form: view and projection matrices (issue 12) ------------- */
+
+/* Turns an engine's view and projection matrices into the vis_camera that traces the same
+ * rays, so every call that takes a vis_camera (vis_trace, vis_trace_batch, vis_zcull_run)
+ * takes the engine's camera too. Matrices are 4x4 doubles, column-major as OpenGL and glm
+ * store them: element (row r, column c) at [c*4 + r]. `view` maps world coordinates to eye
+ * space (looking down -Z, +Y up, +X right); its inverse gives the eye (its translation) and
+ * the forward (-Z), right and up axes. `projection` is a symmetric OpenGL perspective
+ * (glm::perspective, gluPerspective, or its infinite-far form): fovy = 2 atan(1 /
+ * projection[1][1]); near and far come from projection[2][2] and projection[3][2]; the
+ * aspect projection[1][1] / projection[0][0] must be the pass's width / height (which
+ * vis_trace takes the aspect from) within 1e-4. The result gets eye, a target along the
+ * forward axis, fovy_deg, near_dist and far_dist (0, which means +inf, for an infinite far
+ * plane), and is then checked as vis_camera_validate checks it. Like vis_camera_validate it
+ * is a call on the context (another thread's call meanwhile gets VIS_ERROR_BUSY); it
+ * allocates nothing.
+ *
+ * The eye/target form has no roll (its up follows +Y), so a view whose right axis leaves the
+ * horizontal plane (|right.y| > 1e-6), or, looking straight along Y, whose right axis is not
+ * the one the eye/target form takes there, is VIS_ERROR_UNSUPPORTED; so are off-centre
+ * (projection[2][0], projection[2][1] != 0) and orthographic projections. Matrices with a
+ * non-finite element, a view whose rotation is not orthonormal within 1e-4 (scale, shear,
+ * mirror), or a projection that is not a perspective are VIS_ERROR_INVALID_ARGUMENT. The
+ * message names the problem; *out_camera is written only on VIS_OK. For a view and
+ * projection built from an eye/target camera (lookAt with up +Y, perspective with its fovy,
+ * near, far and the pass's aspect, in double), the camera returned gives the same ID buffers
+ * as the eye/target camera (tests/test_camera.c checks them bit for bit). */
+VIS_API vis_status vis_camera_from_matrices(vis_context *context, const double view[16], const double projection[16],
+                                            uint32_t width, uint32_t height, vis_camera *out_camera);
+
+/* ---- end of the engine's camera form ----------------------------------------------- */
+
 /* The ray pass. out_ids receives width*height IDs (row-major, top row first, 0 = nothing
  * hit); out_depth (may be NULL, then depth_capacity must be 0, else
  * VIS_ERROR_INVALID_ARGUMENT) the distance along the normalised ray, +inf where nothing was
