@@ -76,6 +76,9 @@ vw_status vwi_dense_failure(const vw_world *world);
 /* Recounts a chunk after direct writes to its dense array and compacts it to uniform when
  * every voxel holds one value. */
 void vwi_chunk_settle(vw_world *world, uint32_t index);
+/* Records the solid count of a dense chunk whose array was written directly and is known
+ * to mix values (so settling would not compact it): vwi_chunk_settle without the recount. */
+void vwi_chunk_set_solid(vw_world *world, uint32_t index, uint32_t solid);
 /* Makes the chunk uniform (freeing a dense array). */
 void vwi_chunk_set_uniform(vw_world *world, uint32_t index, uint8_t value);
 

@@ -122,6 +122,14 @@ void vwi_chunk_set_uniform(vw_world *w, uint32_t index, uint8_t value)
     account_add(w, c);
 }
 
+void vwi_chunk_set_solid(vw_world *w, uint32_t index, uint32_t solid)
+{
+    vwi_chunk *c = &w->chunk[index];
+    account_remove(w, c);
+    c->solid = solid;
+    account_add(w, c);
+}
+
 void vwi_chunk_settle(vw_world *w, uint32_t index)
 {
     vwi_chunk *c = &w->chunk[index];
