@@ -23,9 +23,7 @@ typedef struct run {
     pthread_mutex_t lock;    /* the world's accounting                                        */
     atomic_int failed;       /* first failure's status (VW_OK while none); stops the team     */
     atomic_uint done;        /* columns finished, for progress                                */
-    vw_progress_fn progress; /* worker 0 (the calling thread) only                            */
-    void *user;
-    int reported;
+    vwg_progress *progress;  /* worker 0 (the calling thread) only                            */
 } run;
 
 /* Stores chunk row cy of a filled column: a uniform chunk as a tag, others as a copy. */
@@ -91,18 +89,17 @@ static void column_item(void *ctx, uint32_t worker, uint32_t item)
     }
     const uint32_t done = atomic_fetch_add_explicit(&r->done, 1u, memory_order_relaxed) + 1u;
     /* Progress in whole percent, each at most once, from the calling thread only. */
-    if (worker == 0 && r->progress) {
+    if (worker == 0 && r->progress->fn) {
         const uint64_t total = (uint64_t)nx * (uint64_t)w->chunks[2];
         const int pct = (int)((uint64_t)done * 100u / total);
-        if (pct > r->reported) {
-            r->progress("generating", pct / 100.0, r->user);
-            r->reported = pct;
+        if (pct > r->progress->reported) {
+            r->progress->fn("generating", pct / 100.0, r->progress->user);
+            r->progress->reported = pct;
         }
     }
 }
 
-vw_status vwg_run(vw_world *w, const vwg_generator *g, uint32_t threads, vw_progress_fn progress, void *user,
-                  vw_error *err)
+vw_status vwg_run(vw_world *w, const vwg_generator *g, uint32_t threads, vwg_progress *progress, vw_error *err)
 {
     const uint64_t columns = (uint64_t)w->chunks[0] * (uint64_t)w->chunks[2];
     run r;
@@ -124,17 +121,17 @@ vw_status vwg_run(vw_world *w, const vwg_generator *g, uint32_t threads, vw_prog
     atomic_init(&r.failed, VW_OK);
     atomic_init(&r.done, 0u);
     r.progress = progress;
-    r.user = user;
-    r.reported = -1;
-    if (progress) {
-        progress("generating", 0.0, user);
-        r.reported = 0;
+    if (progress->fn && progress->reported < 0) {
+        progress->fn("generating", 0.0, progress->user);
+        progress->reported = 0;
     }
     vwi_parallel_run(threads, (uint32_t)columns, column_item, &r, &r.failed);
     const vw_status st = (vw_status)atomic_load(&r.failed);
     /* The last columns may have finished on other threads. */
-    if (st == VW_OK && progress && r.reported < 100)
-        progress("generating", 1.0, user);
+    if (st == VW_OK && progress->fn && progress->reported < 100) {
+        progress->fn("generating", 1.0, progress->user);
+        progress->reported = 100;
+    }
     pthread_mutex_destroy(&r.lock);
     free(r.scratch);
     return st;

@@ -78,12 +78,17 @@ uint64_t vwg_maze_scratch_bytes(const int32_t size[3], int32_t chunk);
 
 /* Runs a generator over every chunk column of `world` on up to `threads` workers (each with
  * a column buffer and worker_bytes of scratch, allocated here), storing each chunk straight
- * into the world; the world comes out bit-identical for every thread count. Progress (may be
- * NULL) is reported on the calling thread. Fails with the store's status (VW_ERROR_BUDGET
+ * into the world; the world comes out bit-identical for every thread count. Progress is
+ * reported on the calling thread, each whole percent once and only beyond progress->reported
+ * (so a second run after a failed one goes on where the first stopped). Fails with the store's status (VW_ERROR_BUDGET
  * when the world's limit is reached) and no message, or VW_ERROR_OUT_OF_MEMORY with one for
  * the scratch. gen_run.c. */
-vw_status vwg_run(vw_world *world, const vwg_generator *gen, uint32_t threads, vw_progress_fn progress, void *user,
-                  vw_error *err);
+typedef struct vwg_progress {
+    vw_progress_fn fn;       /* may be NULL                                                    */
+    void *user;
+    int reported;            /* the last whole percent reported; -1 before the first call       */
+} vwg_progress;
+vw_status vwg_run(vw_world *world, const vwg_generator *gen, uint32_t threads, vwg_progress *progress, vw_error *err);
 
 /* The column buffer of one worker: C x H bytes. */
 static inline uint64_t vwg_column_bytes(int32_t chunk, int32_t height)

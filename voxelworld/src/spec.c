@@ -182,6 +182,37 @@ static vw_status parse_gen(const char *spec, gen_spec *g, vw_error *err)
     return VW_OK;
 }
 
+/* Creates the world and runs the generator on it with `threads` workers whose scratch
+ * (`scratch` bytes in all, the generator's state included) is charged to the world's limit
+ * while they run. On failure *out may hold the partial world, for the message; the caller
+ * destroys it. */
+static vw_status generate(const vw_world_desc *d, const gen_spec *g, int terrain, uint32_t threads, uint64_t scratch,
+                          vwg_progress *prog, vw_world **out, vw_error *err)
+{
+    vw_world *w;
+    vw_status st = vw_world_create(d, &w, err);
+    if (st != VW_OK)
+        return st;
+    *out = w;
+    vwg_generator gen;
+    memset(&gen, 0, sizeof gen);
+    if (terrain)
+        st = vwg_terrain_create(w, g->seed, &gen, err);
+    else if (strcmp(g->name, "city") == 0)
+        st = vwg_city_create(w, g->seed, &gen, err);
+    else
+        st = vwg_maze_create(w, g->seed, &gen, err);
+    if (st != VW_OK)
+        return st;
+    if (err)
+        err->message[0] = '\0';
+    w->max_bytes = d->max_bytes - scratch; /* the scratch lives as long as the run */
+    st = vwg_run(w, &gen, threads, prog, err);
+    w->max_bytes = d->max_bytes;
+    gen.destroy(gen.state);
+    return st;
+}
+
 static vw_status from_gen(const char *spec, const vw_budget *budget, uint32_t threads, vw_progress_fn progress, void *user,
                           vw_world **out, vw_error *err)
 {
@@ -218,10 +249,11 @@ static vw_status from_gen(const char *spec, const vw_budget *budget, uint32_t th
     const uint64_t worker = terrain ? vwg_terrain_worker_bytes(size, g.chunk) : 0;
     const uint64_t table = vwi_table_bytes(chunks);
     /* One worker must fit; more only while their scratch does too. */
-    threads = vwi_threads_for(threads, chunks);
+    const uint64_t columns = (uint64_t)(size[0] / g.chunk) * (uint64_t)(size[2] / g.chunk);
+    threads = vwi_threads_for(threads, columns);
     while (threads > 1 && table + state + threads * vwg_run_stride(column, worker, threads) > b.max_bytes)
         threads--;
-    const uint64_t scratch = state + threads * vwg_run_stride(column, worker, threads);
+    uint64_t scratch = state + threads * vwg_run_stride(column, worker, threads);
     if (table + scratch > b.max_bytes)
         return vwi_fail(err, VW_ERROR_BUDGET,
                         "spec '%s': the table of %s chunks (%s) and the generator's scratch (%s) need %s; the budget is %s",
@@ -236,37 +268,30 @@ static vw_status from_gen(const char *spec, const vw_budget *budget, uint32_t th
         d.origin[a] = g.origin[a];
         d.size[a] = (int32_t)g.size[a];
     }
-    vw_world *w;
-    st = vw_world_create(&d, &w, err);
-    if (st != VW_OK)
-        return st;
-    vwg_generator gen;
-    memset(&gen, 0, sizeof gen);
-    if (terrain)
-        st = vwg_terrain_create(w, g.seed, &gen, err);
-    else if (strcmp(g.name, "city") == 0)
-        st = vwg_city_create(w, g.seed, &gen, err);
-    else
-        st = vwg_maze_create(w, g.seed, &gen, err);
-    if (st == VW_OK) {
-        if (err)
-            err->message[0] = '\0';
-        w->max_bytes = b.max_bytes - scratch; /* the scratch lives as long as the run */
-        st = vwg_run(w, &gen, threads, progress, user, err);
-        w->max_bytes = b.max_bytes;
-        gen.destroy(gen.state);
-        if (st != VW_OK && (!err || !err->message[0])) {
-            const uint64_t held = vwi_world_bytes(w);
-            if (st == VW_ERROR_BUDGET)
-                vwi_fail(err, st,
-                         "spec '%s': the world outgrew the budget of %s while generating: %s chunks hold data "
-                         "(%s in all) beside %s of the generator's scratch",
-                         spec, vwi_format_bytes(b.max_bytes, b1, sizeof b1), vwi_format_count(w->dense_chunks, n1, sizeof n1),
-                         vwi_format_bytes(held, b2, sizeof b2), vwi_format_bytes(scratch, b3, sizeof b3));
-            else
-                vwi_fail(err, st, "spec '%s': out of memory while generating (%s chunks hold data so far, %s)", spec,
-                         vwi_format_count(w->dense_chunks, n1, sizeof n1), vwi_format_bytes(held, b2, sizeof b2));
-        }
+    vwg_progress prog = {progress, user, -1};
+    vw_world *w = NULL;
+    st = generate(&d, &g, terrain, threads, scratch, &prog, &w, err);
+    if (st == VW_ERROR_BUDGET && threads > 1) {
+        /* The extra workers' scratch may have taken room the world needed: a serial run
+         * decides, so that no thread count changes whether a spec loads. (Progress goes on
+         * from where it was: the serial run reports only what lies beyond it.) */
+        vw_world_destroy(w);
+        w = NULL;
+        threads = 1;
+        scratch = state + vwg_run_stride(column, worker, 1);
+        st = generate(&d, &g, terrain, threads, scratch, &prog, &w, err);
+    }
+    if (st != VW_OK && w && (!err || !err->message[0])) {
+        const uint64_t held = vwi_world_bytes(w);
+        if (st == VW_ERROR_BUDGET)
+            vwi_fail(err, st,
+                     "spec '%s': the world outgrew the budget of %s while generating: %s chunks hold data "
+                     "(%s in all) beside %s of the generator's scratch",
+                     spec, vwi_format_bytes(b.max_bytes, b1, sizeof b1), vwi_format_count(w->dense_chunks, n1, sizeof n1),
+                     vwi_format_bytes(held, b2, sizeof b2), vwi_format_bytes(scratch, b3, sizeof b3));
+        else
+            vwi_fail(err, st, "spec '%s': out of memory while generating (%s chunks hold data so far, %s)", spec,
+                     vwi_format_count(w->dense_chunks, n1, sizeof n1), vwi_format_bytes(held, b2, sizeof b2));
     }
     if (st != VW_OK) {
         vw_world_destroy(w);
