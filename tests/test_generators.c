@@ -673,6 +673,50 @@ static void test_threads_progress(void **state)
     assert_int_equal(vw_world_load("gen:maze", NULL, NULL, NULL), VW_ERROR_INVALID_ARGUMENT);
 }
 
+/* A large generated world keeps its dense chunks in 2 MiB pool blocks (charged whole): a
+ * chunk dug out gives its array back, and the next chunk that needs one takes it, so edits
+ * after generation reuse the memory and take no new block. */
+static void test_pool_edits(void **state)
+{
+    (void)state;
+    vw_world *w = gen("gen:terrain:size=512x64x128:seed=3"); /* 1,024 chunks: pooled */
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    const uint64_t bytes = info.bytes;
+    assert_true(bytes <= info.max_bytes);
+    /* A chunk that mixes materials (stored dense), found by its voxels. */
+    int64_t found[3] = {-1, -1, -1};
+    for (int64_t cy = 0; cy < 4 && found[0] < 0; cy++)
+        for (int64_t cx = 0; cx < 32 && found[0] < 0; cx++) {
+            const uint8_t a = vw_world_get(w, cx * 16, cy * 16, 0);
+            for (int64_t i = 1; i < 16 && found[0] < 0; i++)
+                if (vw_world_get(w, cx * 16 + i, cy * 16 + i, i) != a)
+                    found[0] = cx * 16, found[1] = cy * 16, found[2] = 0;
+        }
+    assert_true(found[0] >= 0);
+    const int64_t mx[3] = {found[0] + 16, found[1] + 16, 16};
+    assert_int_equal(vw_world_fill(w, found, mx, 0), VW_OK); /* dense -> uniform air */
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.bytes, bytes);
+    /* A voxel in the top chunk layer, which is mostly air: if its chunk is uniform it needs
+     * a dense array, which the free list gives without growing; if not, none is needed. */
+    assert_int_equal(vw_world_get(w, 100, 63, 100), 0);
+    assert_int_equal(vw_world_set(w, 100, 63, 100, 3), VW_OK);
+    assert_int_equal(vw_world_get(w, 100, 63, 100), 3);
+    assert_int_equal(vw_world_get(w, 101, 63, 100), 0);
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.bytes, bytes);
+    /* Many more than the freed array: the block's spare slots, then single arrays (the world
+     * no longer takes blocks), each charged. */
+    for (int64_t x = 0; x < 512; x += 16)
+        assert_int_equal(vw_world_set(w, x, 62, 120, 3), VW_OK);
+    vw_world_get_info(w, &info);
+    assert_true(info.bytes >= bytes && info.bytes <= bytes + 32 * 16 * 16 * 16);
+    for (int64_t x = 0; x < 512; x += 16)
+        assert_int_equal(vw_world_get(w, x, 62, 120), 3);
+    vw_world_destroy(w);
+}
+
 /* ---- the budget (vw_budget) ----------------------------------------------------------- */
 
 static vw_status from_spec_budget(const char *spec, uint64_t max_bytes, uint64_t max_voxels, vw_world **w,
@@ -769,6 +813,7 @@ int main(void)
         cmocka_unit_test(test_threads_same_world),
         cmocka_unit_test(test_threads_budget),
         cmocka_unit_test(test_threads_progress),
+        cmocka_unit_test(test_pool_edits),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

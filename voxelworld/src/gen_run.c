@@ -125,7 +125,12 @@ vw_status vwg_run(vw_world *w, const vwg_generator *g, uint32_t threads, vwg_pro
         progress->fn("generating", 0.0, progress->user);
         progress->reported = 0;
     }
+    /* Dense chunks from pool blocks (chunk_pool.c) when the world may need two blocks or
+     * more; small worlds keep exact per-chunk arrays. Off again afterwards, so that edits
+     * never take a new block (their budget checks count single arrays). */
+    w->pool_on = (uint64_t)w->chunk_count * vwi_chunk_volume(w) >= 2 * (uint64_t)VWI_POOL_BLOCK;
     vwi_parallel_run(threads, (uint32_t)columns, column_item, &r, &r.failed);
+    w->pool_on = 0;
     const vw_status st = (vw_status)atomic_load(&r.failed);
     /* The last columns may have finished on other threads. */
     if (st == VW_OK && progress->fn && progress->reported < 100) {
