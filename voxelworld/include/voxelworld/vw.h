@@ -74,7 +74,8 @@ typedef uint8_t vw_voxel;
 #define VW_DEFAULT_MAX_VOXELS ((uint64_t)1 << 30)
 
 typedef struct vw_budget {
-    uint64_t max_bytes;  /* memory the world may hold: chunk table, dirty bits, dense chunks  */
+    uint64_t max_bytes;  /* memory the world may hold: chunk table, dirty bits, dense chunks
+                            (a generated world keeps those in 2 MiB blocks, counted whole)   */
     uint64_t max_voxels; /* voxels a load may write: a generator's whole box, an importer's
                             solid voxels (each instance of a model counted)                 */
 } vw_budget;
