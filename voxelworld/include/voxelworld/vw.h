@@ -209,7 +209,9 @@ typedef struct vw_load_options {
                                 load serially); the world is bit-identical for every count.
                                 Each thread beyond the first needs one more generator scratch
                                 (a column of C x height bytes plus the generator's own), which
-                                the budget check counts                                       */
+                                the budget counts: threads it has no room for are not used,
+                                and a parallel run that outgrows the budget is redone serially,
+                                so the count never changes whether a spec loads              */
     vw_progress_fn progress; /* called on the calling thread only, as vw_world_from_spec's   */
     void *progress_user;
 } vw_load_options;
