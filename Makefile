@@ -69,9 +69,10 @@ test-asan: deps
 
 # ThreadSanitizer on the threading tests only (tests/test_threads.c: one context from two
 # threads, one scene traced through four contexts while a fifth thread edits and commits, the
-# parallel_for hook). The rest of the suite is single-threaded and would only add minutes.
+# parallel_for hook; test_generators and test_mesher: worlds generated and chunks meshed on
+# 1-7 threads). The rest of the suite is single-threaded and would only add minutes.
 # No target_clones there: their ifunc resolvers run before TSan's runtime is up and crash.
-TSAN_TESTS ?= threads
+TSAN_TESTS ?= threads generators mesher
 test-tsan: deps
 	cmake -S . -B $(BUILD_TSAN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="-fsanitize=thread -DVIS_NO_TARGET_CLONES" \
 	  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread" \

@@ -1,7 +1,8 @@
 /* test_generators.c — specs and generators: determinism (same spec, same voxels; another
  * seed, other voxels), origin independence, the facts each world promises (terrain caves
  * that open to the sky, city windows and furniture, maze walls 1 thick and corridors at most
- * 3 wide, all connected), spec errors, progress. Prints (never asserts) timings. */
+ * 3 wide, all connected), spec errors, progress; the worlds recorded before generation was
+ * optimised, and the same world for every thread count. Prints (never asserts) timings. */
 #define _POSIX_C_SOURCE 200809L
 #include <setjmp.h>
 #include <stdarg.h>
@@ -11,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+
+#include <pthread.h>
 
 #include <cmocka.h>
 
@@ -493,6 +496,227 @@ static void test_timings(void **state)
     vw_world_destroy(w);
 }
 
+/* ---- recorded worlds and threads ---------------------------------------------------- */
+
+/* Voxel hashes (hash_world) recorded with the serial generator of commit 6eded59, before the
+ * terrain learnt to skip cave tests and generation went parallel: both must leave every
+ * voxel as it was. The oracle is that older code's output, not the code under test. */
+static const struct {
+    const char *spec;
+    uint64_t voxels;
+    uint64_t solid;
+} recorded[] = {
+    {"gen:terrain:size=200x40x200:seed=11:origin=-1000,16,77", 0x539fcdbac665295cull, 751108},
+    {"gen:terrain:size=320x96x320:seed=3:chunk=32", 0x6aebfa9c3e1bf617ull, 3941038},
+    {"gen:terrain:size=64x1024x64:seed=5", 0x195045e4bebdb9b1ull, 1326864},
+    {"gen:terrain:size=96x160x96:seed=1", 0xb3f922d3d9b37ef3ull, 679969},
+    {"gen:city:size=128x64x128:seed=9", 0xb3030e444d92b9b9ull, 108191},
+    {"gen:maze:size=128x16x96:seed=4", 0x568367d3e3291181ull, 33868},
+};
+
+static vw_world *load_threads(const char *spec, uint32_t threads)
+{
+    vw_load_options o;
+    memset(&o, 0, sizeof o);
+    o.threads = threads;
+    vw_world *w = NULL;
+    vw_error err;
+    err.message[0] = '\0';
+    vw_status st = vw_world_load(spec, &o, &w, &err);
+    if (st != VW_OK)
+        fail_msg("%s on %u threads: %s: %s", spec, (unsigned)threads, vw_status_string(st), err.message);
+    return w;
+}
+
+static void assert_same_info(const vw_world *a, const vw_world *b)
+{
+    vw_world_info x, y;
+    vw_world_get_info(a, &x);
+    vw_world_get_info(b, &y);
+    assert_int_equal(x.solid_voxels, y.solid_voxels);
+    assert_int_equal(x.nonempty_chunks, y.nonempty_chunks);
+    assert_int_equal(x.bytes, y.bytes); /* the same chunks stored dense */
+    assert_int_equal(x.chunk_count, y.chunk_count);
+}
+
+static void test_recorded_worlds(void **state)
+{
+    (void)state;
+    for (size_t i = 0; i < sizeof recorded / sizeof recorded[0]; i++) {
+        vw_world *w = gen(recorded[i].spec);
+        vw_world_info info;
+        vw_world_get_info(w, &info);
+        const uint64_t h = hash_world(w);
+        if (h != recorded[i].voxels || info.solid_voxels != recorded[i].solid)
+            fail_msg("%s: voxels hash %016llx (%llu solid), recorded %016llx (%llu)", recorded[i].spec,
+                     (unsigned long long)h, (unsigned long long)info.solid_voxels,
+                     (unsigned long long)recorded[i].voxels, (unsigned long long)recorded[i].solid);
+        vw_world_destroy(w);
+    }
+}
+
+/* Every thread count gives the serial world: voxels, chunk storage and counts. 7 threads on
+ * a world of fewer columns checks the clamp too. */
+static void test_threads_same_world(void **state)
+{
+    (void)state;
+    const uint32_t counts[] = {1, 2, 3, 7};
+    for (size_t i = 0; i < sizeof recorded / sizeof recorded[0]; i++) {
+        vw_world *serial = gen(recorded[i].spec);
+        const uint64_t h = hash_world(serial);
+        for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
+            vw_world *w = load_threads(recorded[i].spec, counts[k]);
+            assert_same_info(serial, w);
+            if (hash_world(w) != h)
+                fail_msg("%s: %u threads gave another world", recorded[i].spec, (unsigned)counts[k]);
+            assert_int_equal(vw_world_take_dirty(w, NULL, 0), 0);
+            vw_world_destroy(w);
+        }
+        vw_world_destroy(serial);
+    }
+    /* A world of one column: more threads than columns. */
+    vw_world *one = load_threads("gen:terrain:size=16x64x16:seed=2", 7), *ref = gen("gen:terrain:size=16x64x16:seed=2");
+    assert_true(hash_world(one) == hash_world(ref));
+    vw_world_destroy(one);
+    vw_world_destroy(ref);
+}
+
+/* The budget counts each worker's scratch; where it has room for one worker only, more
+ * threads are not used and the load still succeeds with the same world. Where the world
+ * itself does not fit, every thread count fails the same way. */
+static void test_threads_budget(void **state)
+{
+    (void)state;
+    const char *spec = "gen:terrain:size=96x64x96:seed=4";
+    vw_world *ref = gen(spec);
+    const uint64_t h = hash_world(ref);
+    /* The smallest budget a serial load passes (bisection on max_bytes). */
+    uint64_t lo = 1, hi = (uint64_t)1 << 30;
+    while (hi - lo > 1) {
+        const uint64_t mid = lo + (hi - lo) / 2;
+        vw_load_options o;
+        memset(&o, 0, sizeof o);
+        o.budget.max_bytes = mid;
+        o.threads = 1;
+        vw_world *w = NULL;
+        if (vw_world_load(spec, &o, &w, NULL) == VW_OK) {
+            hi = mid;
+            vw_world_destroy(w);
+        } else {
+            lo = mid;
+        }
+    }
+    const uint32_t counts[] = {1, 2, 3, 7};
+    for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
+        vw_load_options o;
+        memset(&o, 0, sizeof o);
+        o.budget.max_bytes = hi;
+        o.threads = counts[k];
+        vw_world *w = NULL;
+        vw_error err;
+        assert_int_equal(vw_world_load(spec, &o, &w, &err), VW_OK);
+        assert_true(hash_world(w) == h);
+        vw_world_info info;
+        vw_world_get_info(w, &info);
+        assert_true(info.bytes <= hi);
+        assert_int_equal(info.max_bytes, hi);
+        vw_world_destroy(w);
+        o.budget.max_bytes = hi - 1;
+        w = NULL;
+        assert_int_equal(vw_world_load(spec, &o, &w, &err), VW_ERROR_BUDGET);
+        assert_null(w);
+        assert_true(strlen(err.message) > 0);
+    }
+    vw_world_destroy(ref);
+}
+
+typedef struct thread_progress {
+    pthread_t caller;
+    int calls, monotone, same_thread;
+    double last;
+} thread_progress;
+
+static void on_thread_progress(const char *stage, double fraction, void *user)
+{
+    thread_progress *p = user;
+    p->calls++;
+    p->monotone &= fraction >= p->last && strcmp(stage, "generating") == 0;
+    p->same_thread &= pthread_equal(pthread_self(), p->caller) != 0;
+    p->last = fraction;
+}
+
+/* Progress on several threads: still from the calling thread only, non-decreasing, at most
+ * 101 calls, ending at 1. */
+static void test_threads_progress(void **state)
+{
+    (void)state;
+    const char *specs[] = {"gen:terrain:size=256x32x256", "gen:maze:size=512x16x512", "gen:city:size=16x32x16"};
+    for (size_t i = 0; i < 3; i++) {
+        thread_progress p = {pthread_self(), 0, 1, 1, 0.0};
+        vw_load_options o;
+        memset(&o, 0, sizeof o);
+        o.threads = 3;
+        o.progress = on_thread_progress;
+        o.progress_user = &p;
+        vw_world *w = NULL;
+        assert_int_equal(vw_world_load(specs[i], &o, &w, NULL), VW_OK);
+        assert_true(p.calls >= 2 && p.calls <= 101);
+        assert_true(p.monotone && p.same_thread);
+        assert_true(p.last == 1.0);
+        vw_world_destroy(w);
+    }
+    /* NULL options: the serial defaults; bad arguments. */
+    vw_world *w = NULL;
+    assert_int_equal(vw_world_load("gen:maze:size=32x16x32", NULL, &w, NULL), VW_OK);
+    vw_world_destroy(w);
+    assert_int_equal(vw_world_load(NULL, NULL, &w, NULL), VW_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vw_world_load("gen:maze", NULL, NULL, NULL), VW_ERROR_INVALID_ARGUMENT);
+}
+
+/* A large generated world keeps its dense chunks in 2 MiB pool blocks (charged whole): a
+ * chunk dug out gives its array back, and the next chunk that needs one takes it, so edits
+ * after generation reuse the memory and take no new block. */
+static void test_pool_edits(void **state)
+{
+    (void)state;
+    vw_world *w = gen("gen:terrain:size=512x64x128:seed=3"); /* 1,024 chunks: pooled */
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    const uint64_t bytes = info.bytes;
+    assert_true(bytes <= info.max_bytes);
+    /* A chunk that mixes materials (stored dense), found by its voxels. */
+    int64_t found[3] = {-1, -1, -1};
+    for (int64_t cy = 0; cy < 4 && found[0] < 0; cy++)
+        for (int64_t cx = 0; cx < 32 && found[0] < 0; cx++) {
+            const uint8_t a = vw_world_get(w, cx * 16, cy * 16, 0);
+            for (int64_t i = 1; i < 16 && found[0] < 0; i++)
+                if (vw_world_get(w, cx * 16 + i, cy * 16 + i, i) != a)
+                    found[0] = cx * 16, found[1] = cy * 16, found[2] = 0;
+        }
+    assert_true(found[0] >= 0);
+    const int64_t mx[3] = {found[0] + 16, found[1] + 16, 16};
+    assert_int_equal(vw_world_fill(w, found, mx, 0), VW_OK); /* dense -> uniform air */
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.bytes, bytes);
+    /* A voxel in the top chunk layer, which is mostly air: if its chunk is uniform it needs
+     * a dense array, which the free list gives without growing; if not, none is needed. */
+    assert_int_equal(vw_world_get(w, 100, 63, 100), 0);
+    assert_int_equal(vw_world_set(w, 100, 63, 100, 3), VW_OK);
+    assert_int_equal(vw_world_get(w, 100, 63, 100), 3);
+    assert_int_equal(vw_world_get(w, 101, 63, 100), 0);
+    vw_world_get_info(w, &info);
+    assert_int_equal(info.bytes, bytes);
+    /* Many more than the freed array: the block's spare slots, then single arrays (the world
+     * no longer takes blocks), each charged. */
+    for (int64_t x = 0; x < 512; x += 16)
+        assert_int_equal(vw_world_set(w, x, 62, 120, 3), VW_OK);
+    vw_world_get_info(w, &info);
+    assert_true(info.bytes >= bytes && info.bytes <= bytes + 32 * 16 * 16 * 16);
+    for (int64_t x = 0; x < 512; x += 16)
+        assert_int_equal(vw_world_get(w, x, 62, 120), 3);
+    vw_world_destroy(w);
+}
+
 /* ---- the budget (vw_budget) ----------------------------------------------------------- */
 
 static vw_status from_spec_budget(const char *spec, uint64_t max_bytes, uint64_t max_voxels, vw_world **w,
@@ -585,6 +809,11 @@ int main(void)
         cmocka_unit_test(test_timings),
         cmocka_unit_test(test_budget_maze),
         cmocka_unit_test(test_budget_default_world),
+        cmocka_unit_test(test_recorded_worlds),
+        cmocka_unit_test(test_threads_same_world),
+        cmocka_unit_test(test_threads_budget),
+        cmocka_unit_test(test_threads_progress),
+        cmocka_unit_test(test_pool_edits),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

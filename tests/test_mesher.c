@@ -1,4 +1,6 @@
-/* test_mesher.c — the greedy mesher against a brute-force oracle, and the OBJ export.
+/* test_mesher.c — the greedy mesher against a brute-force oracle, the meshes recorded before
+ * meshing went parallel, vw_mesh_chunks against vw_mesh_chunk on 1-7 threads, and the OBJ
+ * export.
  *
  * Oracle: every (voxel, direction) pair whose face must be drawn, by the rule in vw.h (a
  * solid voxel a, neighbour b: a face unless b is opaque or b == a; outside the world is
@@ -344,6 +346,134 @@ static void test_mesh_capacity(void **state)
     vw_world_destroy(w);
 }
 
+/* ---- recorded meshes and threads ----------------------------------------------------- */
+
+/* FNV-1a over every non-empty chunk's quads (their bytes: vw_quad has no padding), then the
+ * chunk index's low byte, in chunk order — as recorded. */
+static uint64_t hash_meshes(const vw_world *w)
+{
+    _Static_assert(sizeof(vw_quad) == 24, "vw_quad is hashed as its 24 bytes");
+    vw_world_info info;
+    vw_world_get_info(w, &info);
+    uint64_t h = 1469598103934665603ull;
+    vw_mesh m = {NULL, 0, 0};
+    for (uint32_t c = 0; c < info.chunk_count; c++) {
+        if (vw_world_chunk_empty(w, c))
+            continue;
+        assert_int_equal(vw_mesh_chunk(w, c, &m), VW_OK);
+        const unsigned char *b = (const unsigned char *)m.quads;
+        for (size_t i = 0; i < m.count * sizeof(vw_quad); i++)
+            h = (h ^ b[i]) * 1099511628211ull;
+        h = (h ^ (unsigned char)c) * 1099511628211ull;
+    }
+    vw_mesh_free(&m);
+    return h;
+}
+
+static vw_world *gen(const char *spec)
+{
+    vw_world *w = NULL;
+    vw_error err;
+    err.message[0] = '\0';
+    vw_status st = vw_world_from_spec(spec, NULL, NULL, NULL, &w, &err);
+    if (st != VW_OK)
+        fail_msg("%s: %s: %s", spec, vw_status_string(st), err.message);
+    return w;
+}
+
+/* The meshes of generated worlds as the mesher of commit 6eded59 made them (quads and their
+ * order): any change to the mesher must keep them, or prove (with the oracle above) that
+ * new meshes cover the same faces and change this table knowingly. */
+static void test_recorded_meshes(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *spec;
+        uint64_t hash, quads;
+        int big;
+    } rec[] = {
+        {"gen:terrain:size=200x40x200:seed=11:origin=-1000,16,77", 0xd5085f48f9b7304aull, 32757, 0},
+        {"gen:terrain:size=320x96x320:seed=3:chunk=32", 0xe086655e56b9a650ull, 170713, 0},
+        {"gen:terrain:size=96x160x96:seed=1", 0x20f7c81453ff7f4dull, 30378, 0},
+        {"gen:city:size=128x64x128:seed=9", 0x0f643e308808ad25ull, 40665, 0},
+        {"gen:maze:size=128x16x96:seed=4", 0xb0c83256efeae479ull, 4686, 0},
+        {"gen:default", 0xd9efac7e1c49b1c9ull, 623211, 1},
+    };
+    for (size_t i = 0; i < sizeof rec / sizeof rec[0]; i++) {
+        if (rec[i].big && vt_small())
+            continue;
+        vw_world *w = gen(rec[i].spec);
+        const uint64_t h = hash_meshes(w);
+        if (h != rec[i].hash)
+            fail_msg("%s: meshes hash %016llx, recorded %016llx", rec[i].spec, (unsigned long long)h,
+                     (unsigned long long)rec[i].hash);
+        vw_world_destroy(w);
+    }
+}
+
+/* Asserts meshes[i] equals vw_mesh_chunk's mesh of chunks[i], quad for quad. */
+static void assert_meshes_serial(const vw_world *w, const uint32_t *chunks, size_t n, const vw_mesh *meshes)
+{
+    vw_mesh ref = {NULL, 0, 0};
+    for (size_t i = 0; i < n; i++) {
+        assert_int_equal(vw_mesh_chunk(w, chunks[i], &ref), VW_OK);
+        assert_int_equal(meshes[i].count, ref.count);
+        if (ref.count && memcmp(meshes[i].quads, ref.quads, ref.count * sizeof *ref.quads) != 0)
+            fail_msg("chunk %u: the batch's quads differ from vw_mesh_chunk's", (unsigned)chunks[i]);
+    }
+    vw_mesh_free(&ref);
+}
+
+/* vw_mesh_chunks gives each chunk exactly the serial mesh, for 1, 2, 3 and 7 threads, with
+ * meshes reused across calls (grown, and holding other chunks' quads before), in any order
+ * of chunks, empty and buried ones included; and refuses bad arguments. */
+static void test_mesh_chunks_threads(void **state)
+{
+    (void)state;
+    vw_world *worlds[3];
+    worlds[0] = gen("gen:terrain:size=128x96x128:seed=21");
+    worlds[1] = gen("gen:city:size=96x64x96:seed=2");
+    const int64_t o[3] = {-32, 0, 32};
+    worlds[2] = make_world(32, o, 96, 64, 64);
+    uint64_t seed = 77;
+    randomise(worlds[2], &seed, 4, 20000);
+    const uint32_t counts[] = {1, 2, 3, 7};
+    for (int wi = 0; wi < 3; wi++) {
+        vw_world *w = worlds[wi];
+        vw_world_info info;
+        vw_world_get_info(w, &info);
+        const size_t n = info.chunk_count;
+        uint32_t *chunks = malloc(n * sizeof *chunks);
+        vw_mesh *meshes = calloc(n, sizeof *meshes);
+        assert_non_null(chunks);
+        assert_non_null(meshes);
+        for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
+            /* Ascending on even passes, descending on odd ones, so every mesh is reused for
+             * another chunk. */
+            for (size_t i = 0; i < n; i++)
+                chunks[i] = (uint32_t)(k & 1 ? n - 1 - i : i);
+            assert_int_equal(vw_mesh_chunks(w, chunks, n, meshes, counts[k]), VW_OK);
+            assert_meshes_serial(w, chunks, n, meshes);
+        }
+        /* One chunk asked for twice, and a batch smaller than the threads. */
+        chunks[0] = chunks[1] = (uint32_t)(n / 2);
+        assert_int_equal(vw_mesh_chunks(w, chunks, 2, meshes, 7), VW_OK);
+        assert_meshes_serial(w, chunks, 2, meshes);
+        /* Bad arguments: an index out of range (anywhere in the batch), NULLs; count 0. */
+        chunks[1] = info.chunk_count;
+        assert_int_equal(vw_mesh_chunks(w, chunks, 2, meshes, 2), VW_ERROR_INVALID_ARGUMENT);
+        assert_int_equal(vw_mesh_chunks(NULL, chunks, 1, meshes, 2), VW_ERROR_INVALID_ARGUMENT);
+        assert_int_equal(vw_mesh_chunks(w, NULL, 1, meshes, 2), VW_ERROR_INVALID_ARGUMENT);
+        assert_int_equal(vw_mesh_chunks(w, chunks, 1, NULL, 2), VW_ERROR_INVALID_ARGUMENT);
+        assert_int_equal(vw_mesh_chunks(w, NULL, 0, NULL, 2), VW_OK);
+        for (size_t i = 0; i < n; i++)
+            vw_mesh_free(&meshes[i]);
+        free(meshes);
+        free(chunks);
+        vw_world_destroy(w);
+    }
+}
+
 /* ---- OBJ export ------------------------------------------------------------------------ */
 
 typedef struct obj {
@@ -497,6 +627,8 @@ int main(void)
         cmocka_unit_test(test_uniform_chunks),
         cmocka_unit_test(test_far_origin),
         cmocka_unit_test(test_mesh_capacity),
+        cmocka_unit_test(test_recorded_meshes),
+        cmocka_unit_test(test_mesh_chunks_threads),
         cmocka_unit_test(test_export_obj),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -99,11 +99,11 @@ static int mesh_chunk(world_scene *ws, uint32_t chunk, vw_error *err)
     return 0;
 }
 
-/* Hands the chunk's current mesh (ws->mesh) to libvis: replace, add, or remove. */
-static int upload_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st, vw_error *err)
+/* Hands a chunk's current mesh to libvis: replace, add, or remove. */
+static int upload_chunk(world_scene *ws, uint32_t chunk, const vw_mesh *cm, world_scene_stats *st, vw_error *err)
 {
     uint32_t id = vw_chunk_object_id(chunk);
-    size_t n = ws->mesh.count;
+    size_t n = cm->count;
     double t0 = vc_now_ms();
     if (n == 0) {
         if (ws->present[chunk]) {
@@ -121,7 +121,7 @@ static int upload_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st, 
             set_error(err, "out of memory converting %zu quads", n);
             return -1;
         }
-        world_scene_convert_quads(ws->mesh.quads, n, ws->quads);
+        world_scene_convert_quads(cm->quads, n, ws->quads);
         vis_mesh mesh = {ws->quads, (uint32_t)n, NULL, 0};
         t0 = vc_now_ms();
         vis_status s = vis_scene_set_object(ws->scene, id, &mesh);
@@ -138,7 +138,7 @@ static int upload_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st, 
     }
     st->scene_ms += vc_now_ms() - t0;
     if (ws->hook)
-        ws->hook(chunk, id, &ws->mesh, ws->hook_user);
+        ws->hook(chunk, id, cm, ws->hook_user);
     return 0;
 }
 
@@ -149,7 +149,53 @@ static int refresh_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st,
         return -1;
     st->mesh_ms += vc_now_ms() - t0;
     ++st->chunks;
-    return upload_chunk(ws, chunk, st, err);
+    return upload_chunk(ws, chunk, &ws->mesh, st, err);
+}
+
+/* Chunks meshed per vw_mesh_chunks call: enough that the threads stay busy and the
+ * team's start-up is noise, few enough that the meshes waiting for upload stay small (a few
+ * MB). The meshes are reused from batch to batch, so they stop allocating once grown. */
+#define MESH_BATCH 1024u
+
+/* Meshes every non-empty chunk, a batch at a time on opt->mesh_threads threads, and uploads
+ * the batch in ascending chunk order: the same calls, in the same order, as a serial loop. */
+static int mesh_all(world_scene *ws, const world_scene_options *opt, world_scene_stats *st, vw_error *err)
+{
+    int rc = 0;
+    vw_mesh *meshes = calloc(MESH_BATCH, sizeof *meshes);
+    uint32_t *chunks = malloc(MESH_BATCH * sizeof *chunks);
+    if (!meshes || !chunks) {
+        set_error(err, "out of memory for a meshing batch");
+        rc = -1;
+    }
+    uint32_t next = 0, step = ws->chunk_count / 200 + 1, reported = 0;
+    while (rc == 0 && next < ws->chunk_count) {
+        uint32_t n = 0;
+        for (; next < ws->chunk_count && n < MESH_BATCH; ++next)
+            if (!vw_world_chunk_empty(ws->world, next))
+                chunks[n++] = next;
+        double t0 = vc_now_ms();
+        vw_status s = vw_mesh_chunks(ws->world, chunks, n, meshes, opt->mesh_threads);
+        st->mesh_ms += vc_now_ms() - t0;
+        if (s != VW_OK) {
+            set_error(err, "meshing %u chunks before chunk %u: %s", n, next, vw_status_string(s));
+            rc = -1;
+            break;
+        }
+        for (uint32_t i = 0; i < n && rc == 0; ++i) {
+            ++st->chunks;
+            rc = upload_chunk(ws, chunks[i], &meshes[i], st, err);
+        }
+        if (opt->progress && next / step > reported) {
+            reported = next / step;
+            opt->progress("meshing", (double)next / (double)ws->chunk_count, opt->progress_user);
+        }
+    }
+    for (uint32_t i = 0; meshes && i < MESH_BATCH; ++i)
+        vw_mesh_free(&meshes[i]);
+    free(meshes);
+    free(chunks);
+    return rc;
 }
 
 int world_scene_create(vis_context *ctx, vw_world *world, const world_scene_options *options,
@@ -195,16 +241,11 @@ int world_scene_create(vis_context *ctx, vw_world *world, const world_scene_opti
     }
 
     /* Creation does not call the hook: it is for edits (set it after creating). */
-    uint32_t step = info.chunk_count / 200 + 1;
     if (opt.progress)
         opt.progress("meshing", 0.0, opt.progress_user);
-    for (uint32_t c = 0; c < info.chunk_count; ++c) {
-        if (!vw_world_chunk_empty(world, c) && refresh_chunk(ws, c, &st, err) != 0) {
-            world_scene_destroy(ws);
-            return -1;
-        }
-        if (opt.progress && (c + 1) % step == 0)
-            opt.progress("meshing", (double)(c + 1) / (double)info.chunk_count, opt.progress_user);
+    if (mesh_all(ws, &opt, &st, err) != 0) {
+        world_scene_destroy(ws);
+        return -1;
     }
     if (opt.progress)
         opt.progress("meshing", 1.0, opt.progress_user);

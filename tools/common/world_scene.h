@@ -24,6 +24,8 @@ typedef struct world_scene world_scene;
 
 typedef struct world_scene_options {
     uint32_t kd_depth;          /* 0: the libvis default (a leaf is one chunk)               */
+    uint32_t mesh_threads;      /* create meshes chunks on this many threads (vw_mesh_chunks;
+                                   0 or 1: serial); the scene is the same for any count       */
     vw_progress_fn progress;    /* may be NULL; called with stage "meshing", 0..1            */
     void *progress_user;
 } world_scene_options;

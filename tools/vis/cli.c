@@ -4,6 +4,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "out_file.h"
 #include "timer.h"
@@ -70,14 +71,33 @@ int cli_context_open(const char *cmd, vis_backend_kind backend, uint32_t threads
     return CLI_EXIT_OK;
 }
 
-/* The budget of every load (--max-bytes, --max-voxels), set once by main after parsing; the
- * CLI is single-threaded. Zero fields: the library's defaults. */
+/* The budget of every load (--max-bytes, --max-voxels) and the threads that generate and
+ * mesh worlds, set once by main after parsing; the CLI's own code is single-threaded. Zero
+ * fields: the library's defaults. */
 static vw_budget load_budget;
+static uint32_t load_threads = 1;
 
 void cli_world_set_budget(uint64_t max_bytes, uint64_t max_voxels)
 {
     load_budget.max_bytes = max_bytes;
     load_budget.max_voxels = max_voxels;
+}
+
+void cli_world_set_threads(const uint32_t *threads, size_t count)
+{
+    /* The most any pass of the command uses; 0 ("all") is every online core. The world is
+     * the same for any count, so this only changes how long loading takes. */
+    uint32_t n = 1;
+    for (size_t i = 0; i < count; ++i) {
+        uint32_t t = threads[i];
+        if (t == 0) {
+            long cores = sysconf(_SC_NPROCESSORS_ONLN);
+            t = cores > 0 ? (uint32_t)cores : 1;
+        }
+        if (t > n)
+            n = t;
+    }
+    load_threads = n;
 }
 
 int cli_world_load(const char *cmd, const char *spec, cli_progress *p, cli_world *out)
@@ -86,7 +106,13 @@ int cli_world_load(const char *cmd, const char *spec, cli_progress *p, cli_world
     vw_error err;
     err.message[0] = '\0';
     double t0 = vc_now_ms();
-    vw_status s = vw_world_from_spec(spec, &load_budget, p ? cli_progress_update : NULL, p, &out->world, &err);
+    vw_load_options opt;
+    memset(&opt, 0, sizeof opt);
+    opt.budget = load_budget;
+    opt.threads = load_threads;
+    opt.progress = p ? cli_progress_update : NULL;
+    opt.progress_user = p;
+    vw_status s = vw_world_load(spec, &opt, &out->world, &err);
     if (p)
         cli_progress_finish(p);
     out->load_ms = vc_now_ms() - t0;
@@ -115,6 +141,7 @@ int cli_scene_open(const char *cmd, const cli_world *w, vis_backend_kind backend
     world_scene_options opt;
     memset(&opt, 0, sizeof opt);
     opt.kd_depth = kd_depth;
+    opt.mesh_threads = load_threads;
     opt.progress = p ? cli_progress_update : NULL;
     opt.progress_user = p;
     vw_error err;

@@ -3,6 +3,7 @@
 #ifndef VIS_CLI_CLI_H
 #define VIS_CLI_CLI_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "args.h"
@@ -35,6 +36,9 @@ int cli_world_load(const char *cmd, const char *spec, cli_progress *p, cli_world
 /* The budget cli_world_load passes to the library (0 = its default); main sets it from
  * --max-bytes and --max-voxels. A load over it fails with CLI_EXIT_FAILURE and the numbers. */
 void cli_world_set_budget(uint64_t max_bytes, uint64_t max_voxels);
+/* The threads cli_world_load generates on and cli_scene_open meshes on: the largest of the
+ * command's --threads values (0 = every core); main sets it after parsing. */
+void cli_world_set_threads(const uint32_t *threads, size_t count);
 void cli_world_free(cli_world *w);
 
 /* Opens a context and builds the world's scene on it (progress "meshing" on p). */

@@ -66,6 +66,7 @@ int main(int argc, char **argv)
         if (rc != CLI_EXIT_OK)
             return rc;
         cli_world_set_budget(args.max_bytes, args.max_voxels);
+        cli_world_set_threads(args.threads, args.thread_count);
         return cli_commands[i].run(&args);
     }
     fprintf(stderr, "vis: unknown command '%s'\n\n", name);

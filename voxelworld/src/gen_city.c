@@ -120,8 +120,9 @@ static void building_column(const building *b, vwg_column *col, int32_t lx, int3
         *vwg_at(col, lx, top, lz) = VWG_ROOF;
 }
 
-static void fill(void *state, vwg_column *col)
+static void fill(const void *state, void *scratch, vwg_column *col)
 {
+    (void)scratch;
     const city *c = state;
     for (int32_t lz = 0; lz < col->c; lz++)
         for (int32_t lx = 0; lx < col->c; lx++) {

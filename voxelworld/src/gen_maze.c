@@ -120,8 +120,9 @@ static int is_wall(const maze *m, int32_t x, int32_t z, int32_t sx, int32_t sz)
     return !(m->open[(uint32_t)m->cell[0][x] + (uint32_t)m->n[0] * below] & 2);
 }
 
-static void fill(void *state, vwg_column *col)
+static void fill(const void *state, void *scratch, vwg_column *col)
 {
+    (void)scratch;
     const maze *m = state;
     for (int32_t z = 0; z < col->c; z++)
         for (int32_t x = 0; x < col->c; x++) {

@@ -23,12 +23,16 @@
 #define LAT 4          /* 3D noise lattice spacing, voxels                                  */
 #define BAND 10        /* overhang band half-height, voxels                                 */
 #define MAX_H 1024     /* tallest world this generator makes                                */
+/* Bounds that rule a lattice interval out of the cave tests (see fill): a margin of 0.001
+ * over the largest tunnel radius and under the smallest cavern threshold, far above the
+ * rounding of the interpolation. */
+#define TUNNEL_FAR 0.116
+#define CAVERN_FAR 0.319
 
 typedef struct terrain {
     int32_t h;                /* world height                                               */
     int32_t sea;              /* water fills air up to this y above the surface             */
     vwn_noise hills, ranges, overhang_mask, entrance, tun_a, tun_b, cavern, fold;
-    double *lattice;          /* scratch for one column's 3D lattice                        */
 } terrain;
 
 static double clampd(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
@@ -45,9 +49,10 @@ static double surface_height(const terrain *t, double x, double z)
 /* 3D fields sampled on the lattice; index [field][ly][lz][lx]. */
 enum { F_TUN_A, F_TUN_B, F_CAVERN, F_FOLD, F_COUNT };
 
-static void fill(void *state, vwg_column *col)
+/* `scratch`: one column's 3D lattice (lattice_bytes), the worker's own. */
+static void fill(const void *state, void *scratch, vwg_column *col)
 {
-    terrain *t = state;
+    const terrain *t = state;
     const int32_t c = col->c, H = col->h;
     const int32_t nl = c / LAT + 1;          /* lattice points per horizontal axis         */
 
@@ -74,7 +79,7 @@ static void fill(void *state, vwg_column *col)
 
     /* The lattice, up to the highest point any column can reach. */
     const int32_t ny = top / LAT + 2;
-    double *lat = t->lattice;
+    double *lat = scratch;
     for (int32_t ly = 0; ly < ny; ly++)
         for (int32_t lz = 0; lz < nl; lz++)
             for (int32_t lx = 0; lx < nl; lx++) {
@@ -89,28 +94,49 @@ static void fill(void *state, vwg_column *col)
     const size_t fs = (size_t)ny * (size_t)nl * (size_t)nl;
 
     double prof[F_COUNT][MAX_H / LAT + 2];      /* one column's fields at each lattice level */
+    uint8_t tunnel_may[MAX_H / LAT + 2], cavern_may[MAX_H / LAT + 2];
     for (int32_t z = 0; z < c; z++)
         for (int32_t x = 0; x < c; x++) {
             const int i = x + c * z;
             const double h = height[i];
             const int32_t hi = (int32_t)h;
             const double amp = fold_amp[i];
+            int32_t ytop = hi + (amp > 0 ? BAND : 0);
+            if (ytop > H - 1)
+                ytop = H - 1;
+            const int32_t ceil_y = ceiling[i];
+            /* Only the levels a field is read at: the fold near the surface, the caves up to
+             * the ceiling (FIELD reads levels y/LAT and y/LAT + 1). Both stay within the
+             * lattice: ytop <= top, so ytop/LAT + 1 <= ny - 1. */
+            const int32_t cave_top = ceil_y < ytop ? ceil_y : ytop;
+            const int32_t lo_l[F_COUNT] = {0, 0, 0, hi - BAND + 1 > 0 ? (hi - BAND + 1) / LAT : 0};
+            const int32_t hi_l[F_COUNT] = {cave_top >= 1 ? cave_top / LAT + 1 : -1, cave_top >= 1 ? cave_top / LAT + 1 : -1,
+                                           cave_top >= 1 ? cave_top / LAT + 1 : -1, amp > 0 ? ytop / LAT + 1 : -1};
             /* Bilinear in x, z at each lattice level. */
             const int32_t lx = x / LAT, lz = z / LAT;
             const double fx = (double)(x % LAT) / LAT, fz = (double)(z % LAT) / LAT;
-            const int32_t ly_max = (hi + BAND + 1) / LAT + 1 < ny ? (hi + BAND + 1) / LAT + 1 : ny - 1;
             for (int f = 0; f < F_COUNT; f++)
-                for (int32_t ly = 0; ly <= ly_max; ly++) {
+                for (int32_t ly = lo_l[f]; ly <= hi_l[f]; ly++) {
                     const double *p = &lat[f * fs + (size_t)nl * (size_t)nl * (size_t)ly];
                     double a = p[lx + nl * lz], b = p[lx + 1 + nl * lz];
                     double cc = p[lx + nl * (lz + 1)], d = p[lx + 1 + nl * (lz + 1)];
                     double ab = a + fx * (b - a), cd = cc + fx * (d - cc);
                     prof[f][ly] = ab + fz * (cd - ab);
                 }
-            int32_t ytop = hi + (amp > 0 ? BAND : 0);
-            if (ytop > H - 1)
-                ytop = H - 1;
-            const int32_t ceil_y = ceiling[i];
+            /* Which lattice intervals can hold a tunnel or a cavern at all. FIELD interpolates
+             * between the two levels, so (up to rounding, ~1e-15 here) it lies between them:
+             * when both ends of a tunnel field are beyond +-TUNNEL_FAR, |a| > 0.1159 exceeds
+             * every tunnel radius (at most 0.115) and the test below is false; when both ends
+             * of the cavern field are below CAVERN_FAR, it stays under every threshold (at
+             * least 0.32). Skipping those tests leaves every voxel as it was, bit for bit. */
+            for (int32_t ly = 0; ly < hi_l[F_TUN_A]; ly++) {
+                const double a0 = prof[F_TUN_A][ly], a1 = prof[F_TUN_A][ly + 1];
+                const double b0 = prof[F_TUN_B][ly], b1 = prof[F_TUN_B][ly + 1];
+                const int a_far = (a0 > TUNNEL_FAR && a1 > TUNNEL_FAR) || (a0 < -TUNNEL_FAR && a1 < -TUNNEL_FAR);
+                const int b_far = (b0 > TUNNEL_FAR && b1 > TUNNEL_FAR) || (b0 < -TUNNEL_FAR && b1 < -TUNNEL_FAR);
+                tunnel_may[ly] = !(a_far || b_far);
+                cavern_may[ly] = !(prof[F_CAVERN][ly] < CAVERN_FAR && prof[F_CAVERN][ly + 1] < CAVERN_FAR);
+            }
             for (int32_t y = 0; y <= ytop; y++) {
                 const int32_t ly = y / LAT;
                 const double fy = (double)(y % LAT) / LAT;
@@ -123,12 +149,17 @@ static void fill(void *state, vwg_column *col)
                 else
                     solid = y <= hi;
                 if (solid && y > 0 && y <= ceil_y) {
-                    const double a = FIELD(F_TUN_A), b = FIELD(F_TUN_B);
-                    /* Tunnels get wider with depth a little; caverns only well below ground. */
-                    const double r = 0.085 + 0.03 * clampd((h - y) / 40.0, 0.0, 1.0);
-                    if (a * a + b * b < r * r)
+                    int tunnel = 0;
+                    if (tunnel_may[ly]) {
+                        const double a = FIELD(F_TUN_A), b = FIELD(F_TUN_B);
+                        /* Tunnels get wider with depth a little; caverns only well below ground. */
+                        const double r = 0.085 + 0.03 * clampd((h - y) / 40.0, 0.0, 1.0);
+                        tunnel = a * a + b * b < r * r;
+                    }
+                    if (tunnel)
                         solid = 0;
-                    else if (y < h - 14 && FIELD(F_CAVERN) > 0.42 - 0.1 * clampd((h - 14 - y) / 30.0, 0.0, 1.0))
+                    else if (cavern_may[ly] && y < h - 14 &&
+                             FIELD(F_CAVERN) > 0.42 - 0.1 * clampd((h - 14 - y) / 30.0, 0.0, 1.0))
                         solid = 0;
                 }
 #undef FIELD
@@ -152,13 +183,7 @@ static void fill(void *state, vwg_column *col)
         }
 }
 
-static void destroy(void *state)
-{
-    terrain *t = state;
-    if (t)
-        free(t->lattice);
-    free(t);
-}
+static void destroy(void *state) { free(state); }
 
 /* The lattice of one column: F_COUNT fields of (H/LAT + 2) layers of nl x nl points. */
 static size_t lattice_bytes(int32_t height, int32_t chunk)
@@ -169,8 +194,15 @@ static size_t lattice_bytes(int32_t height, int32_t chunk)
 
 uint64_t vwg_terrain_scratch_bytes(const int32_t size[3], int32_t chunk)
 {
+    (void)size;
+    (void)chunk;
+    return sizeof(terrain);
+}
+
+uint64_t vwg_terrain_worker_bytes(const int32_t size[3], int32_t chunk)
+{
     /* Heights past MAX_H are refused before anything is allocated. */
-    return sizeof(terrain) + lattice_bytes(size[1] < MAX_H ? size[1] : MAX_H, chunk);
+    return lattice_bytes(size[1] < MAX_H ? size[1] : MAX_H, chunk);
 }
 
 vw_status vwg_terrain_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_error *err)
@@ -179,12 +211,8 @@ vw_status vwg_terrain_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "terrain: height %d is over the generator's limit of %d voxels",
                         (int)w->size[1], MAX_H);
     terrain *t = calloc(1, sizeof *t);
-    if (t)
-        t->lattice = malloc(lattice_bytes(w->size[1], w->chunk_size));
-    if (!t || !t->lattice) {
-        destroy(t);
+    if (!t)
         return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "terrain: out of memory");
-    }
     t->h = w->size[1];
     t->sea = (int32_t)(t->h * 0.34);
     vwn_noise *fields[] = {&t->hills, &t->ranges, &t->overhang_mask, &t->entrance,
@@ -195,5 +223,6 @@ vw_status vwg_terrain_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_
     out->state = t;
     out->fill = fill;
     out->destroy = destroy;
+    out->worker_bytes = lattice_bytes(w->size[1], w->chunk_size);
     return VW_OK;
 }

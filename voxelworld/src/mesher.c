@@ -385,8 +385,11 @@ static vw_status mesh_run(mesher *m, const vw_world *w, const vwi_chunk *ch, con
         for (int d = 0; d < 6; d++) {
             if (!dir_any[d])
                 continue;
+            uint32_t some = 0;
             for (int32_t i = 0; i < c * c; i++)
-                m->sel[i] = m->face[d][i] & matmask[i];
+                some |= m->sel[i] = m->face[d][i] & matmask[i];
+            if (!some) /* most materials face few directions: nothing to lay out or merge */
+                continue;
             if (!merge_direction(m, w, (uint8_t)v, d, mesh))
                 return VW_ERROR_OUT_OF_MEMORY;
         }

@@ -1,17 +1,20 @@
-/* spec.c — turns a world SPEC into a world: "gen:NAME[:key=value]..." runs a generator, a
- * path ending in .vox or .vdb (with an optional "?key=value&..." query) calls an importer.
- * Also the generator driver: one chunk column at a time, stored straight into the world.
+/* spec.c — turns a world SPEC into a world: "gen:NAME[:key=value]..." runs a generator
+ * (through the driver in gen_run.c), a path ending in .vox or .vdb (with an optional
+ * "?key=value&..." query) calls an importer.
  *
  * Budget (vw_budget): a generator's box is checked against max_voxels, and its chunk table
- * plus its scratch (the column buffer and the generator's own, vwg_*_scratch_bytes) against
- * max_bytes, before anything is allocated; while it runs, the world's limit is lowered by
- * the scratch, so the whole load stays within max_bytes. Importers get the budget as is. */
+ * plus its scratch (the generator's state, and per worker a column buffer and the
+ * generator's worker scratch) against max_bytes, before anything is allocated; while it
+ * runs, the world's limit is lowered by the scratch, so the whole load stays within
+ * max_bytes. More threads than the budget has scratch for are not used (the world is the
+ * same for any count). Importers get the budget as is. */
 #include <ctype.h>
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "generators.h"
+#include "parallel.h"
 
 #define DEFAULT_SPEC "gen:terrain:size=512x128x512:seed=1"
 #define MAX_GEN_CHUNKS (1ull << 24)
@@ -44,82 +47,6 @@ void vwg_set_palette(vw_world *w)
         vw_material m = {table[i].rgba, table[i].flags};
         vw_world_set_material(w, table[i].index, &m);
     }
-}
-
-/* ---- the driver --------------------------------------------------------------------- */
-
-/* Stores chunk (cx, cy, cz) from a column buffer: uniform chunks as a tag, others as a copy. */
-static vw_status store_chunk(vw_world *w, const vwg_column *col, int32_t cx, int32_t cy, int32_t cz)
-{
-    const int32_t c = col->c;
-    const size_t slice = (size_t)c * (size_t)c;
-    const uint8_t *first = vwg_at(col, 0, cy * c, 0);
-    const uint8_t v0 = first[0];
-    int uniform = 1;
-    for (int32_t z = 0; z < c && uniform; z++) {
-        const uint8_t *p = vwg_at(col, 0, cy * c, z);
-        for (size_t i = 0; i < slice; i++)
-            if (p[i] != v0) {
-                uniform = 0;
-                break;
-            }
-    }
-    const uint32_t index = vwi_index(w, cx, cy, cz);
-    if (uniform) {
-        vwi_chunk_set_uniform(w, index, v0);
-        return VW_OK;
-    }
-    uint8_t *dst = vwi_chunk_dense(w, index);
-    if (!dst)
-        return vwi_dense_failure(w);
-    for (int32_t z = 0; z < c; z++)
-        memcpy(dst + slice * (size_t)z, vwg_at(col, 0, cy * c, z), slice);
-    vwi_chunk_settle(w, index);
-    return VW_OK;
-}
-
-/* The column buffer: C x H x C bytes. */
-static uint64_t column_bytes(int32_t chunk, int32_t height)
-{
-    return (uint64_t)chunk * (uint64_t)chunk * (uint64_t)height;
-}
-
-/* Fails with the store's status (VW_ERROR_BUDGET when the world's limit is reached) and no
- * message, which from_gen writes; VW_ERROR_OUT_OF_MEMORY with one for the column. */
-static vw_status run_generator(vw_world *w, const vwg_generator *g, vw_progress_fn progress, void *user, vw_error *err)
-{
-    const int32_t c = w->chunk_size, nx = w->chunks[0], ny = w->chunks[1], nz = w->chunks[2];
-    vwg_column col = {0, 0, c, w->size[1], NULL};
-    const size_t bytes = (size_t)column_bytes(c, w->size[1]);
-    col.v = malloc(bytes);
-    if (!col.v)
-        return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "out of memory for a generator column of %zu bytes", bytes);
-    const uint64_t total = (uint64_t)nx * (uint64_t)nz;
-    uint64_t done = 0;
-    int reported = -1;
-    vw_status st = VW_OK;
-    /* Progress in whole percent, each at most once: at most 101 calls per world. */
-    if (progress) {
-        progress("generating", 0.0, user);
-        reported = 0;
-    }
-    for (int32_t cz = 0; cz < nz && st == VW_OK; cz++)
-        for (int32_t cx = 0; cx < nx && st == VW_OK; cx++) {
-            memset(col.v, 0, bytes);
-            col.x0 = cx * c;
-            col.z0 = cz * c;
-            g->fill(g->state, &col);
-            for (int32_t cy = 0; cy < ny && st == VW_OK; cy++)
-                st = store_chunk(w, &col, cx, cy, cz);
-            done++;
-            int pct = (int)(done * 100 / total);
-            if (progress && pct > reported) {
-                progress("generating", pct / 100.0, user);
-                reported = pct;
-            }
-        }
-    free(col.v);
-    return st;
 }
 
 /* ---- parsing ------------------------------------------------------------------------ */
@@ -255,8 +182,39 @@ static vw_status parse_gen(const char *spec, gen_spec *g, vw_error *err)
     return VW_OK;
 }
 
-static vw_status from_gen(const char *spec, const vw_budget *budget, vw_progress_fn progress, void *user, vw_world **out,
-                          vw_error *err)
+/* Creates the world and runs the generator on it with `threads` workers whose scratch
+ * (`scratch` bytes in all, the generator's state included) is charged to the world's limit
+ * while they run. On failure *out may hold the partial world, for the message; the caller
+ * destroys it. */
+static vw_status generate(const vw_world_desc *d, const gen_spec *g, int terrain, uint32_t threads, uint64_t scratch,
+                          vwg_progress *prog, vw_world **out, vw_error *err)
+{
+    vw_world *w;
+    vw_status st = vw_world_create(d, &w, err);
+    if (st != VW_OK)
+        return st;
+    *out = w;
+    vwg_generator gen;
+    memset(&gen, 0, sizeof gen);
+    if (terrain)
+        st = vwg_terrain_create(w, g->seed, &gen, err);
+    else if (strcmp(g->name, "city") == 0)
+        st = vwg_city_create(w, g->seed, &gen, err);
+    else
+        st = vwg_maze_create(w, g->seed, &gen, err);
+    if (st != VW_OK)
+        return st;
+    if (err)
+        err->message[0] = '\0';
+    w->max_bytes = d->max_bytes - scratch; /* the scratch lives as long as the run */
+    st = vwg_run(w, &gen, threads, prog, err);
+    w->max_bytes = d->max_bytes;
+    gen.destroy(gen.state);
+    return st;
+}
+
+static vw_status from_gen(const char *spec, const vw_budget *budget, uint32_t threads, vw_progress_fn progress, void *user,
+                          vw_world **out, vw_error *err)
 {
     gen_spec g;
     vw_status st = parse_gen(spec, &g, err);
@@ -283,11 +241,19 @@ static vw_status from_gen(const char *spec, const vw_budget *budget, vw_progress
         return vwi_fail(err, VW_ERROR_BUDGET, "spec '%s': %dx%dx%d is %s voxels; the budget is %s voxels", spec, size[0],
                         size[1], size[2], vwi_format_count(voxels, n1, sizeof n1),
                         vwi_format_count(b.max_voxels, n2, sizeof n2));
-    uint64_t scratch = column_bytes(g.chunk, size[1]);
-    scratch += strcmp(g.name, "terrain") == 0 ? vwg_terrain_scratch_bytes(size, g.chunk)
-             : strcmp(g.name, "city") == 0    ? vwg_city_scratch_bytes(size, g.chunk)
-                                              : vwg_maze_scratch_bytes(size, g.chunk);
+    const int terrain = strcmp(g.name, "terrain") == 0;
+    const uint64_t state = terrain ? vwg_terrain_scratch_bytes(size, g.chunk)
+                         : strcmp(g.name, "city") == 0 ? vwg_city_scratch_bytes(size, g.chunk)
+                                                       : vwg_maze_scratch_bytes(size, g.chunk);
+    const uint64_t column = vwg_column_bytes(g.chunk, size[1]);
+    const uint64_t worker = terrain ? vwg_terrain_worker_bytes(size, g.chunk) : 0;
     const uint64_t table = vwi_table_bytes(chunks);
+    /* One worker must fit; more only while their scratch does too. */
+    const uint64_t columns = (uint64_t)(size[0] / g.chunk) * (uint64_t)(size[2] / g.chunk);
+    threads = vwi_threads_for(threads, columns);
+    while (threads > 1 && table + state + threads * vwg_run_stride(column, worker, threads) > b.max_bytes)
+        threads--;
+    uint64_t scratch = state + threads * vwg_run_stride(column, worker, threads);
     if (table + scratch > b.max_bytes)
         return vwi_fail(err, VW_ERROR_BUDGET,
                         "spec '%s': the table of %s chunks (%s) and the generator's scratch (%s) need %s; the budget is %s",
@@ -302,36 +268,30 @@ static vw_status from_gen(const char *spec, const vw_budget *budget, vw_progress
         d.origin[a] = g.origin[a];
         d.size[a] = (int32_t)g.size[a];
     }
-    vw_world *w;
-    st = vw_world_create(&d, &w, err);
-    if (st != VW_OK)
-        return st;
-    vwg_generator gen;
-    if (strcmp(g.name, "terrain") == 0)
-        st = vwg_terrain_create(w, g.seed, &gen, err);
-    else if (strcmp(g.name, "city") == 0)
-        st = vwg_city_create(w, g.seed, &gen, err);
-    else
-        st = vwg_maze_create(w, g.seed, &gen, err);
-    if (st == VW_OK) {
-        if (err)
-            err->message[0] = '\0';
-        w->max_bytes = b.max_bytes - scratch; /* the scratch lives as long as the run */
-        st = run_generator(w, &gen, progress, user, err);
-        w->max_bytes = b.max_bytes;
-        gen.destroy(gen.state);
-        if (st != VW_OK && (!err || !err->message[0])) {
-            const uint64_t held = vwi_world_bytes(w);
-            if (st == VW_ERROR_BUDGET)
-                vwi_fail(err, st,
-                         "spec '%s': the world outgrew the budget of %s while generating: %s chunks hold data "
-                         "(%s in all) beside %s of the generator's scratch",
-                         spec, vwi_format_bytes(b.max_bytes, b1, sizeof b1), vwi_format_count(w->dense_chunks, n1, sizeof n1),
-                         vwi_format_bytes(held, b2, sizeof b2), vwi_format_bytes(scratch, b3, sizeof b3));
-            else
-                vwi_fail(err, st, "spec '%s': out of memory while generating (%s chunks hold data so far, %s)", spec,
-                         vwi_format_count(w->dense_chunks, n1, sizeof n1), vwi_format_bytes(held, b2, sizeof b2));
-        }
+    vwg_progress prog = {progress, user, -1};
+    vw_world *w = NULL;
+    st = generate(&d, &g, terrain, threads, scratch, &prog, &w, err);
+    if (st == VW_ERROR_BUDGET && threads > 1) {
+        /* The extra workers' scratch may have taken room the world needed: a serial run
+         * decides, so that no thread count changes whether a spec loads. (Progress goes on
+         * from where it was: the serial run reports only what lies beyond it.) */
+        vw_world_destroy(w);
+        w = NULL;
+        threads = 1;
+        scratch = state + vwg_run_stride(column, worker, 1);
+        st = generate(&d, &g, terrain, threads, scratch, &prog, &w, err);
+    }
+    if (st != VW_OK && w && (!err || !err->message[0])) {
+        const uint64_t held = vwi_world_bytes(w);
+        if (st == VW_ERROR_BUDGET)
+            vwi_fail(err, st,
+                     "spec '%s': the world outgrew the budget of %s while generating: %s chunks hold data "
+                     "(%s in all) beside %s of the generator's scratch",
+                     spec, vwi_format_bytes(b.max_bytes, b1, sizeof b1), vwi_format_count(w->dense_chunks, n1, sizeof n1),
+                     vwi_format_bytes(held, b2, sizeof b2), vwi_format_bytes(scratch, b3, sizeof b3));
+        else
+            vwi_fail(err, st, "spec '%s': out of memory while generating (%s chunks hold data so far, %s)", spec,
+                     vwi_format_count(w->dense_chunks, n1, sizeof n1), vwi_format_bytes(held, b2, sizeof b2));
     }
     if (st != VW_OK) {
         vw_world_destroy(w);
@@ -431,12 +391,29 @@ static vw_status from_file(const char *spec, const vw_budget *budget, vw_progres
     return st;
 }
 
+vw_status vw_world_load(const char *spec, const vw_load_options *options, vw_world **out_world, vw_error *err)
+{
+    if (!spec || !out_world)
+        return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "vw_world_load: spec and out_world must not be NULL");
+    *out_world = NULL;
+    vw_load_options o;
+    memset(&o, 0, sizeof o);
+    if (options)
+        o = *options;
+    if (strncmp(spec, "gen:", 4) == 0)
+        return from_gen(spec, &o.budget, o.threads, o.progress, o.progress_user, out_world, err);
+    return from_file(spec, &o.budget, o.progress, o.progress_user, out_world, err);
+}
+
 vw_status vw_world_from_spec(const char *spec, const vw_budget *budget, vw_progress_fn progress, void *progress_user, vw_world **out_world, vw_error *err)
 {
     if (!spec || !out_world)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "vw_world_from_spec: spec and out_world must not be NULL");
-    *out_world = NULL;
-    if (strncmp(spec, "gen:", 4) == 0)
-        return from_gen(spec, budget, progress, progress_user, out_world, err);
-    return from_file(spec, budget, progress, progress_user, out_world, err);
+    vw_load_options o;
+    memset(&o, 0, sizeof o);
+    if (budget)
+        o.budget = *budget;
+    o.progress = progress;
+    o.progress_user = progress_user;
+    return vw_world_load(spec, &o, out_world, err);
 }

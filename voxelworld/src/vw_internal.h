@@ -41,7 +41,11 @@ typedef struct vwi_chunk {
     uint8_t *voxels;  /* NULL: uniform; else C^3 bytes (see above)                       */
     uint32_t solid;   /* voxels != 0 in this chunk (kept by set/fill/settle)             */
     uint8_t uniform;  /* the value of every voxel while voxels == NULL                   */
+    uint8_t pooled;   /* voxels lies in a pool block (chunk_pool.c), not its own malloc   */
 } vwi_chunk;
+
+/* The pool's block: 2 MiB, the size of an x86-64 huge page. */
+#define VWI_POOL_BLOCK ((size_t)2 << 20)
 
 struct vw_world {
     int32_t chunk_size;   /* C                                                            */
@@ -58,7 +62,15 @@ struct vw_world {
     /* Running totals, kept by vwi_chunk_account() so that vw_world_get_info is O(1).   */
     uint32_t nonempty_chunks;
     uint32_t dense_chunks;
+    uint32_t heap_chunks;  /* dense chunks with an array of their own (not pooled)          */
     uint64_t solid_voxels;
+
+    /* The chunk pool (chunk_pool.c): blocks linked through their first slot, the block
+     * being carved, and pooled arrays given back. pool_on lets vwi_chunk_dense take new
+     * blocks (set by the generator driver for large worlds); the free list is used always. */
+    int pool_on;
+    uint8_t *pool_blocks, *pool_next, *pool_free;
+    uint32_t pool_left, pool_block_count;
 
     /* The limit on vwi_world_bytes(): vwi_chunk_dense refuses a chunk that would pass it.
      * A generator lowers it by its own scratch memory while it runs (spec.c).          */
@@ -76,6 +88,9 @@ vw_status vwi_dense_failure(const vw_world *world);
 /* Recounts a chunk after direct writes to its dense array and compacts it to uniform when
  * every voxel holds one value. */
 void vwi_chunk_settle(vw_world *world, uint32_t index);
+/* Records the solid count of a dense chunk whose array was written directly and is known
+ * to mix values (so settling would not compact it): vwi_chunk_settle without the recount. */
+void vwi_chunk_set_solid(vw_world *world, uint32_t index, uint32_t solid);
 /* Makes the chunk uniform (freeing a dense array). */
 void vwi_chunk_set_uniform(vw_world *world, uint32_t index, uint8_t value);
 
@@ -96,11 +111,22 @@ static inline uint64_t vwi_table_bytes(uint64_t chunk_count)
            (chunk_count + 63) / 64 * (uint64_t)sizeof(uint64_t);
 }
 
-/* Everything the world holds now (vw_world_info.bytes). */
+/* Everything the world holds now (vw_world_info.bytes): pool blocks count whole, used or
+ * not. */
 static inline uint64_t vwi_world_bytes(const vw_world *w)
 {
-    return vwi_table_bytes(w->chunk_count) + (uint64_t)w->dense_chunks * vwi_chunk_volume(w);
+    return vwi_table_bytes(w->chunk_count) + (uint64_t)w->heap_chunks * vwi_chunk_volume(w) +
+           (uint64_t)w->pool_block_count * VWI_POOL_BLOCK;
 }
+
+/* A pooled chunk array: from the free list, else the current block, else (when pool_on and
+ * a whole block fits under max_bytes) a new block; NULL otherwise (the caller then mallocs
+ * one array, or fails). Its contents are undefined. chunk_pool.c. */
+uint8_t *vwi_pool_take(vw_world *world);
+/* Puts a pooled array on the free list. */
+void vwi_pool_give(vw_world *world, uint8_t *voxels);
+/* Frees every block (vw_world_destroy). */
+void vwi_pool_destroy(vw_world *world);
 
 /* The budget with its defaults filled in (budget may be NULL). */
 static inline vw_budget vwi_budget(const vw_budget *budget)

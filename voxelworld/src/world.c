@@ -50,6 +50,7 @@ static void account_remove(vw_world *w, const vwi_chunk *c)
 {
     w->nonempty_chunks -= c->solid != 0;
     w->dense_chunks -= c->voxels != NULL;
+    w->heap_chunks -= c->voxels != NULL && !c->pooled;
     w->solid_voxels -= c->solid;
 }
 
@@ -57,6 +58,7 @@ static void account_add(vw_world *w, const vwi_chunk *c)
 {
     w->nonempty_chunks += c->solid != 0;
     w->dense_chunks += c->voxels != NULL;
+    w->heap_chunks += c->voxels != NULL && !c->pooled;
     w->solid_voxels += c->solid;
 }
 
@@ -98,14 +100,20 @@ uint8_t *vwi_chunk_dense(vw_world *w, uint32_t index)
 {
     vwi_chunk *c = &w->chunk[index];
     if (!c->voxels) {
-        if (vwi_world_bytes(w) + vwi_chunk_volume(w) > w->max_bytes)
-            return NULL;
-        uint8_t *v = malloc(vwi_chunk_volume(w));
-        if (!v)
-            return NULL;
+        /* The pool first: a given-back array costs nothing, a new block is charged whole. */
+        uint8_t *v = vwi_pool_take(w);
+        const int pooled = v != NULL;
+        if (!v) {
+            if (vwi_world_bytes(w) + vwi_chunk_volume(w) > w->max_bytes)
+                return NULL;
+            v = malloc(vwi_chunk_volume(w));
+            if (!v)
+                return NULL;
+        }
         memset(v, c->uniform, vwi_chunk_volume(w));
         account_remove(w, c);
         c->voxels = v;
+        c->pooled = (uint8_t)pooled;
         account_add(w, c);
     }
     return c->voxels;
@@ -115,10 +123,22 @@ void vwi_chunk_set_uniform(vw_world *w, uint32_t index, uint8_t value)
 {
     vwi_chunk *c = &w->chunk[index];
     account_remove(w, c);
-    free(c->voxels);
+    if (c->pooled)
+        vwi_pool_give(w, c->voxels);
+    else
+        free(c->voxels);
     c->voxels = NULL;
+    c->pooled = 0;
     c->uniform = value;
     c->solid = value ? vwi_chunk_volume(w) : 0;
+    account_add(w, c);
+}
+
+void vwi_chunk_set_solid(vw_world *w, uint32_t index, uint32_t solid)
+{
+    vwi_chunk *c = &w->chunk[index];
+    account_remove(w, c);
+    c->solid = solid;
     account_add(w, c);
 }
 
@@ -224,7 +244,9 @@ void vw_world_destroy(vw_world *w)
         return;
     if (w->chunk)
         for (uint32_t i = 0; i < w->chunk_count; i++)
-            free(w->chunk[i].voxels);
+            if (!w->chunk[i].pooled)
+                free(w->chunk[i].voxels);
+    vwi_pool_destroy(w);
     free(w->chunk);
     free(w->dirty);
     free(w);

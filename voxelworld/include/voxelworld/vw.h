@@ -15,6 +15,11 @@
  * Thread safety: a world may be read (get, mesh) from several threads at once; writes
  * (set, fill, take_dirty) must not run concurrently with anything else on the same world.
  * Nothing here prints or exits.
+ *
+ * Threads: vw_world_load and vw_mesh_chunks take a thread count. They start that many
+ * threads minus one for the call (the calling thread is the first) and join them before
+ * returning; nothing outlives the call, and the results are bit-identical for every count
+ * (1 is serial). A thread that cannot be started only makes the call slower.
  */
 #ifndef VOXELWORLD_VW_H
 #define VOXELWORLD_VW_H
@@ -69,7 +74,8 @@ typedef uint8_t vw_voxel;
 #define VW_DEFAULT_MAX_VOXELS ((uint64_t)1 << 30)
 
 typedef struct vw_budget {
-    uint64_t max_bytes;  /* memory the world may hold: chunk table, dirty bits, dense chunks  */
+    uint64_t max_bytes;  /* memory the world may hold: chunk table, dirty bits, dense chunks
+                            (a generated world keeps those in 2 MiB blocks, counted whole)   */
     uint64_t max_voxels; /* voxels a load may write: a generator's whole box, an importer's
                             solid voxels (each instance of a model counted)                 */
 } vw_budget;
@@ -162,6 +168,17 @@ void vw_mesh_free(vw_mesh *mesh);
  * only to grow `mesh`; uses about 22 KiB of stack (120 KiB for 32-voxel chunks). */
 vw_status vw_mesh_chunk(const vw_world *world, uint32_t chunk_index, vw_mesh *mesh);
 
+/* Meshes `count` chunks at once: meshes[i] becomes exactly what vw_mesh_chunk(world,
+ * chunks[i], &meshes[i]) gives (same quads, same order), for any `threads` (0 and 1:
+ * serial on the calling thread; at most 64 are used). `meshes` is caller-owned, `count`
+ * entries, zeroed or reused from an earlier call (each grows as vw_mesh_chunk's does).
+ * Chunk indices may repeat only if the same chunk's mesh is wanted twice. Returns VW_OK, or
+ * the status of the failing chunk with the lowest i (VW_ERROR_INVALID_ARGUMENT for an index
+ * out of range, VW_ERROR_OUT_OF_MEMORY); on failure every mesh may have been replaced. The
+ * world must not be written during the call. Each thread uses vw_mesh_chunk's stack. */
+vw_status vw_mesh_chunks(const vw_world *world, const uint32_t *chunks, size_t count, vw_mesh *meshes,
+                         uint32_t threads);
+
 /* ---- generators and loading -------------------------------------------------------- */
 
 /* Progress: stage is a short static string ("generating", "meshing", ...), fraction 0..1. */
@@ -183,6 +200,24 @@ typedef void (*vw_progress_fn)(const char *stage, double fraction, void *user);
  * 101 times ("generating" or "loading", fraction non-decreasing, ending at 1). */
 vw_status vw_world_from_spec(const char *spec, const vw_budget *budget, vw_progress_fn progress,
                              void *progress_user, vw_world **out_world, vw_error *err);
+
+/* vw_world_from_spec with every option: zero fields are the defaults (budget zero: the
+ * default budget; threads 0 or 1: serial; progress NULL: none). */
+typedef struct vw_load_options {
+    vw_budget budget;
+    uint32_t threads;        /* generators fill chunk columns on this many threads (files
+                                load serially); the world is bit-identical for every count.
+                                Each thread beyond the first needs one more generator scratch
+                                (a column of C x height bytes plus the generator's own), which
+                                the budget counts: threads it has no room for are not used,
+                                and a parallel run that outgrows the budget is redone serially,
+                                so the count never changes whether a spec loads              */
+    vw_progress_fn progress; /* called on the calling thread only, as vw_world_from_spec's   */
+    void *progress_user;
+} vw_load_options;
+
+/* `options` may be NULL (all defaults: same as vw_world_from_spec(spec, NULL, NULL, ...)). */
+vw_status vw_world_load(const char *spec, const vw_load_options *options, vw_world **out_world, vw_error *err);
 
 /* The spec of the built-in default world. */
 const char *vw_default_spec(void);
