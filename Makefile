@@ -11,7 +11,8 @@ VIS        := $(BUILD)/tools/vis
 # Debian packages: the compiler and build tools, then every optional feature's library.
 DEB_PACKAGES := build-essential cmake pkg-config libcmocka-dev libpng-dev \
                 ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
-                libopenvdb-dev libboost-iostreams-dev libglfw3-dev libepoxy-dev libembree-dev gnuplot-nox clang
+                libopenvdb-dev libboost-iostreams-dev libglfw3-dev libepoxy-dev libembree-dev gnuplot-nox clang \
+                libjansson-dev
 
 .PHONY: all deps configure build run test test-release test-asan test-tsan bench fuzz install-test clean
 
