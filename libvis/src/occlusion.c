@@ -43,7 +43,8 @@ static double occ_tolerance(double coord_max)
     return 1e-5 + 4e-7 * coord_max;
 }
 
-int vis_occ_segment_clear(const vis_scene_view *view, const double a[3], const double b[3], double hit_point[3])
+/* One segment through the tree: 1 when no primitive is hit. */
+static int segment_raw(const vis_scene_view *view, const double a[3], const double b[3], double hit_point[3])
 {
     double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -157,6 +158,72 @@ static void gather(occ_gather *g, const vis_scene_view *view, const double qlo[3
         if (qhi[axis] >= split)
             stack[sp++] = first + 1u;
     }
+}
+
+/* 1 when an opaque quad of an integer plane through x (within 1e-3) touches x. */
+static int opaque_at(const vis_scene_view *view, const double x[3])
+{
+    for (uint32_t a = 0; a < 3; ++a) {
+        double p = floor(x[a] + 0.5);
+        if (!(fabs(x[a] - p) <= 1e-3))
+            continue;
+        occ_gather g;
+        uint32_t u = a == 2 ? 0u : a + 1u, v = a == 0 ? 2u : a - 1u;
+        g.axis = a;
+        g.plane = (float)p;
+        g.want.u0 = x[u] - 1e-3;
+        g.want.u1 = x[u] + 1e-3;
+        g.want.v0 = x[v] - 1e-3;
+        g.want.v1 = x[v] + 1e-3;
+        g.count = 0;
+        g.overflow = 0;
+        double qlo[3], qhi[3];
+        qlo[a] = qhi[a] = p;
+        qlo[u] = g.want.u0;
+        qhi[u] = g.want.u1;
+        qlo[v] = g.want.v0;
+        qhi[v] = g.want.v1;
+        gather(&g, view, qlo, qhi);
+        if (g.count || g.overflow)
+            return 1;
+    }
+    return 0;
+}
+
+#define OCC_SEE_THROUGH_LAYERS 8
+
+/* See-through quads (glass, water, leaves) do not block: a segment that hits one goes on
+ * past it, up to OCC_SEE_THROUGH_LAYERS times (then it counts as blocked, which only ever
+ * keeps an entity reported). A hit that no integer-plane quad explains (a triangle, a
+ * loose quad) blocks. */
+int vis_occ_segment_clear(const vis_scene_view *view, const double a[3], const double b[3], double hit_point[3])
+{
+    double cur[3] = {a[0], a[1], a[2]}, x[3];
+    for (int layer = 0; layer <= OCC_SEE_THROUGH_LAYERS; ++layer) {
+        if (segment_raw(view, cur, b, x))
+            return 1;
+        if (opaque_at(view, x) || layer == OCC_SEE_THROUGH_LAYERS) {
+            if (hit_point)
+                memcpy(hit_point, x, sizeof x);
+            return 0;
+        }
+        /* Was it a see-through quad? Only those in integer planes are recognised. */
+        int glass = 0;
+        for (int k = 0; k < 3; ++k)
+            glass |= fabs(x[k] - floor(x[k] + 0.5)) <= 1e-3;
+        if (!glass) {
+            if (hit_point)
+                memcpy(hit_point, x, sizeof x);
+            return 0;
+        }
+        double d[3] = {b[0] - cur[0], b[1] - cur[1], b[2] - cur[2]};
+        double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (!(len > 2e-3))
+            return 1;
+        for (int k = 0; k < 3; ++k)
+            cur[k] = x[k] + d[k] / len * 2e-3;
+    }
+    return 0;
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -325,6 +392,7 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
         }
         /* The planes of the first hit: a voxel quad lies in an integer plane. */
         int proven = 0, cut = 0;
+        double s_fail = -1.0; /* where an uncovered separating plane crossed: 0 at E, 1 at B */
         for (uint32_t a = 0; a < 3 && !proven && !cut; ++a) {
             double p = floor(x[a] + 0.5);
             if (!(fabs(x[a] - p) <= 1e-3))
@@ -334,6 +402,8 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
                     break;
                 ++spent;
                 proven = plane_covers(view, &e, &b, a, p);
+                if (!proven)
+                    s_fail = (p - ce[a]) / (cb[a] - ce[a]);
             } else if (sp + 2 <= OCC_STACK && (straddles(&b, a, p) || straddles(&e, a, p))) {
                 /* Cut the straddling piece on the plane: each part then lies on one side. */
                 vis_occ_box *piece = straddles(&b, a, p) ? &b : &e;
@@ -354,9 +424,15 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
             result = VIS_OCC_UNKNOWN;
             break;
         }
-        /* Halve the larger piece. */
+        /* Halve the piece that widens the uncovered rectangle more: a piece's extent reaches
+         * the plane scaled by (1 - s) from E and by s from B. */
         vis_occ_box other;
-        int cut_b = extent(&b) >= extent(&e);
+        double we = extent(&e), wb = extent(&b);
+        if (s_fail >= 0.0 && s_fail <= 1.0) {
+            we *= 1.0 - s_fail;
+            wb *= s_fail;
+        }
+        int cut_b = wb >= we;
         split_half(cut_b ? &b : &e, &other);
         st_e[sp] = e;
         st_b[sp] = b;

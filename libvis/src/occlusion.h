@@ -22,9 +22,9 @@ typedef enum vis_occ_result {
 vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
                             uint32_t limit, uint32_t *rays);
 
-/* One segment from a to b (scene-local): 1 when it crosses no primitive (quad or triangle,
- * any flags) of the scene, 0 otherwise; *hit_point gets the first hit when blocked (may be
- * NULL). The baselines of `vis query` use it too. */
+/* One segment from a to b (scene-local): 1 when it crosses no opaque primitive, 0 otherwise;
+ * hit_point (may be NULL) gets the blocking hit. See-through quads (VIS_PRIM_SEE_THROUGH)
+ * are passed through, up to 8 layers. The baselines of `vis query` use it too. */
 int vis_occ_segment_clear(const vis_scene_view *view, const double a[3], const double b[3], double hit_point[3]);
 
 #endif

@@ -271,11 +271,17 @@ static void mirror_chunk(uint32_t chunk_index, uint32_t object_id, const vw_mesh
         t->failed = 1;
         return;
     }
-    if (mesh->count)
+    uint32_t n = 0;
+    if (mesh->count) {
         world_scene_convert_quads(mesh->quads, mesh->count, q);
-    vis_mesh m = {q, (uint32_t)mesh->count, NULL, 0};
+        /* Players see through glass: the truth leaves see-through quads out. */
+        for (size_t i = 0; i < mesh->count; ++i)
+            if (!(q[i].flags & VIS_PRIM_SEE_THROUGH))
+                q[n++] = q[i];
+    }
+    vis_mesh m = {q, n, NULL, 0};
     vis_status st = vis_scene_set_object(t->scene, object_id, &m);
-    if (st != VIS_OK && !(st == VIS_ERROR_NOT_FOUND && !mesh->count))
+    if (st != VIS_OK && !(st == VIS_ERROR_NOT_FOUND && !n))
         t->failed = 1;
     free(q);
     t->chunks[chunk_index].id = mesh->count ? object_id : 0;
