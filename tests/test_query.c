@@ -17,6 +17,7 @@
 
 #include <cmocka.h>
 
+#include "run_tool.h"
 #include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
@@ -621,6 +622,149 @@ static void test_chunks_match_trace(void **state)
     vis_context_destroy(ctx);
 }
 
+/* ---- `vis query`: simulate, replay, and hostile replays ----------------------------------- */
+
+#define VIS_EXE VIS_BINARY_DIR "/tools/vis"
+#define MAZE "gen:maze:size=64x32x64:seed=3"
+
+static char qdir[256];
+
+static const char *qpath(const char *name)
+{
+    static char paths[4][512];
+    static int next;
+    char *p = paths[next++ % 4];
+    snprintf(p, 512, "%s/%s", qdir, name);
+    return p;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* 1 when this build's `vis query` works (it needs Jansson); else the test is skipped after
+ * checking that the command says why. */
+static int have_query(void)
+{
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qpath("none.jsonl"));
+    int have = !strstr(r.err, "no Jansson");
+    if (!have)
+        vt_assert_exit(r, 2);
+    vt_run_free(&r);
+    return have;
+}
+
+static void test_cli_simulate_replay(void **state)
+{
+    (void)state;
+    if (!have_query())
+        skip();
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --simulate 6 --ticks 48 --edit-every 16 --scene %s --out %s",
+                             MAZE, qpath("maze.jsonl"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    char *text = vt_slurp(qpath("maze.jsonl"));
+    size_t lines = 0;
+    for (const char *c = text; *c; ++c)
+        lines += *c == '\n';
+    assert_int_equal(lines, 49); /* header + 48 ticks */
+    assert_non_null(strstr(text, "\"edits\":[["));
+    free(text);
+    r = vt_run(VIS_EXE, qdir, NULL,
+               "query --scene %s --replay %s --compare --truth-every 8 --truth-res 128 --json --out %s", MAZE,
+               qpath("maze.jsonl"), qpath("out.jsonl"));
+    vt_assert_exit(r, 0);
+    const char *lib = strstr(r.out, "\"libvis\":");
+    assert_non_null(lib);
+    assert_non_null(strstr(lib, "\"hidden_while_visible\":0,"));
+    assert_non_null(strstr(r.out, "\"smac\":"));
+    assert_non_null(strstr(r.out, "\"luanti\":"));
+    vt_run_free(&r);
+    text = vt_slurp(qpath("out.jsonl"));
+    lines = 0;
+    for (const char *c = text; *c; ++c)
+        lines += *c == '\n';
+    assert_int_equal(lines, 48);
+    free(text);
+}
+
+static void test_cli_hostile_replay(void **state)
+{
+    (void)state;
+    if (!have_query())
+        skip();
+    const char *good_v = "{\"id\":1,\"eye\":[10,5,10],\"latency_ms\":50}";
+    const char *good_e = "{\"id\":2,\"min\":[20,1,20],\"max\":[21,3,21]}";
+    char line[1024];
+    struct {
+        const char *name, *body, *want;
+    } cases[] = {
+        {"nan", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[NaN,5,10]}]}\n", "line 1"},
+        {"overflow", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1e999,5,10]}]}\n", "line 1"},
+        {"far", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1e300,5,10]}]}\n", "'eye'[0]"},
+        {"id0", "{\"tick\":0,\"viewers\":[{\"id\":0,\"eye\":[1,5,10]}]}\n", "'id'"},
+        {"idbig", "{\"tick\":0,\"viewers\":[{\"id\":1099511627776,\"eye\":[1,5,10]}]}\n", "'id'"},
+        {"idfloat", "{\"tick\":0,\"viewers\":[{\"id\":1.5,\"eye\":[1,5,10]}]}\n", "'id'"},
+        {"latency", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1,5,10],\"latency_ms\":-5}]}\n", "'latency_ms'"},
+        {"emptybox", "{\"tick\":0,\"viewers\":[],\"entities\":[{\"id\":2,\"min\":[1,1,1],\"max\":[1,2,2]}]}\n", "min < max"},
+        {"dupkey", "{\"tick\":0,\"tick\":1,\"viewers\":[]}\n", "line 1"},
+        {"dupid", NULL, "appears twice"},
+        {"truncated", NULL, "cut short"},
+        {"toomany", NULL, "at most 2"},
+        {"edit", "{\"tick\":0,\"viewers\":[],\"edits\":[[1,2,99999999,0]]}\n", "outside the world"},
+        {"notobject", "[1,2,3]\n", "JSON object"},
+        {"vec2", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1,5]}]}\n", "array of 3"},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
+        const char *body = cases[c].body;
+        if (!strcmp(cases[c].name, "dupid")) {
+            snprintf(line, sizeof line, "{\"tick\":0,\"viewers\":[%s],\"entities\":[%s,%s]}\n", good_v, good_e, good_e);
+            body = line;
+        } else if (!strcmp(cases[c].name, "truncated")) {
+            snprintf(line, sizeof line, "{\"tick\":0,\"viewers\":[%s],\"entities\":[%s]}\n{\"tick\":1,\"viewers\":[%s",
+                     good_v, good_e, good_v);
+            body = line;
+        } else if (!strcmp(cases[c].name, "toomany")) {
+            snprintf(line, sizeof line, "{\"tick\":0,\"viewers\":[%s,%s,%s]}\n", good_v, good_v, good_v);
+            body = line;
+        }
+        write_text(qpath("bad.jsonl"), body);
+        vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --max-viewers 2 --out %s", MAZE,
+                                 qpath("bad.jsonl"), qpath("bad_out.jsonl"));
+        if (r.code != 1 || !strstr(r.err, cases[c].want))
+            fail_msg("case %s: exit %d, stderr '%s' (wanted exit 1 and '%s')", cases[c].name, r.code, r.err,
+                     cases[c].want);
+        vt_run_free(&r);
+        FILE *f = fopen(qpath("bad_out.jsonl"), "rb"); /* a failed run leaves no output */
+        assert_null(f);
+    }
+    /* A line over the length budget is refused without being parsed. */
+    FILE *f = fopen(qpath("long.jsonl"), "wb");
+    assert_non_null(f);
+    fputs("{\"tick\":0,\"viewers\":[],\"pad\":\"", f);
+    for (int i = 0; i < (5 << 20) / 64; ++i)
+        fputs("0123456789012345678901234567890123456789012345678901234567890123", f);
+    fputs("\"}\n", f);
+    fclose(f);
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qpath("long.jsonl"));
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "longer than"));
+    vt_run_free(&r);
+    /* Bad options are usage errors. */
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --threads 0", MAZE, qpath("long.jsonl"));
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
+}
+
+static int cli_setup(void **state)
+{
+    return vt_run_setup(state, qdir, sizeof qdir, "vis_query", VIS_EXE);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -629,5 +773,10 @@ int main(void)
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    const struct CMUnitTest cli_tests[] = {
+        cmocka_unit_test(test_cli_simulate_replay),
+        cmocka_unit_test(test_cli_hostile_replay),
+    };
+    int failed = cmocka_run_group_tests(tests, NULL, NULL);
+    return failed | cmocka_run_group_tests_name("vis query", cli_tests, cli_setup, vt_tmp_dir_teardown);
 }

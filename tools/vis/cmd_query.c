@@ -562,9 +562,7 @@ static int run_replay(const qopts *o)
             }
         }
         vis_query_viewer *vw = t.viewers;
-        if (!o->around)
-            ; /* the replay's dir and fov as given */
-        else
+        if (o->around) /* else the replay's dir and fov as given */
             for (uint32_t i = 0; i < t.viewer_count; ++i)
                 vw[i].dir[0] = vw[i].dir[1] = vw[i].dir[2] = 0.0;
         vis_query_stats st;
