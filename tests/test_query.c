@@ -622,6 +622,61 @@ static void test_chunks_match_trace(void **state)
     vis_context_destroy(ctx);
 }
 
+/* A counting allocator: after the first tick (the backend's copy of the scene, the pools'
+ * growth), a tick allocates nothing. */
+static size_t alloc_calls;
+static void *count_alloc(size_t size, size_t align, void *user)
+{
+    (void)user;
+    ++alloc_calls;
+    size_t al = align < sizeof(void *) ? sizeof(void *) : align;
+    return aligned_alloc(al, (size + al - 1) / al * al);
+}
+static void count_free(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+static void test_no_allocation_per_tick(void **state)
+{
+    (void)state;
+    vis_allocator a = {count_alloc, count_free, NULL};
+    vis_context *ctx = NULL;
+    assert_int_equal(cpu_ctx_create(2, &a, &ctx), VIS_OK);
+    uint64_t rng = 0x5eed0004;
+    tworld w;
+    walls_world(&w, &rng, 24);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    enum { NV = 6, NE = 12 };
+    vis_query_viewer vw[NV];
+    vis_query_entity en[NE];
+    for (uint32_t i = 0; i < NV; ++i)
+        random_viewer(&rng, 1 + i, &vw[i]);
+    for (uint32_t j = 0; j < NE; ++j)
+        random_entity(&rng, 100 + j, &en[j]);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.threads = 2;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    assert_int_equal(vis_query_run(q, vw, NV, en, NE, NULL), VIS_OK);
+    size_t before = alloc_calls;
+    for (int t = 0; t < 5; ++t) {
+        for (uint32_t j = 0; j < NE; ++j) {
+            en[j].box_min[2] += 0.1;
+            en[j].box_max[2] += 0.1;
+        }
+        vw[t % NV].eye[0] += 0.5;
+        assert_int_equal(vis_query_run(q, vw, NV, en, NE, NULL), VIS_OK);
+    }
+    assert_int_equal(alloc_calls, before);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* ---- `vis query`: simulate, replay, and hostile replays ----------------------------------- */
 
 #define VIS_EXE VIS_BINARY_DIR "/tools/vis"
@@ -772,11 +827,18 @@ int main(void)
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
+        cmocka_unit_test(test_no_allocation_per_tick),
     };
     const struct CMUnitTest cli_tests[] = {
         cmocka_unit_test(test_cli_simulate_replay),
         cmocka_unit_test(test_cli_hostile_replay),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);
+    FILE *exe = fopen(VIS_EXE, "rb");
+    if (!exe) { /* a build without the tools (the TSan one): the library tests only */
+        print_message("%s is not built: the vis query tests are skipped\n", VIS_EXE);
+        return failed;
+    }
+    fclose(exe);
     return failed | cmocka_run_group_tests_name("vis query", cli_tests, cli_setup, vt_tmp_dir_teardown);
 }

@@ -31,6 +31,7 @@
 #include <string.h>
 
 #include "occlusion.h"
+#include "query_sort.h"
 
 #define OCC_STACK 64      /* pending piece pairs; a deeper proof gives up (UNKNOWN)          */
 #define OCC_MAX_QUADS 48  /* quads gathered in one plane test; more: the test fails          */
@@ -226,12 +227,6 @@ int vis_occ_segment_clear(const vis_scene_view *view, const double a[3], const d
     return 0;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 static uint32_t cut_points(double lo, double hi, const occ_rect *q, uint32_t n, int use_v, double *out)
 {
     uint32_t m = 0;
@@ -244,7 +239,7 @@ static uint32_t cut_points(double lo, double hi, const occ_rect *q, uint32_t n, 
         if (c1 > lo && c1 < hi)
             out[m++] = c1;
     }
-    qsort(out, m, sizeof *out, cmp_double);
+    vis_sort_f64(out, m);
     return m;
 }
 

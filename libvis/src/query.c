@@ -23,6 +23,7 @@
 #include <time.h>
 
 #include "query.h"
+#include "query_sort.h"
 
 #define QUERY_DEFAULT_VIEWERS 64u
 #define QUERY_DEFAULT_ENTITIES 256u
@@ -418,18 +419,6 @@ static void assign_slots(vis_query *q)
 
 /* ---- one viewer's job ----------------------------------------------------------------------- */
 
-static int cmp_u64(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
-}
-
-static int cmp_hit(const void *a, const void *b)
-{
-    uint32_t x = ((const vis_query_hit *)a)->id, y = ((const vis_query_hit *)b)->id;
-    return x < y ? -1 : x > y;
-}
-
 /* Priority key: in view first, then nearer first, then input order (ties stay
  * deterministic). The distance's float bits order like the distance. */
 static uint64_t priority_key(const vis_query_viewer *v, const vis_occ_box *eye, const vis_occ_box *box, uint32_t index)
@@ -474,7 +463,7 @@ static void viewer_job(vis_query *q, uint32_t i)
         if (q->in_entities[j].id != v->id)
             keys[n++] = priority_key(v, eye, &boxes[j], j);
     }
-    qsort(keys, n, sizeof *keys, cmp_u64);
+    vis_sort_u64(keys, n);
     uint64_t left = budget;
     uint32_t nh = 0;
     for (uint32_t k = 0; k < n; ++k) {
@@ -515,7 +504,14 @@ static void viewer_job(vis_query *q, uint32_t i)
             ++nh;
         }
     }
-    qsort(hits, nh, sizeof *hits, cmp_hit);
+    /* By ID (unique): the pair order's keys are spent, so their array sorts the hits. */
+    for (uint32_t k = 0; k < nh; ++k)
+        keys[k] = (uint64_t)hits[k].id << 32 | hits[k].reason;
+    vis_sort_u64(keys, nh);
+    for (uint32_t k = 0; k < nh; ++k) {
+        hits[k].id = (uint32_t)(keys[k] >> 32);
+        hits[k].reason = (uint32_t)keys[k];
+    }
     r->hit_count = nh;
 }
 

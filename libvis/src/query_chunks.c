@@ -10,13 +10,8 @@
 #include <string.h>
 
 #include "query.h"
+#include "query_sort.h"
 #include "trace.h"
-
-static int cmp_u32(const void *a, const void *b)
-{
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return x < y ? -1 : x > y;
-}
 
 /* Is viewer input i due for a pass this tick? */
 static int due(const vis_query *q, const vis_qviewer *v)
@@ -93,7 +88,7 @@ vis_status vis_query_chunks_run(vis_query *q)
             }
         }
         vis_idmap_clear(&q->chunk_set);
-        qsort(out, n, sizeof *out, cmp_u32);
+        vis_sort_u32(out, n);
         q->viewers[s].chunk_count = n;
         q->viewers[s].chunk_tick = q->tick;
         ++q->chunk_passes;
