@@ -28,7 +28,7 @@
 #define QUERY_DEFAULT_VIEWERS 64u
 #define QUERY_DEFAULT_ENTITIES 256u
 #define QUERY_DEFAULT_CHUNK_RES 32u
-#define QUERY_DEFAULT_PAIR_RAYS 48u
+#define QUERY_DEFAULT_PAIR_RAYS 16u
 #define QUERY_MAX_PAIR_RAYS 4096u
 #define QUERY_MAX_COORD 1e9      /* world coordinates beyond this are rejected             */
 #define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */

@@ -13,10 +13,13 @@
 #include "query_sort.h"
 #include "trace.h"
 
-/* Is viewer input i due for a pass this tick? */
-static int due(const vis_query *q, const vis_qviewer *v)
+/* Is the viewer in slot s due for a pass this tick? New viewers and every viewer after an
+ * edit at once; otherwise each slot on its own phase of chunk_every ticks, so that the
+ * passes spread evenly over the ticks instead of all landing on the same one. */
+static int due(const vis_query *q, uint32_t s)
 {
-    return v->chunk_tick == 0 || q->regenerated || q->tick - v->chunk_tick >= q->desc.chunk_every;
+    const vis_qviewer *v = &q->viewers[s];
+    return v->chunk_tick == 0 || q->regenerated || (q->tick + s) % q->desc.chunk_every == 0;
 }
 
 static void face_camera(const vis_query_viewer *in, int face, vis_camera *c)
@@ -47,7 +50,7 @@ vis_status vis_query_chunks_run(vis_query *q)
     for (uint32_t i = 0; i < q->viewer_count; ++i) {
         const vis_query_viewer *in = &q->in_viewers[i];
         uint32_t s = q->vslot[i];
-        if (!due(q, &q->viewers[s]))
+        if (!due(q, s))
             continue;
         if (all_around(in)) {
             for (int f = 0; f < 6; ++f) {

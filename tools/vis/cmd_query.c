@@ -31,12 +31,12 @@ static void usage(FILE *f)
             "  --max-viewers N      capacity, 1..4096 (default 256); --max-entities N, 1..65536 (default 1024)\n"
             "  --budget N           entity rays per tick, all viewers (default 0: no limit)\n"
             "  --viewer-budget N    entity rays per viewer per tick (default 0: no limit)\n"
-            "  --pair-limit N       rays to prove one pair hidden (default 48)\n"
+            "  --pair-limit N       rays to prove one pair hidden (default 16)\n"
             "  --margin X           voxels around eye regions and swept boxes (default 0)\n"
             "  --peek X             voxels per second a viewer may move beyond its velocity (default 0)\n"
             "  --hold N             ticks an entity stays sent after it was seen (default 0)\n"
             "  --chunk-res N        chunk pass resolution per face (default 32)\n"
-            "  --chunk-every N      re-trace a viewer's chunks every N ticks (default 8)\n"
+            "  --chunk-every N      re-trace a viewer's chunks every N ticks (default 32)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"
             "  --compare            also run the SMAC-style and Luanti-style checks and a dense truth\n"
             "  --truth-res N        truth: N x N per cube face (default 256)\n"
@@ -121,7 +121,7 @@ static int parse_args(int argc, char **argv, qopts *o)
     o->max_viewers = 256;
     o->max_entities = 1024;
     o->chunk_res = 32;
-    o->chunk_every = 8;
+    o->chunk_every = 32;
     o->around = 1;
     o->truth_res = 256;
     o->truth_every = 16;

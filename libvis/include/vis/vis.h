@@ -629,7 +629,7 @@ typedef struct vis_query_desc {
     uint64_t ray_budget;       /* entity rays per call (all viewers); 0 = no limit           */
     uint32_t viewer_ray_budget;/* entity rays per viewer per call; 0 = no limit              */
     uint32_t pair_ray_limit;   /* rays spent proving one pair hidden before it is reported
-                                  unchecked; default 48, at most 4096                        */
+                                  unchecked; default 16, at most 4096                        */
     uint32_t threads;          /* viewers run in parallel on this many threads (the caller
                                   included); 0 = the context's CPU thread count (its
                                   parallel_for when it has one), 1 = the calling thread      */
