@@ -36,6 +36,7 @@
 #define OCC_STACK 64      /* pending piece pairs; a deeper proof gives up (UNKNOWN)          */
 #define OCC_MAX_QUADS 48  /* quads gathered in one plane test; more: the test fails          */
 #define OCC_SEP 1e-4      /* a plane separates only with this gap on both sides (voxels)      */
+#define OCC_HITS 12       /* hits along a piece pair's centre segment tried as candidates   */
 
 /* Widening of R: a float ray of a pass differs from the exact segment by a few ulps of its
  * coordinates (trace_core.h: within 2^-20 relative of t), so R grows by that, generously. */
@@ -385,32 +386,47 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
             result = VIS_OCC_SEEN;
             break;
         }
-        /* The planes of the first hit: a voxel quad lies in an integer plane. */
+        /* The planes of the first hits along the segment (a voxel quad lies in an integer
+         * plane): the nearest wall may end inside R where a farther one covers it, so up
+         * to OCC_HITS hits are tried, each further one costing a ray. */
         int proven = 0, cut = 0;
         double s_fail = -1.0; /* where an uncovered separating plane crossed: 0 at E, 1 at B */
-        for (uint32_t a = 0; a < 3 && !proven && !cut; ++a) {
-            double p = floor(x[a] + 0.5);
-            if (!(fabs(x[a] - p) <= 1e-3))
-                continue;
-            if (separates(&e, &b, a, p)) {
-                if (spent >= limit)
+        for (int hit = 0; hit < OCC_HITS && !proven && !cut; ++hit) {
+            if (hit > 0) {
+                double d[3] = {cb[0] - x[0], cb[1] - x[1], cb[2] - x[2]};
+                double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), from[3];
+                if (!(len > 4e-3) || spent >= limit)
                     break;
+                for (int k = 0; k < 3; ++k)
+                    from[k] = x[k] + d[k] / len * 2e-3;
                 ++spent;
-                proven = plane_covers(view, &e, &b, a, p);
-                if (!proven)
-                    s_fail = (p - ce[a]) / (cb[a] - ce[a]);
-            } else if (sp + 2 <= OCC_STACK && (straddles(&b, a, p) || straddles(&e, a, p))) {
-                /* Cut the straddling piece on the plane: each part then lies on one side. */
-                vis_occ_box *piece = straddles(&b, a, p) ? &b : &e;
-                vis_occ_box other;
-                split_at(piece, &other, a, p);
-                st_e[sp] = e;
-                st_b[sp] = b;
-                ++sp;
-                st_e[sp] = piece == &b ? e : other;
-                st_b[sp] = piece == &b ? other : b;
-                ++sp;
-                cut = 1;
+                if (segment_raw(view, from, cb, x))
+                    break; /* nothing more on the way to B's centre */
+            }
+            for (uint32_t a = 0; a < 3 && !proven && !cut; ++a) {
+                double p = floor(x[a] + 0.5);
+                if (!(fabs(x[a] - p) <= 1e-3))
+                    continue;
+                if (separates(&e, &b, a, p)) {
+                    if (spent >= limit)
+                        break;
+                    ++spent;
+                    proven = plane_covers(view, &e, &b, a, p);
+                    if (!proven && s_fail < 0.0)
+                        s_fail = (p - ce[a]) / (cb[a] - ce[a]);
+                } else if (hit == 0 && sp + 2 <= OCC_STACK && (straddles(&b, a, p) || straddles(&e, a, p))) {
+                    /* Cut the straddling piece on the plane: each part then lies on one side. */
+                    vis_occ_box *piece = straddles(&b, a, p) ? &b : &e;
+                    vis_occ_box other;
+                    split_at(piece, &other, a, p);
+                    st_e[sp] = e;
+                    st_b[sp] = b;
+                    ++sp;
+                    st_e[sp] = piece == &b ? e : other;
+                    st_b[sp] = piece == &b ? other : b;
+                    ++sp;
+                    cut = 1;
+                }
             }
         }
         if (proven || cut)

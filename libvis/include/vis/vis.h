@@ -681,8 +681,9 @@ typedef struct vis_query_stats {
     double ms;                 /* the call, wall clock                                         */
 } vis_query_stats;
 
-/* Creates a query for `scene` with every buffer it will need (no allocation per tick).
- * desc may be NULL (defaults). The scene must outlive the query. */
+/* Creates a query for `scene` with every buffer it will need (no allocation per tick),
+ * through the context's allocator, and its pool of threads. desc may be NULL (defaults).
+ * Destroy the query before its scene and its context (vis_context_destroy does not). */
 VIS_API vis_status vis_query_create(vis_context *context, vis_scene *scene, const vis_query_desc *desc,
                                     vis_query **out_query);
 
