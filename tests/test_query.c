@@ -360,11 +360,12 @@ static void test_hold(void **state)
     vis_context_destroy(ctx);
 }
 
-/* Runs a few ticks of a random world and returns every list, for comparisons. */
-static size_t run_ticks(uint32_t threads, const vis_query_desc *base, uint32_t *out, size_t cap, vis_query_stats *st_out)
+/* Runs a few ticks of a random world on ctx (destroyed here) and returns every list, for
+ * comparisons. */
+static size_t run_ticks_on(vis_context *ctx, uint32_t threads, const vis_query_desc *base, uint32_t *out, size_t cap,
+                           vis_query_stats *st_out)
 {
     uint64_t rng = 0x5eed0002;
-    vis_context *ctx = make_cpu_ctx(threads);
     tworld w;
     walls_world(&w, &rng, 24);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
@@ -413,6 +414,40 @@ static size_t run_ticks(uint32_t threads, const vis_query_desc *base, uint32_t *
     free_world(&w);
     vis_context_destroy(ctx);
     return n;
+}
+
+static size_t run_ticks(uint32_t threads, const vis_query_desc *base, uint32_t *out, size_t cap, vis_query_stats *st_out)
+{
+    return run_ticks_on(make_cpu_ctx(threads), threads, base, out, cap, st_out);
+}
+
+/* The same lists from an OpenCL context (its chunk passes run on the device); skipped where
+ * no OpenCL device can be opened. */
+static void test_backends_deterministic(void **state)
+{
+    (void)state;
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.backend = VIS_BACKEND_OPENCL;
+    vis_context *cl = NULL;
+    if (vis_context_create(&cd, &cl) != VIS_OK) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    enum { CAP = 1 << 16 };
+    uint32_t *a = malloc(CAP * 4), *b = malloc(CAP * 4);
+    assert_non_null(a);
+    assert_non_null(b);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.ray_budget = 300;
+    vis_query_stats s1, s2;
+    size_t n1 = run_ticks(2, &d, a, CAP, &s1);
+    size_t n2 = run_ticks_on(cl, 2, &d, b, CAP, &s2);
+    assert_int_equal(n1, n2);
+    assert_memory_equal(a, b, n1 * 4);
+    free(a);
+    free(b);
 }
 
 static void test_threads_deterministic(void **state)
@@ -827,7 +862,7 @@ int main(void)
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
-        cmocka_unit_test(test_no_allocation_per_tick),
+        cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),
     };
     const struct CMUnitTest cli_tests[] = {
         cmocka_unit_test(test_cli_simulate_replay),

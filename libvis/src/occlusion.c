@@ -19,8 +19,8 @@
  *
  * One plane rarely covers a whole pair, so the pair is cut into pieces (the CornerCulling
  * idea of bounding what a peek can see, made exhaustive): a segment is cast between the
- * pieces' centres; unblocked, the pair is SEEN; blocked, the planes of its first hit are the
- * candidates; a piece that straddles a candidate plane is split on it, otherwise the larger
+ * pieces' centres; unblocked, the pair is SEEN; blocked, the planes of its first hits (up to
+ * OCC_HITS along the segment) are the candidates; a piece that straddles a candidate plane is split on it, otherwise the larger
  * piece is halved along its longest axis. Every piece must be proven; a budget of rays bounds
  * the work, and an unfinished proof is UNKNOWN (reported visible by the caller).
  *
