@@ -591,14 +591,15 @@ VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timin
  *
  * The entity guarantee (docs/server.md, "What is guaranteed"). Let E be the eye region of a
  * viewer: the box spanned by eye and eye + velocity * latency, grown by peek_speed * latency
- * + margin + 1e-3 on every side; let B be an entity's swept box: the hull of its box and the
- * box moved by its velocity * latency, grown by margin + 1e-3. The entity is left out of the
- * viewer's list only when every segment from a point of E to a point of B crosses an opaque
- * quad: proven, never sampled, by finding axis-aligned planes that separate pieces of E from
- * pieces of B and whose crossing rectangle is covered by the union of the plane's opaque
- * quads. So an entity with any point visible from any eye in E -- in particular any pixel
- * of a ray pass from the true eye, which lies in E -- is always reported. Pairs the ray
- * budget leaves unproven are reported (VIS_QUERY_UNCHECKED), never hidden.
+ * + margin on every side; let B be an entity's swept box: the hull of its box and the box
+ * moved by its velocity * latency, grown by margin. The entity is left out of the viewer's
+ * list only when every segment from a point of E to a point of B crosses an opaque quad:
+ * proven, never sampled, by finding axis-aligned planes that separate pieces of E from
+ * pieces of B and whose crossing rectangle (widened against the rounding of float rays) is
+ * covered by the union of the plane's opaque quads. So an entity with any point visible from
+ * any eye in E -- in particular any pixel of a ray pass from the true eye, which lies in E --
+ * is always reported. Pairs the ray budget leaves unproven are reported
+ * (VIS_QUERY_UNCHECKED), never hidden.
  *
  * Thread safety: a vis_query belongs to the context and scene it was created with; its
  * calls count as calls on that context (VIS_ERROR_BUSY while another thread is inside one).
@@ -618,9 +619,9 @@ typedef struct vis_query_desc {
     uint32_t max_entities;     /* entities per tick, 1..VIS_QUERY_MAX_ENTITIES; default 256  */
     uint32_t chunk_res;        /* the chunk ID pass: chunk_res x chunk_res per face,
                                   1..VIS_QUERY_MAX_CHUNK_RES; default 32                     */
-    uint32_t chunk_every;      /* re-trace a viewer's chunks at least every N ticks (and at
-                                  once when its eye, direction or the scene changed);
-                                  default 1: every tick                                       */
+    uint32_t chunk_every;      /* re-trace a viewer's chunks every N ticks, each viewer slot
+                                  on its own phase (and at once for a new viewer or after a
+                                  scene edit); default 1: every tick                          */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
@@ -694,8 +695,10 @@ VIS_API void vis_query_destroy(vis_query *query);
  * counts within the capacities): on failure VIS_ERROR_INVALID_ARGUMENT (or CAPACITY for a
  * count) with a message naming the item and field, and the query is unchanged (the tick is
  * not counted). viewers may be NULL when viewer_count is 0, entities likewise. The results
- * stay readable until the next run. Viewers and entities are matched to the last tick's by
- * ID (holds and caches follow the IDs, not the array positions). out_stats may be NULL.
+ * stay readable until the next run; a backend failure in the chunk passes leaves none
+ * (VIS_ERROR_NOT_FOUND until the next successful run). Viewers and entities are matched to
+ * the last tick's by ID (holds and caches follow the IDs, not the array positions).
+ * out_stats may be NULL.
  * The same calls give the same results on any thread count. */
 VIS_API vis_status vis_query_run(vis_query *query, const vis_query_viewer *viewers, uint32_t viewer_count,
                                  const vis_query_entity *entities, uint32_t entity_count,
