@@ -50,6 +50,7 @@ int cmd_query(int argc, char **argv)
 {
     (void)argc;
     (void)argv;
+    (void)usage;
     fprintf(stderr, "vis query: this build has no Jansson (the JSON reader replays need); install "
                     "libjansson-dev and configure again\n");
     return CLI_EXIT_USAGE;
