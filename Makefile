@@ -12,7 +12,7 @@ VIS        := $(BUILD)/tools/vis
 DEB_PACKAGES := build-essential cmake pkg-config libcmocka-dev libpng-dev \
                 ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
                 libopenvdb-dev libboost-iostreams-dev libglfw3-dev libepoxy-dev libembree-dev gnuplot-nox clang \
-                xvfb xauth
+                xvfb xauth libjansson-dev
 
 .PHONY: all deps configure build run viewer test test-release test-asan test-tsan bench fuzz install-test clean
 

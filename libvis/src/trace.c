@@ -7,6 +7,7 @@
 
 #include "camera.h"
 #include "scene.h"
+#include "trace.h"
 
 static double now_ms(void)
 {
@@ -122,7 +123,7 @@ vis_status vis_trace(vis_context *ctx, vis_scene *scene, const vis_camera *camer
     return st;
 }
 
-static vis_status trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera *cameras, uint32_t count,
+vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_camera *cameras, uint32_t count,
                               const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity, float *out_depth,
                               size_t depth_capacity)
 {
@@ -193,7 +194,7 @@ vis_status vis_trace_batch(vis_context *ctx, vis_scene *scene, const vis_camera 
         return VIS_ERROR_INVALID_ARGUMENT;
     if (vis_enter(ctx) != VIS_OK)
         return VIS_ERROR_BUSY;
-    vis_status st = trace_batch(ctx, scene, cameras, count, desc, out_ids, ids_capacity, out_depth, depth_capacity);
+    vis_status st = vis_trace_batch_held(ctx, scene, cameras, count, desc, out_ids, ids_capacity, out_depth, depth_capacity);
     vis_leave(ctx);
     return st;
 }

@@ -34,6 +34,8 @@ static void usage(FILE *f)
     fprintf(f, "usage: vis COMMAND [options]   (vis COMMAND --help for its options)\n\ncommands:\n");
     for (size_t i = 0; i < cli_command_count; ++i)
         fprintf(f, "  %-8s %s\n", cli_commands[i].name, cli_commands[i].summary);
+    fprintf(f, "  %-8s %s\n", "query",
+            "Server queries: replay (or simulate) players and report what each one sees, tick by tick.");
     fprintf(f, "\nSPEC: a .vox or .vdb file, or a generator such as gen:terrain:size=512x128x512:seed=1\n"
                "      (gen:terrain, gen:city, gen:maze; gen:default is the default world).\n"
                "      --max-bytes N and --max-voxels N bound what loading it may take (defaults 2G and\n"
@@ -56,6 +58,8 @@ int main(int argc, char **argv)
         printf("vis %s\n", vis_version());
         return CLI_EXIT_OK;
     }
+    if (strcmp(name, "query") == 0)
+        return cmd_query(argc - 1, argv + 1); /* its own options (tools/vis/cmd_query.c) */
     for (size_t i = 0; i < cli_command_count; ++i) {
         if (strcmp(cli_commands[i].name, name) != 0)
             continue;

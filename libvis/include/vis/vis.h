@@ -612,6 +612,143 @@ typedef struct vis_timing {
 /* VIS_ERROR_NOT_FOUND before the first successful trace on the context. */
 VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timing *out_timing);
 
+/* ------------------------------------------------------------------------------------ */
+/* Server queries: what each player can see, every tick (docs/server.md)                */
+/* ------------------------------------------------------------------------------------ */
+
+/* A headless game server asks two questions per tick and per player ("viewer"): which chunk
+ * objects to stream (a low-resolution ID pass, in view or all around) and which entities to
+ * send (anti-wallhack). Entities are boxes with velocities; they are never occluders, only
+ * the scene's quads are (triangles and VIS_PRIM_SEE_THROUGH quads never hide anything).
+ *
+ * The entity guarantee (docs/server.md, "What is guaranteed"). Let E be the eye region of a
+ * viewer: the box spanned by eye and eye + velocity * latency, grown by peek_speed * latency
+ * + margin on every side; let B be an entity's swept box: the hull of its box and the box
+ * moved by its velocity * latency, grown by margin. The entity is left out of the viewer's
+ * list only when every segment from a point of E to a point of B crosses an opaque quad:
+ * proven, never sampled, by finding axis-aligned planes that separate pieces of E from
+ * pieces of B and whose crossing rectangle (widened against the rounding of float rays) is
+ * covered by the union of the plane's opaque quads. So an entity with any point visible from
+ * any eye in E -- in particular any pixel of a ray pass from the true eye, which lies in E --
+ * is always reported. Pairs the ray budget leaves unproven are reported
+ * (VIS_QUERY_UNCHECKED), never hidden.
+ *
+ * Thread safety: a vis_query belongs to the context and scene it was created with; its
+ * calls count as calls on that context (VIS_ERROR_BUSY while another thread is inside one).
+ * The scene may be edited between calls (through its own context); each call sees the
+ * committed state, and an edit since the last call invalidates every cached result. */
+typedef struct vis_query vis_query;
+
+/* Sizes a query may be created with. */
+#define VIS_QUERY_MAX_VIEWERS  4096u
+#define VIS_QUERY_MAX_ENTITIES 65536u
+#define VIS_QUERY_MAX_CHUNK_RES 256u
+#define VIS_QUERY_MAX_LATENCY_MS 2000.0
+#define VIS_QUERY_MAX_SPEED 1000.0   /* voxels per second, any velocity or peek speed     */
+
+typedef struct vis_query_desc {
+    uint32_t max_viewers;      /* viewers per tick, 1..VIS_QUERY_MAX_VIEWERS; default 64     */
+    uint32_t max_entities;     /* entities per tick, 1..VIS_QUERY_MAX_ENTITIES; default 256  */
+    uint32_t chunk_res;        /* the chunk ID pass: chunk_res x chunk_res per face,
+                                  1..VIS_QUERY_MAX_CHUNK_RES; default 32                     */
+    uint32_t chunk_every;      /* re-trace a viewer's chunks every N ticks, each viewer slot
+                                  on its own phase (and at once for a new viewer or after a
+                                  scene edit); default 1: every tick                          */
+    double margin;             /* voxels added around eye regions and swept boxes; default 0 */
+    double peek_speed;         /* voxels per second the viewer may move, in any direction,
+                                  on top of its velocity (a peek); default 0                 */
+    uint32_t hold_ticks;       /* an entity seen stays reported this many ticks more;
+                                  default 0                                                   */
+    uint64_t ray_budget;       /* entity rays per call (all viewers); 0 = no limit           */
+    uint32_t viewer_ray_budget;/* entity rays per viewer per call; 0 = no limit              */
+    uint32_t pair_ray_limit;   /* rays spent proving one pair hidden before it is reported
+                                  unchecked; default 16, at most 4096                        */
+    uint32_t threads;          /* viewers run in parallel on this many threads (the caller
+                                  included); 0 = the context's CPU thread count (its
+                                  parallel_for when it has one), 1 = the calling thread      */
+} vis_query_desc;
+
+VIS_API void vis_query_desc_defaults(vis_query_desc *desc);
+
+/* A player. Coordinates are world coordinates (as vis_camera's), speeds in voxels per
+ * second, latency in milliseconds. */
+typedef struct vis_query_viewer {
+    uint32_t id;           /* 1..VIS_MAX_OBJECT_ID, unique in the call; an entity with the
+                              same ID is the viewer itself and is never reported to it       */
+    double eye[3];
+    double dir[3];         /* view direction; (0,0,0) = all around (6 faces of 90 degrees)   */
+    double fov_deg;        /* the in-view pass's field of view, horizontal and vertical,
+                              (0, 170]; ignored all around                                   */
+    double velocity[3];
+    double latency_ms;     /* [0, VIS_QUERY_MAX_LATENCY_MS]                                  */
+} vis_query_viewer;
+
+/* An entity: a box with a velocity (world coordinates, voxels per second). */
+typedef struct vis_query_entity {
+    uint32_t id;           /* 1..VIS_MAX_OBJECT_ID, unique in the call                       */
+    double box_min[3];     /* box_min < box_max on every axis (no empty boxes)               */
+    double box_max[3];
+    double velocity[3];
+} vis_query_entity;
+
+/* Why an entity is in a viewer's list. */
+typedef enum vis_query_reason {
+    VIS_QUERY_SEEN = 1,    /* a segment from the eye region to the swept box is unblocked    */
+    VIS_QUERY_UNCHECKED,   /* the ray budget ran out before it was proven hidden             */
+    VIS_QUERY_HELD         /* proven hidden, but seen less than hold_ticks ticks ago         */
+} vis_query_reason;
+
+typedef struct vis_query_hit {
+    uint32_t id;           /* entity ID                                                      */
+    uint32_t reason;       /* vis_query_reason                                               */
+} vis_query_hit;
+
+typedef struct vis_query_stats {
+    uint64_t tick;             /* ticks run so far, this one included                         */
+    uint64_t entity_rays;      /* segments cast and plane tests (each counts one ray)         */
+    uint64_t chunk_rays;       /* pixels of the chunk passes traced this tick                  */
+    uint32_t pairs;            /* viewer-entity pairs (the viewer's own entity excluded)      */
+    uint32_t pairs_cached;     /* answered from the last tick: nothing relevant changed       */
+    uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
+    uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
+    double ms;                 /* the call, wall clock                                         */
+} vis_query_stats;
+
+/* Creates a query for `scene` with every buffer it will need (no allocation per tick),
+ * through the context's allocator, and its pool of threads. desc may be NULL (defaults).
+ * Destroy the query before its scene and its context (vis_context_destroy does not). */
+VIS_API vis_status vis_query_create(vis_context *context, vis_scene *scene, const vis_query_desc *desc,
+                                    vis_query **out_query);
+
+/* May be NULL. Nothing else may run on the query meanwhile. */
+VIS_API void vis_query_destroy(vis_query *query);
+
+/* One tick. Every viewer and entity is checked first (finite values, bounds, unique IDs,
+ * counts within the capacities): on failure VIS_ERROR_INVALID_ARGUMENT (or CAPACITY for a
+ * count) with a message naming the item and field, and the query is unchanged (the tick is
+ * not counted). viewers may be NULL when viewer_count is 0, entities likewise. The results
+ * stay readable until the next run; a backend failure in the chunk passes leaves none
+ * (VIS_ERROR_NOT_FOUND until the next successful run). Viewers and entities are matched to
+ * the last tick's by ID (holds and caches follow the IDs, not the array positions).
+ * out_stats may be NULL.
+ * The same calls give the same results on any thread count. */
+VIS_API vis_status vis_query_run(vis_query *query, const vis_query_viewer *viewers, uint32_t viewer_count,
+                                 const vis_query_entity *entities, uint32_t entity_count,
+                                 vis_query_stats *out_stats);
+
+/* The last run's entities for viewer `viewer_index` (its index in that call), sorted by ID.
+ * out may be NULL to learn the count (capacity 0); VIS_ERROR_CAPACITY, nothing written,
+ * when capacity is below it. VIS_ERROR_NOT_FOUND for an index past the last run's viewers. */
+VIS_API vis_status vis_query_entities(vis_query *query, uint32_t viewer_index, vis_query_hit *out,
+                                      size_t capacity, size_t *out_count);
+
+/* The last run's chunk objects for the viewer: the object IDs its ID pass saw, sorted. At
+ * most chunk_res^2 (in view) or 6 chunk_res^2 (all around). Not conservative: objects seen
+ * only between pixel centres are missed (docs/server.md measures how many). Same buffer
+ * rules as vis_query_entities. */
+VIS_API vis_status vis_query_chunks(vis_query *query, uint32_t viewer_index, uint32_t *out, size_t capacity,
+                                    size_t *out_count);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,30 @@
+/* occlusion.h — internal: proving that every segment between two boxes is blocked by the
+ * scene's opaque quads (the server queries' entity test, query.c). */
+#ifndef VIS_OCCLUSION_H
+#define VIS_OCCLUSION_H
+
+#include "backend.h"
+
+/* A box in scene-local coordinates, in double. */
+typedef struct vis_occ_box {
+    double lo[3], hi[3];
+} vis_occ_box;
+
+typedef enum vis_occ_result {
+    VIS_OCC_SEEN = 0,   /* a segment from a point of E to a point of B is unblocked          */
+    VIS_OCC_HIDDEN,     /* every segment from E to B crosses an opaque quad (proven)          */
+    VIS_OCC_UNKNOWN     /* the ray limit (or the work stack) ran out first                    */
+} vis_occ_result;
+
+/* Decides E against B spending at most `limit` rays (a segment cast and a plane coverage test
+ * count one each); adds the rays spent to *rays. Reads the scene's host arrays: the caller
+ * holds the scene's lock shared. Allocates nothing; safe to call from several threads. */
+vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
+                            uint32_t limit, uint32_t *rays);
+
+/* One segment from a to b (scene-local): 1 when it crosses no opaque primitive, 0 otherwise;
+ * hit_point (may be NULL) gets the blocking hit. See-through quads (VIS_PRIM_SEE_THROUGH)
+ * are passed through, up to 8 layers. The baselines of `vis query` use it too. */
+int vis_occ_segment_clear(const vis_scene_view *view, const double a[3], const double b[3], double hit_point[3]);
+
+#endif

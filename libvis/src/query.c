@@ -1,0 +1,700 @@
+/* query.c — headless server queries: per tick and per viewer, the visible chunk objects
+ * (query_chunks.c) and the visible entities, conservative under latency (occlusion.c).
+ *
+ * What servers do today, and what this file does instead (docs/server.md):
+ *  - SMAC (Source): up to 10 traces per pair (centre, weapon tip, corners at 1.3x and
+ *    0.65x), positions extrapolated by velocity x latency, 0.75 s reveal hold, 1,280 traces a
+ *    tick. CS2's S2FOW: 39 points per target, 96 rays per player, caches of 2-28 ticks.
+ *    CornerCulling: 4 peek points x 8 box corners. All sample points, so a sliver seen
+ *    between samples is hidden; here a pair is hidden only when occlusion.c proves every
+ *    segment from the eye region (every eye the viewer can reach within its latency: a
+ *    peek) to the swept box (every place the entity can be within it) blocked.
+ *  - A ray budget spent by priority (in view, then near), split evenly and deterministically
+ *    among viewers; pairs it cannot prove are reported (VIS_QUERY_UNCHECKED), never hidden.
+ *  - A reveal hold in ticks, and per-pair caching: a pair's last proof is reused while the
+ *    viewer's eye region, the entity's swept box and the scene are all unchanged.
+ *  - Every buffer is sized at creation: a tick allocates nothing. Viewers are independent
+ *    jobs (each writes only its own row of results), so any thread count gives the same
+ *    output. */
+#define _POSIX_C_SOURCE 199309L
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "query.h"
+#include "query_sort.h"
+
+#define QUERY_DEFAULT_VIEWERS 64u
+#define QUERY_DEFAULT_ENTITIES 256u
+#define QUERY_DEFAULT_CHUNK_RES 32u
+#define QUERY_DEFAULT_PAIR_RAYS 16u
+#define QUERY_MAX_PAIR_RAYS 4096u
+#define QUERY_MAX_COORD 1e9      /* world coordinates beyond this are rejected             */
+#define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */
+#define QUERY_MAX_BYTES ((uint64_t)1 << 31)
+#define PAIR_NONE 0u
+#define PAIR_SEEN 1u
+#define PAIR_HIDDEN 2u
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+/* ---- ID maps ------------------------------------------------------------------------------ */
+
+static uint32_t id_hash(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+}
+
+uint32_t vis_idmap_find(const vis_idmap *m, uint32_t key)
+{
+    for (uint32_t i = id_hash(key) & m->mask;; i = (i + 1) & m->mask) {
+        if (m->keys[i] == key)
+            return m->vals[i];
+        if (m->keys[i] == 0)
+            return UINT32_MAX;
+    }
+}
+
+int vis_idmap_insert(vis_idmap *m, uint32_t key, uint32_t val)
+{
+    for (uint32_t i = id_hash(key) & m->mask;; i = (i + 1) & m->mask) {
+        if (m->keys[i] == key)
+            return 0;
+        if (m->keys[i] == 0) {
+            m->keys[i] = key;
+            m->vals[i] = val;
+            return 1;
+        }
+    }
+}
+
+void vis_idmap_clear(vis_idmap *m)
+{
+    memset(m->keys, 0, ((size_t)m->mask + 1) * sizeof *m->keys);
+}
+
+static uint32_t map_size(uint64_t entries)
+{
+    uint32_t n = 16;
+    while (n < 2 * entries)
+        n <<= 1;
+    return n;
+}
+
+/* ---- create / destroy ----------------------------------------------------------------------- */
+
+void vis_query_desc_defaults(vis_query_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof *d);
+    d->max_viewers = QUERY_DEFAULT_VIEWERS;
+    d->max_entities = QUERY_DEFAULT_ENTITIES;
+    d->chunk_res = QUERY_DEFAULT_CHUNK_RES;
+    d->chunk_every = 1;
+    d->pair_ray_limit = QUERY_DEFAULT_PAIR_RAYS;
+}
+
+static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_query_desc *d)
+{
+    vis_query_desc_defaults(d);
+    if (!in)
+        return VIS_OK;
+    *d = *in;
+    if (!d->max_viewers)
+        d->max_viewers = QUERY_DEFAULT_VIEWERS;
+    if (!d->max_entities)
+        d->max_entities = QUERY_DEFAULT_ENTITIES;
+    if (!d->chunk_res)
+        d->chunk_res = QUERY_DEFAULT_CHUNK_RES;
+    if (!d->chunk_every)
+        d->chunk_every = 1;
+    if (!d->pair_ray_limit)
+        d->pair_ray_limit = QUERY_DEFAULT_PAIR_RAYS;
+    if (d->max_viewers > VIS_QUERY_MAX_VIEWERS || d->max_entities > VIS_QUERY_MAX_ENTITIES ||
+        d->chunk_res > VIS_QUERY_MAX_CHUNK_RES || d->pair_ray_limit > QUERY_MAX_PAIR_RAYS)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
+                        "vis_query_create: max_viewers %u (at most %u), max_entities %u (at most %u), chunk_res %u "
+                        "(at most %u), pair_ray_limit %u (at most %u)",
+                        d->max_viewers, VIS_QUERY_MAX_VIEWERS, d->max_entities, VIS_QUERY_MAX_ENTITIES, d->chunk_res,
+                        VIS_QUERY_MAX_CHUNK_RES, d->pair_ray_limit, QUERY_MAX_PAIR_RAYS);
+    if (!isfinite(d->margin) || d->margin < 0.0 || d->margin > QUERY_MAX_BOX || !isfinite(d->peek_speed) ||
+        d->peek_speed < 0.0 || d->peek_speed > VIS_QUERY_MAX_SPEED)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
+                        "vis_query_create: margin %g must be in [0, %g], peek_speed %g in [0, %g]", d->margin,
+                        QUERY_MAX_BOX, d->peek_speed, VIS_QUERY_MAX_SPEED);
+    return VIS_OK;
+}
+
+/* Every array of a query, with its size: planned (and bounded) before anything is taken. */
+typedef struct query_plan {
+    void **ptr;
+    uint64_t bytes;
+} query_plan;
+
+static void query_free(vis_query *q)
+{
+    vis_context *ctx = q->ctx;
+    void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
+                      q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
+                      q->pair_state, q->pair_seen, q->eye_now, q->box_now, q->keys, q->hits, q->results,
+                      q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals};
+    for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
+        if (arrays[i])
+            vis_free(ctx, arrays[i]);
+    if (q->pool)
+        vis_pool_destroy(q->pool);
+    vis_free(ctx, q);
+}
+
+static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_query_desc *desc, vis_query **out)
+{
+    vis_query_desc d;
+    vis_status st = resolve_desc(ctx, desc, &d);
+    if (st != VIS_OK)
+        return st;
+    vis_query *q = vis_calloc(ctx, 1, sizeof *q);
+    if (!q)
+        return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "vis_query_create: out of memory");
+    q->ctx = ctx;
+    q->scene = scene;
+    q->desc = d;
+    uint64_t V = d.max_viewers, E = d.max_entities, res2 = (uint64_t)d.chunk_res * d.chunk_res;
+    q->chunk_cap = (uint32_t)(6 * res2);
+    uint32_t vm = map_size(V), em = map_size(E), cm = map_size(V > E ? V : E), sm = map_size(6 * res2);
+    q->viewer_map.mask = vm - 1;
+    q->entity_map.mask = em - 1;
+    q->check_map.mask = cm - 1;
+    q->chunk_set.mask = sm - 1;
+    query_plan plan[] = {
+        {(void **)&q->viewers, V * sizeof(vis_qviewer)},
+        {(void **)&q->entities, E * sizeof(vis_qentity)},
+        {(void **)&q->viewer_map.keys, vm * 4ull},
+        {(void **)&q->viewer_map.vals, vm * 4ull},
+        {(void **)&q->entity_map.keys, em * 4ull},
+        {(void **)&q->entity_map.vals, em * 4ull},
+        {(void **)&q->check_map.keys, cm * 4ull},
+        {(void **)&q->check_map.vals, cm * 4ull},
+        {(void **)&q->vslot, V * 4},
+        {(void **)&q->eslot, E * 4},
+        {(void **)&q->pair_state, V * E},
+        {(void **)&q->pair_seen, V * E * 4},
+        {(void **)&q->eye_now, V * sizeof(vis_occ_box)},
+        {(void **)&q->box_now, V * E * sizeof(vis_occ_box)},
+        {(void **)&q->keys, V * E * 8},
+        {(void **)&q->hits, V * E * sizeof(vis_query_hit)},
+        {(void **)&q->results, V * sizeof(vis_qresult)},
+        {(void **)&q->chunks, V * 6 * res2 * 4},
+        {(void **)&q->cameras, V * 6 * sizeof(vis_camera)},
+        {(void **)&q->camera_viewer, V * 6 * 4},
+        {(void **)&q->ids, V * 6 * res2 * 4},
+        {(void **)&q->chunk_set.keys, sm * 4ull},
+        {(void **)&q->chunk_set.vals, sm * 4ull},
+    };
+    uint64_t total = 0;
+    for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i)
+        total += plan[i].bytes;
+    if (total > QUERY_MAX_BYTES || total != (size_t)total) {
+        query_free(q);
+        return vis_fail(ctx, VIS_ERROR_BUDGET, "vis_query_create: %llu bytes for these capacities, at most %llu",
+                        (unsigned long long)total, (unsigned long long)QUERY_MAX_BYTES);
+    }
+    for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i) {
+        *plan[i].ptr = vis_calloc(ctx, 1, (size_t)plan[i].bytes);
+        if (!*plan[i].ptr) {
+            query_free(q);
+            return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "vis_query_create: out of memory (%llu bytes)",
+                            (unsigned long long)total);
+        }
+    }
+    /* Threads: the query's own pool, or the context's job system. */
+    uint32_t threads = d.threads;
+    if (threads == 0 && ctx->desc.parallel_for) {
+        q->parallel_for = ctx->desc.parallel_for;
+        q->parallel_for_user = ctx->desc.parallel_for_user;
+    } else {
+        if (threads == 0)
+            threads = ctx->info.threads ? ctx->info.threads : 1u;
+        if (threads > 1 && vis_pool_create(threads, &ctx->alloc, &q->pool) != VIS_OK) {
+            query_free(q);
+            return vis_fail(ctx, VIS_ERROR_BACKEND, "vis_query_create: could not start %u threads", threads);
+        }
+    }
+    *out = q;
+    return VIS_OK;
+}
+
+vis_status vis_query_create(vis_context *ctx, vis_scene *scene, const vis_query_desc *desc, vis_query **out)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(ctx);
+    vis_status st;
+    if (!scene || !out)
+        st = vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_query_create: scene and out_query must not be NULL");
+    else
+        st = query_create(ctx, scene, desc, out);
+    vis_leave(ctx);
+    return st;
+}
+
+void vis_query_destroy(vis_query *q)
+{
+    if (q)
+        query_free(q);
+}
+
+/* ---- validation ------------------------------------------------------------------------------ */
+
+static int finite3(const double v[3], double bound)
+{
+    for (int i = 0; i < 3; ++i)
+        if (!isfinite(v[i]) || fabs(v[i]) > bound)
+            return 0;
+    return 1;
+}
+
+static int speed_ok(const double v[3])
+{
+    return finite3(v, VIS_QUERY_MAX_SPEED) && v[0] * v[0] + v[1] * v[1] + v[2] * v[2] <=
+                                                 VIS_QUERY_MAX_SPEED * VIS_QUERY_MAX_SPEED;
+}
+
+static vis_status check_inputs(vis_query *q, const vis_query_viewer *vw, uint32_t nv, const vis_query_entity *en,
+                               uint32_t ne)
+{
+    vis_context *ctx = q->ctx;
+    if ((nv && !vw) || (ne && !en))
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_query_run: viewers or entities is NULL with a count");
+    if (nv > q->desc.max_viewers || ne > q->desc.max_entities)
+        return vis_fail(ctx, VIS_ERROR_CAPACITY, "vis_query_run: %u viewers and %u entities; the query holds %u and %u",
+                        nv, ne, q->desc.max_viewers, q->desc.max_entities);
+    vis_idmap_clear(&q->check_map);
+    for (uint32_t i = 0; i < nv; ++i) {
+        const vis_query_viewer *v = &vw[i];
+        const char *bad = NULL;
+        if (v->id == 0 || v->id > VIS_MAX_OBJECT_ID)
+            bad = "id is not in 1..VIS_MAX_OBJECT_ID";
+        else if (!vis_idmap_insert(&q->check_map, v->id, i))
+            bad = "id appears twice";
+        else if (!finite3(v->eye, QUERY_MAX_COORD))
+            bad = "eye is not finite or too far";
+        else if (!finite3(v->dir, QUERY_MAX_COORD))
+            bad = "dir is not finite";
+        else if (!(v->dir[0] == 0.0 && v->dir[1] == 0.0 && v->dir[2] == 0.0) &&
+                 !(v->fov_deg > 0.0 && v->fov_deg <= 170.0))
+            bad = "fov_deg is not in (0, 170]";
+        else if (!speed_ok(v->velocity))
+            bad = "velocity is not finite or faster than VIS_QUERY_MAX_SPEED";
+        else if (!(v->latency_ms >= 0.0 && v->latency_ms <= VIS_QUERY_MAX_LATENCY_MS))
+            bad = "latency_ms is not in [0, VIS_QUERY_MAX_LATENCY_MS]";
+        if (bad)
+            return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_query_run: viewer %u (id %u): %s", i, v->id, bad);
+    }
+    vis_idmap_clear(&q->check_map);
+    for (uint32_t i = 0; i < ne; ++i) {
+        const vis_query_entity *e = &en[i];
+        const char *bad = NULL;
+        if (e->id == 0 || e->id > VIS_MAX_OBJECT_ID)
+            bad = "id is not in 1..VIS_MAX_OBJECT_ID";
+        else if (!vis_idmap_insert(&q->check_map, e->id, i))
+            bad = "id appears twice";
+        else if (!finite3(e->box_min, QUERY_MAX_COORD) || !finite3(e->box_max, QUERY_MAX_COORD))
+            bad = "box is not finite or too far";
+        else if (!(e->box_min[0] < e->box_max[0] && e->box_min[1] < e->box_max[1] && e->box_min[2] < e->box_max[2]))
+            bad = "box is empty (box_min must be below box_max on every axis)";
+        else if (!(e->box_max[0] - e->box_min[0] <= QUERY_MAX_BOX && e->box_max[1] - e->box_min[1] <= QUERY_MAX_BOX &&
+                   e->box_max[2] - e->box_min[2] <= QUERY_MAX_BOX))
+            bad = "box is larger than 1e5 voxels";
+        else if (!speed_ok(e->velocity))
+            bad = "velocity is not finite or faster than VIS_QUERY_MAX_SPEED";
+        if (bad)
+            return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_query_run: entity %u (id %u): %s", i, e->id, bad);
+    }
+    return VIS_OK;
+}
+
+/* ---- regions --------------------------------------------------------------------------------- */
+
+/* Eye region: eye and eye + velocity * latency, grown by peek_speed * latency + margin, in
+ * scene-local coordinates. */
+static void eye_region(const vis_query *q, const vis_query_viewer *v, vis_occ_box *b)
+{
+    double L = v->latency_ms * 1e-3, grow = q->desc.peek_speed * L + q->desc.margin;
+    for (int i = 0; i < 3; ++i) {
+        double a = v->eye[i] - q->scene->desc.origin[i], c = a + v->velocity[i] * L;
+        b->lo[i] = (a < c ? a : c) - grow;
+        b->hi[i] = (a < c ? c : a) + grow;
+    }
+}
+
+/* Swept box: the box and the box moved by velocity * latency (the viewer's latency: what it
+ * will see when the data arrives), grown by margin. */
+static void swept_box(const vis_query *q, const vis_query_entity *e, double latency_ms, vis_occ_box *b)
+{
+    double L = latency_ms * 1e-3, m = q->desc.margin;
+    for (int i = 0; i < 3; ++i) {
+        double o = q->scene->desc.origin[i], dv = e->velocity[i] * L;
+        double lo = e->box_min[i] - o, hi = e->box_max[i] - o;
+        b->lo[i] = (dv < 0.0 ? lo + dv : lo) - m;
+        b->hi[i] = (dv > 0.0 ? hi + dv : hi) + m;
+    }
+}
+
+/* ---- slots -------------------------------------------------------------------------------- */
+
+/* Matches this tick's IDs to last tick's slots; frees the slots of IDs that are gone and
+ * gives new IDs free slots, with their pair state cleared. */
+static void assign_slots(vis_query *q)
+{
+    const vis_query_desc *d = &q->desc;
+    /* Viewers. */
+    vis_idmap_clear(&q->check_map);
+    for (uint32_t i = 0; i < q->viewer_count; ++i)
+        vis_idmap_insert(&q->check_map, q->in_viewers[i].id, i);
+    for (uint32_t s = 0; s < d->max_viewers; ++s)
+        if (q->viewers[s].id && vis_idmap_find(&q->check_map, q->viewers[s].id) == UINT32_MAX)
+            q->viewers[s].id = 0;
+    uint32_t next = 0;
+    for (uint32_t i = 0; i < q->viewer_count; ++i) {
+        uint32_t s = vis_idmap_find(&q->viewer_map, q->in_viewers[i].id);
+        if (s == UINT32_MAX || q->viewers[s].id != q->in_viewers[i].id) {
+            while (q->viewers[next].id)
+                ++next;
+            s = next;
+            memset(&q->viewers[s], 0, sizeof q->viewers[s]);
+            q->viewers[s].id = q->in_viewers[i].id;
+            q->viewers[s].changed = 1;
+            memset(q->pair_state + (size_t)s * d->max_entities, 0, d->max_entities);
+            memset(q->pair_seen + (size_t)s * d->max_entities, 0, (size_t)d->max_entities * 4);
+        }
+        q->vslot[i] = s;
+    }
+    vis_idmap_clear(&q->viewer_map);
+    for (uint32_t s = 0; s < d->max_viewers; ++s)
+        if (q->viewers[s].id)
+            vis_idmap_insert(&q->viewer_map, q->viewers[s].id, s);
+    /* Entities. */
+    vis_idmap_clear(&q->check_map);
+    for (uint32_t i = 0; i < q->entity_count; ++i)
+        vis_idmap_insert(&q->check_map, q->in_entities[i].id, i);
+    for (uint32_t s = 0; s < d->max_entities; ++s)
+        if (q->entities[s].id && vis_idmap_find(&q->check_map, q->entities[s].id) == UINT32_MAX)
+            q->entities[s].id = 0;
+    next = 0;
+    for (uint32_t i = 0; i < q->entity_count; ++i) {
+        uint32_t s = vis_idmap_find(&q->entity_map, q->in_entities[i].id);
+        if (s == UINT32_MAX || q->entities[s].id != q->in_entities[i].id) {
+            while (q->entities[next].id)
+                ++next;
+            s = next;
+            memset(&q->entities[s], 0, sizeof q->entities[s]);
+            q->entities[s].id = q->in_entities[i].id;
+            q->entities[s].changed = 1;
+            for (uint32_t v = 0; v < d->max_viewers; ++v) {
+                q->pair_state[(size_t)v * d->max_entities + s] = PAIR_NONE;
+                q->pair_seen[(size_t)v * d->max_entities + s] = 0;
+            }
+        }
+        q->eslot[i] = s;
+    }
+    vis_idmap_clear(&q->entity_map);
+    for (uint32_t s = 0; s < d->max_entities; ++s)
+        if (q->entities[s].id)
+            vis_idmap_insert(&q->entity_map, q->entities[s].id, s);
+}
+
+/* ---- one viewer's job ----------------------------------------------------------------------- */
+
+/* Priority key: in view first, then nearer first, then input order (ties stay
+ * deterministic). The distance's float bits order like the distance. */
+static uint64_t priority_key(const vis_query_viewer *v, const vis_occ_box *eye, const vis_occ_box *box, uint32_t index)
+{
+    double c[3], dd = 0.0, dot = 0.0, dl = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        double ec = 0.5 * (eye->lo[i] + eye->hi[i]);
+        c[i] = 0.5 * (box->lo[i] + box->hi[i]) - ec;
+        dd += c[i] * c[i];
+        dot += c[i] * v->dir[i];
+        dl += v->dir[i] * v->dir[i];
+    }
+    double dist = sqrt(dd);
+    int in_view = 1;
+    if (dl > 0.0 && dist > 0.0) {
+        /* The square pass's corners reach sqrt(2) x tan(fov/2) off axis. */
+        double half = atan(sqrt(2.0) * tan(v->fov_deg * 0.5 * 3.14159265358979323846 / 180.0));
+        in_view = dot / (dist * sqrt(dl)) >= cos(half);
+    }
+    float df = (float)dist;
+    uint32_t bits;
+    memcpy(&bits, &df, sizeof bits);
+    return ((uint64_t)(in_view ? 0u : 1u) << 63) | ((uint64_t)(bits & 0x7FFFFFFFu) << 32) | index;
+}
+
+static void viewer_job(vis_query *q, uint32_t i)
+{
+    const vis_query_desc *d = &q->desc;
+    const vis_query_viewer *v = &q->in_viewers[i];
+    uint32_t vs = q->vslot[i];
+    const vis_occ_box *eye = &q->eye_now[i];
+    uint64_t *keys = q->keys + (size_t)i * d->max_entities;
+    vis_query_hit *hits = q->hits + (size_t)i * d->max_entities;
+    vis_qresult *r = &q->results[i];
+    uint64_t budget = r->budget;
+    memset(r, 0, sizeof *r);
+    r->budget = budget;
+    uint32_t n = 0;
+    vis_occ_box *boxes = q->box_now + (size_t)i * d->max_entities; /* this viewer's row */
+    for (uint32_t j = 0; j < q->entity_count; ++j) {
+        swept_box(q, &q->in_entities[j], v->latency_ms, &boxes[j]);
+        if (q->in_entities[j].id != v->id)
+            keys[n++] = priority_key(v, eye, &boxes[j], j);
+    }
+    vis_sort_u64(keys, n);
+    uint64_t left = budget;
+    uint32_t nh = 0;
+    for (uint32_t k = 0; k < n; ++k) {
+        uint32_t j = (uint32_t)(keys[k] & 0xFFFFFFFFu), es = q->eslot[j];
+        size_t p = (size_t)vs * d->max_entities + es;
+        uint32_t reason = 0;
+        ++r->pairs;
+        int cache_ok = !q->regenerated && !q->viewers[vs].changed && !q->entities[es].changed;
+        if (cache_ok && q->pair_state[p] != PAIR_NONE) {
+            ++r->cached;
+        } else if (left == 0) {
+            q->pair_state[p] = PAIR_NONE;
+        } else {
+            uint32_t lim = left < d->pair_ray_limit ? (uint32_t)left : d->pair_ray_limit, spent = 0;
+            vis_occ_result res = vis_occ_test(&q->view, eye, &boxes[j], lim, &spent);
+            left -= spent;
+            r->rays += spent;
+            q->pair_state[p] = res == VIS_OCC_SEEN ? PAIR_SEEN : res == VIS_OCC_HIDDEN ? PAIR_HIDDEN : PAIR_NONE;
+        }
+        if (q->pair_state[p] == PAIR_SEEN) {
+            reason = VIS_QUERY_SEEN;
+            q->pair_seen[p] = (uint32_t)q->tick + 1u;
+            ++r->seen;
+        } else if (q->pair_state[p] == PAIR_NONE) {
+            reason = VIS_QUERY_UNCHECKED;
+            ++r->unchecked;
+        } else {
+            ++r->hidden;
+            uint32_t seen = q->pair_seen[p];
+            if (seen && (uint32_t)q->tick + 1u - seen <= d->hold_ticks) {
+                reason = VIS_QUERY_HELD;
+                ++r->held;
+            }
+        }
+        if (reason) {
+            hits[nh].id = q->in_entities[j].id;
+            hits[nh].reason = reason;
+            ++nh;
+        }
+    }
+    /* By ID (unique): the pair order's keys are spent, so their array sorts the hits. */
+    for (uint32_t k = 0; k < nh; ++k)
+        keys[k] = (uint64_t)hits[k].id << 32 | hits[k].reason;
+    vis_sort_u64(keys, nh);
+    for (uint32_t k = 0; k < nh; ++k) {
+        hits[k].id = (uint32_t)(keys[k] >> 32);
+        hits[k].reason = (uint32_t)keys[k];
+    }
+    r->hit_count = nh;
+}
+
+static void viewer_item(void *user, uint32_t index)
+{
+    viewer_job((vis_query *)user, index);
+}
+
+static void viewer_item_pf(uint32_t index, void *arg)
+{
+    viewer_job((vis_query *)arg, index);
+}
+
+/* ---- one tick ------------------------------------------------------------------------------- */
+
+static int box_same(const vis_occ_box *a, const vis_occ_box *b)
+{
+    return memcmp(a, b, sizeof *a) == 0;
+}
+
+static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t nv, const vis_query_entity *en,
+                            uint32_t ne, vis_query_stats *out_stats)
+{
+    double t0 = now_ms();
+    vis_status st = check_inputs(q, vw, nv, en, ne);
+    if (st != VIS_OK)
+        return st;
+    q->in_viewers = vw;
+    q->in_entities = en;
+    q->viewer_count = nv;
+    q->entity_count = ne;
+    ++q->tick;
+    assign_slots(q);
+
+    vis_scene_begin_read(q->scene);
+    uint64_t gen = q->scene->generation;
+    vis_scene_end_read(q->scene);
+    q->regenerated = q->tick > 1 && gen != q->generation;
+    q->generation = gen;
+
+    /* Regions, and what moved since the last tick. */
+    for (uint32_t i = 0; i < nv; ++i) {
+        vis_qviewer *s = &q->viewers[q->vslot[i]];
+        eye_region(q, &vw[i], &q->eye_now[i]);
+        if (!box_same(&s->eye, &q->eye_now[i]) || s->latency_ms != vw[i].latency_ms)
+            s->changed = 1;
+        s->eye = q->eye_now[i];
+        s->latency_ms = vw[i].latency_ms;
+    }
+    /* An entity's cache key is its box and velocity (its swept box depends on each viewer's
+     * latency, which is part of the viewer's key). */
+    for (uint32_t j = 0; j < ne; ++j) {
+        vis_qentity *s = &q->entities[q->eslot[j]];
+        vis_occ_box b;
+        swept_box(q, &en[j], 0.0, &b);
+        if (!box_same(&s->box, &b) || memcmp(s->velocity, en[j].velocity, sizeof s->velocity) != 0)
+            s->changed = 1;
+        s->box = b;
+        memcpy(s->velocity, en[j].velocity, sizeof s->velocity);
+    }
+
+    /* Chunks: one batch for every viewer due. */
+    st = vis_query_chunks_run(q);
+    if (st != VIS_OK) {
+        --q->tick; /* the slots moved, but no result of this tick is readable */
+        q->last_viewers = 0;
+        return st;
+    }
+
+    /* Budgets, in input order: an even share of the call's, capped by the viewer's. */
+    for (uint32_t i = 0; i < nv; ++i) {
+        uint64_t b = UINT64_MAX;
+        if (q->desc.ray_budget)
+            b = q->desc.ray_budget / nv + (i < q->desc.ray_budget % nv ? 1u : 0u);
+        if (q->desc.viewer_ray_budget && b > q->desc.viewer_ray_budget)
+            b = q->desc.viewer_ray_budget;
+        q->results[i].budget = b;
+    }
+
+    vis_scene_begin_read(q->scene);
+    q->view = vis_scene_get_view(q->scene);
+    if (q->parallel_for && nv > 1)
+        q->parallel_for(nv, viewer_item_pf, q, q->parallel_for_user);
+    else if (q->pool && nv > 1)
+        vis_pool_run(q->pool, nv, viewer_item, q);
+    else
+        for (uint32_t i = 0; i < nv; ++i)
+            viewer_job(q, i);
+    vis_scene_end_read(q->scene);
+
+    for (uint32_t i = 0; i < nv; ++i)
+        q->viewers[q->vslot[i]].changed = 0;
+    for (uint32_t j = 0; j < ne; ++j)
+        q->entities[q->eslot[j]].changed = 0;
+    q->last_viewers = nv;
+    if (out_stats) {
+        vis_query_stats s;
+        memset(&s, 0, sizeof s);
+        s.tick = q->tick;
+        s.chunk_rays = q->chunk_rays;
+        s.chunk_passes = q->chunk_passes;
+        for (uint32_t i = 0; i < nv; ++i) {
+            const vis_qresult *r = &q->results[i];
+            s.entity_rays += r->rays;
+            s.pairs += r->pairs;
+            s.pairs_cached += r->cached;
+            s.pairs_seen += r->seen;
+            s.pairs_hidden += r->hidden;
+            s.pairs_unchecked += r->unchecked;
+            s.pairs_held += r->held;
+        }
+        s.ms = now_ms() - t0;
+        *out_stats = s;
+    }
+    return VIS_OK;
+}
+
+vis_status vis_query_run(vis_query *q, const vis_query_viewer *viewers, uint32_t viewer_count,
+                         const vis_query_entity *entities, uint32_t entity_count, vis_query_stats *out_stats)
+{
+    if (!q)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(q->ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(q->ctx);
+    vis_status st = query_run(q, viewers, viewer_count, entities, entity_count, out_stats);
+    vis_leave(q->ctx);
+    return st;
+}
+
+/* ---- results ---------------------------------------------------------------------------------- */
+
+static vis_status copy_out(vis_query *q, const char *fn, uint32_t viewer, const void *src, size_t n, size_t elem,
+                           void *out, size_t capacity, size_t *out_count)
+{
+    if (out_count)
+        *out_count = n;
+    if (!out && capacity)
+        return vis_fail(q->ctx, VIS_ERROR_INVALID_ARGUMENT, "%s: out is NULL with capacity %zu", fn, capacity);
+    if (!out)
+        return VIS_OK;
+    if (capacity < n)
+        return vis_fail(q->ctx, VIS_ERROR_CAPACITY, "%s: viewer %u has %zu entries, capacity is %zu", fn, viewer, n,
+                        capacity);
+    memcpy(out, src, n * elem);
+    return VIS_OK;
+}
+
+vis_status vis_query_entities(vis_query *q, uint32_t viewer_index, vis_query_hit *out, size_t capacity,
+                              size_t *out_count)
+{
+    if (!q)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(q->ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(q->ctx);
+    vis_status st;
+    if (viewer_index >= q->last_viewers)
+        st = vis_fail(q->ctx, VIS_ERROR_NOT_FOUND, "vis_query_entities: viewer %u, the last run had %u", viewer_index,
+                      q->last_viewers);
+    else
+        st = copy_out(q, "vis_query_entities", viewer_index, q->hits + (size_t)viewer_index * q->desc.max_entities,
+                      q->results[viewer_index].hit_count, sizeof(vis_query_hit), out, capacity, out_count);
+    vis_leave(q->ctx);
+    return st;
+}
+
+vis_status vis_query_chunks(vis_query *q, uint32_t viewer_index, uint32_t *out, size_t capacity, size_t *out_count)
+{
+    if (!q)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(q->ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(q->ctx);
+    vis_status st;
+    if (viewer_index >= q->last_viewers) {
+        st = vis_fail(q->ctx, VIS_ERROR_NOT_FOUND, "vis_query_chunks: viewer %u, the last run had %u", viewer_index,
+                      q->last_viewers);
+    } else {
+        uint32_t s = q->vslot[viewer_index];
+        st = copy_out(q, "vis_query_chunks", viewer_index, q->chunks + (size_t)s * q->chunk_cap,
+                      q->viewers[s].chunk_count, sizeof(uint32_t), out, capacity, out_count);
+    }
+    vis_leave(q->ctx);
+    return st;
+}

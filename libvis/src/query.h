@@ -1,0 +1,94 @@
+/* query.h — internal: the server query object (query.c runs a tick, query_chunks.c traces the
+ * chunk passes, occlusion.c proves entities hidden). */
+#ifndef VIS_QUERY_H
+#define VIS_QUERY_H
+
+#include "context.h"
+#include "cpu/threadpool.h"
+#include "occlusion.h"
+#include "scene.h"
+
+/* ID -> slot, open addressing, capacity a power of two at least twice the entries. */
+typedef struct vis_idmap {
+    uint32_t *keys;  /* 0: empty */
+    uint32_t *vals;
+    uint32_t mask;
+} vis_idmap;
+
+/* One viewer's slot: kept across ticks while its ID comes back. */
+typedef struct vis_qviewer {
+    uint32_t id;              /* 0: free                                                   */
+    vis_occ_box eye;          /* last tick's eye region (scene-local)                       */
+    double latency_ms;        /* last tick's latency                                        */
+    int changed;              /* this tick: new, or its eye region moved                    */
+    uint64_t chunk_tick;      /* tick of its last chunk pass (0: none)                      */
+    uint32_t chunk_count;     /* entries of its chunk list                                  */
+} vis_qviewer;
+
+typedef struct vis_qentity {
+    uint32_t id;
+    vis_occ_box box;          /* last tick's box (scene-local)                              */
+    double velocity[3];       /* and velocity: the cache key                                */
+    int changed;
+} vis_qentity;
+
+/* What one viewer's job produced this tick. */
+typedef struct vis_qresult {
+    uint32_t hit_count;
+    uint32_t pairs, cached, seen, hidden, unchecked, held;
+    uint64_t rays;
+    uint64_t budget;          /* rays this viewer may spend this tick                       */
+} vis_qresult;
+
+struct vis_query {
+    vis_context *ctx;
+    vis_scene *scene;
+    vis_query_desc desc;      /* defaults filled in                                         */
+    vis_pool *pool;           /* NULL: serial or the context's parallel_for                 */
+    vis_parallel_for_fn parallel_for;
+    void *parallel_for_user;
+    uint64_t tick;
+    uint64_t generation;      /* the scene's at the last tick                               */
+    int regenerated;          /* this tick: the scene changed since the last                */
+
+    vis_qviewer *viewers;     /* max_viewers slots                                          */
+    vis_qentity *entities;    /* max_entities slots                                         */
+    vis_idmap viewer_map, entity_map;  /* ID -> slot of the last tick                       */
+    vis_idmap check_map;      /* this tick's IDs, for duplicates                            */
+    uint32_t *vslot, *eslot;  /* this tick: input index -> slot                             */
+    uint32_t last_viewers;    /* viewers of the last successful run                         */
+    uint8_t *pair_state;      /* [viewer slot * max_entities + entity slot]: cached result  */
+    uint32_t *pair_seen;      /* tick seen + 1 (0: never), for the hold                      */
+
+    /* This tick's inputs, converted (input order). */
+    const vis_query_viewer *in_viewers;
+    const vis_query_entity *in_entities;
+    uint32_t viewer_count, entity_count;
+    vis_occ_box *eye_now;     /* max_viewers                                                */
+    vis_occ_box *box_now;     /* max_viewers * max_entities: each viewer's swept boxes      */
+
+    uint64_t *keys;           /* max_viewers * max_entities: each viewer's priority order    */
+    vis_query_hit *hits;      /* max_viewers * max_entities: each viewer's list (input order) */
+    vis_qresult *results;     /* max_viewers                                                */
+    vis_scene_view view;      /* the entity phase's view of the scene (its lock held)       */
+
+    /* Chunk passes. */
+    uint32_t chunk_cap;       /* 6 * chunk_res^2: the most distinct IDs one viewer's pass has */
+    uint32_t *chunks;         /* max_viewers * chunk_cap, by viewer slot                    */
+    vis_camera *cameras;      /* max_viewers * 6                                            */
+    uint32_t *camera_viewer;  /* the viewer slot of each camera                             */
+    uint32_t *ids;            /* max_viewers * 6 * chunk_res^2                              */
+    vis_idmap chunk_set;      /* dedup of one viewer's pass                                 */
+    uint32_t chunk_passes;
+    uint64_t chunk_rays;
+};
+
+/* Traces the chunk passes due this tick (query_chunks.c); the caller holds the context. */
+vis_status vis_query_chunks_run(vis_query *q);
+
+/* The open-addressing map (query.c). */
+uint32_t vis_idmap_find(const vis_idmap *m, uint32_t key);          /* UINT32_MAX: absent  */
+int vis_idmap_insert(vis_idmap *m, uint32_t key, uint32_t val);      /* 0: already there    */
+void vis_idmap_clear(vis_idmap *m);
+
+#endif

@@ -1,0 +1,100 @@
+/* query_chunks.c — which chunk objects each viewer sees, for streaming: a low-resolution ID
+ * pass (the viewer's view, or the six faces of a cube all around) traced for every due
+ * viewer in one vis_trace_batch, and the unique IDs of each viewer's pixels.
+ *
+ * Luanti decides what to send with 9 rays per 16^3 block (its occlusion culler); the ID pass
+ * instead traces a fixed number of rays per viewer whatever the world's size, and names only
+ * what a pixel centre hits first. It is sampled, not conservative (docs/server.md measures
+ * its misses against a dense pass). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "query.h"
+#include "query_sort.h"
+#include "trace.h"
+
+/* Is the viewer in slot s due for a pass this tick? New viewers and every viewer after an
+ * edit at once; otherwise each slot on its own phase of chunk_every ticks, so that the
+ * passes spread evenly over the ticks instead of all landing on the same one. */
+static int due(const vis_query *q, uint32_t s)
+{
+    const vis_qviewer *v = &q->viewers[s];
+    return v->chunk_tick == 0 || q->regenerated || (q->tick + s) % q->desc.chunk_every == 0;
+}
+
+static void face_camera(const vis_query_viewer *in, int face, vis_camera *c)
+{
+    memset(c, 0, sizeof *c);
+    memcpy(c->eye, in->eye, sizeof c->eye);
+    c->near_dist = 0.05;
+    c->far_dist = 0.0;
+    if (face < 0) {
+        for (int k = 0; k < 3; ++k)
+            c->target[k] = in->eye[k] + in->dir[k];
+        c->fovy_deg = in->fov_deg;
+        return;
+    }
+    memcpy(c->target, in->eye, sizeof c->target);
+    c->target[face >> 1] += (face & 1) ? -1.0 : 1.0;
+    c->fovy_deg = 90.0;
+}
+
+static int all_around(const vis_query_viewer *in)
+{
+    return in->dir[0] == 0.0 && in->dir[1] == 0.0 && in->dir[2] == 0.0;
+}
+
+vis_status vis_query_chunks_run(vis_query *q)
+{
+    uint32_t ncam = 0;
+    for (uint32_t i = 0; i < q->viewer_count; ++i) {
+        const vis_query_viewer *in = &q->in_viewers[i];
+        uint32_t s = q->vslot[i];
+        if (!due(q, s))
+            continue;
+        if (all_around(in)) {
+            for (int f = 0; f < 6; ++f) {
+                face_camera(in, f, &q->cameras[ncam]);
+                q->camera_viewer[ncam++] = s;
+            }
+        } else {
+            face_camera(in, -1, &q->cameras[ncam]);
+            q->camera_viewer[ncam++] = s;
+        }
+    }
+    q->chunk_passes = 0;
+    q->chunk_rays = 0;
+    if (ncam == 0)
+        return VIS_OK;
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = d.height = q->desc.chunk_res;
+    size_t pixels = (size_t)q->desc.chunk_res * q->desc.chunk_res;
+    vis_status st = vis_trace_batch_held(q->ctx, q->scene, q->cameras, ncam, &d, q->ids, pixels * ncam, NULL, 0);
+    if (st != VIS_OK)
+        return st;
+    q->chunk_rays = (uint64_t)pixels * ncam;
+    /* Cameras of one viewer are consecutive. */
+    for (uint32_t c = 0; c < ncam;) {
+        uint32_t s = q->camera_viewer[c];
+        uint32_t *out = q->chunks + (size_t)s * q->chunk_cap;
+        uint32_t n = 0, last = 0;
+        for (; c < ncam && q->camera_viewer[c] == s; ++c) {
+            const uint32_t *ids = q->ids + (size_t)c * pixels;
+            for (size_t p = 0; p < pixels; ++p) {
+                uint32_t id = ids[p];
+                if (id == 0 || id == last)
+                    continue; /* runs of one ID are the common case */
+                last = id;
+                if (vis_idmap_insert(&q->chunk_set, id, 0))
+                    out[n++] = id;
+            }
+        }
+        vis_idmap_clear(&q->chunk_set);
+        vis_sort_u32(out, n);
+        q->viewers[s].chunk_count = n;
+        q->viewers[s].chunk_tick = q->tick;
+        ++q->chunk_passes;
+    }
+    return VIS_OK;
+}

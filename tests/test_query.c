@@ -1,0 +1,879 @@
+/* test_query.c — the server queries (vis_query_*): entities never hidden while a dense pass
+ * from the true eye sees them, conservative under latency and peeks, the budget's
+ * degradation, determinism across thread counts, edits seen by the next tick, the hold, the
+ * cache, and bad input rejected with the query unchanged.
+ *
+ * The oracle is independent of occlusion.c: the entities are added as box objects to a
+ * second scene holding the same walls, and vis_trace (the ray pass, itself held to a
+ * double-precision reference by test_trace.c) renders dense views from the true eye; every
+ * entity with a pixel must be in the query's list. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "run_tool.h"
+#include "scene_builder.h"
+#include "test_support.h"
+#include "vis/vis.h"
+
+#define ENT_BASE 1000u /* entity object IDs in the truth scene */
+
+/* A 64 x 32 x 64 world: a floor and random 1- or 2-voxel-thick walls on integer planes. */
+static void walls_world(tworld *w, uint64_t *rng, int walls)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = 64.0f;
+    w->size[1] = 32.0f;
+    w->size[2] = 64.0f;
+    float flo[3] = {0, 0, 0}, fhi[3] = {64, 1, 64};
+    obj_box(add_obj(w, 1), flo, fhi);
+    for (int i = 0; i < walls; ++i) {
+        float lo[3], hi[3];
+        int ax = (int)(vt_rand(rng) % 2) * 2; /* walls along x or z */
+        int len = 6 + (int)(vt_rand(rng) % 20), th = 1 + (int)(vt_rand(rng) % 2);
+        int x = 2 + (int)(vt_rand(rng) % 56), z = 2 + (int)(vt_rand(rng) % 56);
+        lo[0] = (float)x;
+        lo[2] = (float)z;
+        lo[1] = 1.0f;
+        hi[1] = (float)(3 + vt_rand(rng) % 6);
+        hi[0] = lo[0] + (float)(ax == 0 ? len : th);
+        hi[2] = lo[2] + (float)(ax == 0 ? th : len);
+        if (hi[0] > 64.0f)
+            hi[0] = 64.0f;
+        if (hi[2] > 64.0f)
+            hi[2] = 64.0f;
+        obj_box(add_obj(w, 2u + (uint32_t)i), lo, hi);
+    }
+}
+
+static void random_entity(uint64_t *rng, uint32_t id, vis_query_entity *e)
+{
+    memset(e, 0, sizeof *e);
+    e->id = id;
+    double x = 1.0 + 61.0 * vt_rand_unit(rng), z = 1.0 + 61.0 * vt_rand_unit(rng);
+    double sx = 0.3 + 0.6 * vt_rand_unit(rng), sy = 0.5 + 1.5 * vt_rand_unit(rng);
+    e->box_min[0] = x;
+    e->box_min[1] = 1.0 + (vt_rand(rng) % 4 == 0 ? 4.0 * vt_rand_unit(rng) : 0.0);
+    e->box_min[2] = z;
+    e->box_max[0] = x + sx;
+    e->box_max[1] = e->box_min[1] + sy;
+    e->box_max[2] = z + sx;
+}
+
+static void random_viewer(uint64_t *rng, uint32_t id, vis_query_viewer *v)
+{
+    memset(v, 0, sizeof *v);
+    v->id = id;
+    v->eye[0] = 1.0 + 62.0 * vt_rand_unit(rng);
+    v->eye[1] = 1.6 + 3.0 * vt_rand_unit(rng);
+    v->eye[2] = 1.0 + 62.0 * vt_rand_unit(rng);
+    double a = 6.283185307179586 * vt_rand_unit(rng);
+    v->dir[0] = cos(a);
+    v->dir[2] = sin(a);
+    v->fov_deg = 90.0;
+}
+
+/* The truth: which entities have a pixel in a 6-face cube of side x side from the eye
+ * (all around: the query does not cull by view direction). Marks seen[j]. */
+static void truth_pass(vis_context *ctx, vis_scene *truth, const double eye[3], uint32_t side, uint32_t ne,
+                       int *seen)
+{
+    uint32_t *ids = malloc((size_t)side * side * sizeof *ids);
+    assert_non_null(ids);
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = d.height = side;
+    for (int f = 0; f < 6; ++f) {
+        vis_camera c;
+        memset(&c, 0, sizeof c);
+        memcpy(c.eye, eye, sizeof c.eye);
+        memcpy(c.target, eye, sizeof c.target);
+        c.target[f >> 1] += (f & 1) ? -1.0 : 1.0;
+        c.fovy_deg = 90.0;
+        assert_int_equal(vis_trace(ctx, truth, &c, &d, ids, (size_t)side * side, NULL, 0), VIS_OK);
+        for (size_t p = 0; p < (size_t)side * side; ++p)
+            if (ids[p] >= ENT_BASE && ids[p] < ENT_BASE + ne)
+                seen[ids[p] - ENT_BASE] = 1;
+    }
+    free(ids);
+}
+
+/* The truth scene: the walls plus entity j as object ENT_BASE + j (its box at time 0). */
+static vis_scene *truth_scene(vis_context *ctx, const tworld *w, const vis_query_entity *en, uint32_t ne)
+{
+    vis_scene *s = make_scene(ctx, w, NULL, 0);
+    for (uint32_t j = 0; j < ne; ++j) {
+        tobj o;
+        memset(&o, 0, sizeof o);
+        o.id = ENT_BASE + j;
+        float lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = (float)en[j].box_min[k];
+            hi[k] = (float)en[j].box_max[k];
+        }
+        obj_box(&o, lo, hi);
+        set_obj(s, &o);
+        obj_clear(&o);
+    }
+    return s;
+}
+
+static int listed(vis_query *q, uint32_t viewer, uint32_t id, uint32_t *reason)
+{
+    vis_query_hit hits[512];
+    size_t n = 0;
+    assert_int_equal(vis_query_entities(q, viewer, hits, 512, &n), VIS_OK);
+    for (size_t i = 0; i < n; ++i)
+        if (hits[i].id == id) {
+            if (reason)
+                *reason = hits[i].reason;
+            return 1;
+        }
+    return 0;
+}
+
+/* Random worlds, viewers and entities: no entity with a pixel in the dense truth is hidden,
+ * and the query does hide some (it is not reporting everything). */
+static void test_never_hides_visible(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5eed0001;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint32_t hidden_total = 0, visible_total = 0, pairs_total = 0;
+    int rounds = vt_small() ? 3 : 8;
+    for (int round = 0; round < rounds; ++round) {
+        tworld w;
+        walls_world(&w, &rng, 24);
+        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+        enum { NV = 4, NE = 24 };
+        vis_query_viewer vw[NV];
+        vis_query_entity en[NE];
+        for (uint32_t i = 0; i < NV; ++i)
+            random_viewer(&rng, 1 + i, &vw[i]);
+        for (uint32_t j = 0; j < NE; ++j)
+            random_entity(&rng, 100 + j, &en[j]);
+        vis_query_desc d;
+        vis_query_desc_defaults(&d);
+        d.pair_ray_limit = 256;
+        vis_query *q = NULL;
+        assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+        vis_query_stats st;
+        assert_int_equal(vis_query_run(q, vw, NV, en, NE, &st), VIS_OK);
+        vis_scene *truth = truth_scene(ctx, &w, en, NE);
+        for (uint32_t i = 0; i < NV; ++i) {
+            int seen[NE] = {0};
+            truth_pass(ctx, truth, vw[i].eye, vt_small() ? 256 : 512, NE, seen);
+            for (uint32_t j = 0; j < NE; ++j) {
+                int in = listed(q, i, en[j].id, NULL);
+                if (seen[j] && !in)
+                    fail_msg("round %d viewer %u: entity %u has pixels in the truth but was hidden", round, i,
+                             en[j].id);
+                visible_total += (uint32_t)seen[j];
+            }
+        }
+        hidden_total += st.pairs_hidden;
+        pairs_total += st.pairs;
+        vis_query_destroy(q);
+        vis_scene_destroy(truth);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    print_message("pairs %u, truly visible %u, hidden by the query %u\n", pairs_total, visible_total, hidden_total);
+    assert_true(visible_total > 0);
+    assert_true(hidden_total > pairs_total / 10); /* it proves a fair share hidden */
+    vis_context_destroy(ctx);
+}
+
+/* A wall x in [20, 21], y up to 10, z in [0, 40): an opening at z >= 40. */
+static void corner_world(tworld *w)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = w->size[1] = w->size[2] = 64.0f;
+    float flo[3] = {0, 0, 0}, fhi[3] = {64, 1, 64};
+    obj_box(add_obj(w, 1), flo, fhi);
+    float lo[3] = {20, 1, 0}, hi[3] = {21, 10, 40};
+    obj_box(add_obj(w, 2), lo, hi);
+}
+
+static void corner_setup(vis_query_viewer *v, vis_query_entity *e)
+{
+    memset(v, 0, sizeof *v);
+    memset(e, 0, sizeof *e);
+    v->id = 1;
+    v->eye[0] = 10.0;
+    v->eye[1] = 2.6;
+    v->eye[2] = 38.0;
+    v->dir[0] = 1.0;
+    v->fov_deg = 90.0;
+    e->id = 2;
+    /* Behind the wall, 1.5 voxels short of the opening, running towards it at 10 voxels/s. */
+    double lo[3] = {22.0, 1.0, 37.5}, hi[3] = {23.0, 2.8, 38.5};
+    memcpy(e->box_min, lo, sizeof lo);
+    memcpy(e->box_max, hi, sizeof hi);
+    e->velocity[2] = 10.0;
+}
+
+/* An entity about to step out from behind a corner is reported before the truth sees it,
+ * when the latency lets it get there; without latency it stays hidden. The same for a
+ * viewer peeking out. */
+static void test_latency_peek(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, NULL, &q), VIS_OK);
+    /* The truth from the true eye: hidden now. */
+    vis_scene *truth = truth_scene(ctx, &w, &e, 1);
+    int seen[1] = {0};
+    truth_pass(ctx, truth, v.eye, 256, 1, seen);
+    assert_false(seen[0]);
+    v.latency_ms = 0.0;
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+    assert_false(listed(q, 0, 2, NULL));
+    /* 200 ms at 10 voxels/s: 2 voxels, past z = 40 into the opening. */
+    v.latency_ms = 200.0;
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+    assert_true(listed(q, 0, 2, NULL));
+    /* And the truth, once it gets there, does see it. */
+    vis_query_entity later = e;
+    later.box_min[2] += 2.0;
+    later.box_max[2] += 2.0;
+    vis_scene *truth2 = truth_scene(ctx, &w, &later, 1);
+    seen[0] = 0;
+    truth_pass(ctx, truth2, v.eye, 256, 1, seen);
+    assert_true(seen[0]);
+    /* A still entity further back, and a viewer that may peek: hidden without the peek,
+     * reported with it (the eye can reach past the wall's end in 300 ms at 10 voxels/s). */
+    e.velocity[2] = 0.0;
+    e.box_min[2] = 30.0;
+    e.box_max[2] = 31.0;
+    v.latency_ms = 300.0;
+    v.eye[2] = 38.5;
+    v.eye[0] = 18.0;
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+    assert_false(listed(q, 0, 2, NULL));
+    vis_query_destroy(q);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.peek_speed = 10.0;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+    assert_true(listed(q, 0, 2, NULL));
+    vis_query_destroy(q);
+    vis_scene_destroy(truth);
+    vis_scene_destroy(truth2);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* An edit that opens the wall is seen by the next tick (the cache is dropped). */
+static void test_edit_opens_wall(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    e.velocity[2] = 0.0;
+    e.box_min[2] = 19.5;
+    e.box_max[2] = 20.5;
+    v.eye[2] = 20.0;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, NULL, &q), VIS_OK);
+    vis_query_stats st;
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_false(listed(q, 0, 2, NULL));
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 1); /* nothing moved: answered from the cache */
+    assert_false(listed(q, 0, 2, NULL));
+    /* Cut a window z in [18, 22), y in [2, 4) into the wall: the wall becomes 4 boxes. */
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 2;
+    float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 22, 21, 10, 40}, {20, 1, 18, 21, 2, 22}, {20, 4, 18, 21, 10, 22}};
+    for (int i = 0; i < 4; ++i)
+        obj_box(&o, parts[i], parts[i] + 3);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 0);
+    uint32_t reason = 0;
+    assert_true(listed(q, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_SEEN);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* Hold: seen at tick 1, hidden from tick 2: reported (HELD) for hold_ticks more ticks. */
+static void test_hold(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    e.velocity[2] = 0.0;
+    e.box_min[2] = 60.0; /* in the open */
+    e.box_max[2] = 61.0;
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.hold_ticks = 3;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    uint32_t reason = 0;
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+    assert_true(listed(q, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_SEEN);
+    e.box_min[2] = 20.0; /* behind the wall */
+    e.box_max[2] = 21.0;
+    for (int t = 0; t < 3; ++t) {
+        assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+        assert_true(listed(q, 0, 2, &reason));
+        assert_int_equal(reason, VIS_QUERY_HELD);
+    }
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, NULL), VIS_OK);
+    assert_false(listed(q, 0, 2, NULL));
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* Runs a few ticks of a random world on ctx (destroyed here) and returns every list, for
+ * comparisons. */
+static size_t run_ticks_on(vis_context *ctx, uint32_t threads, const vis_query_desc *base, uint32_t *out, size_t cap,
+                           vis_query_stats *st_out)
+{
+    uint64_t rng = 0x5eed0002;
+    tworld w;
+    walls_world(&w, &rng, 24);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    enum { NV = 12, NE = 40 };
+    vis_query_viewer vw[NV];
+    vis_query_entity en[NE];
+    for (uint32_t i = 0; i < NV; ++i)
+        random_viewer(&rng, 1 + i, &vw[i]);
+    for (uint32_t j = 0; j < NE; ++j)
+        random_entity(&rng, 100 + j, &en[j]);
+    vis_query_desc d = *base;
+    d.threads = threads;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    size_t n = 0;
+    memset(st_out, 0, sizeof *st_out);
+    for (int t = 0; t < 4; ++t) {
+        for (uint32_t j = 0; j < NE; ++j) {
+            en[j].box_min[0] += 0.25 * (double)(j % 3);
+            en[j].box_max[0] += 0.25 * (double)(j % 3);
+            en[j].velocity[2] = (double)(j % 5);
+        }
+        vw[t % NV].latency_ms = 50.0 * t;
+        vis_query_stats st;
+        assert_int_equal(vis_query_run(q, vw, NV, en, NE, &st), VIS_OK);
+        st_out->pairs_unchecked += st.pairs_unchecked;
+        st_out->pairs_hidden += st.pairs_hidden;
+        st_out->entity_rays += st.entity_rays;
+        st_out->pairs += st.pairs;
+        for (uint32_t i = 0; i < NV; ++i) {
+            vis_query_hit hits[NE];
+            size_t k = 0;
+            assert_int_equal(vis_query_entities(q, i, hits, NE, &k), VIS_OK);
+            for (size_t h = 0; h < k && n + 2 <= cap; ++h) {
+                out[n++] = hits[h].id;
+                out[n++] = hits[h].reason;
+            }
+            uint32_t chunks[6 * 32 * 32];
+            assert_int_equal(vis_query_chunks(q, i, chunks, 6 * 32 * 32, &k), VIS_OK);
+            for (size_t h = 0; h < k && n < cap; ++h)
+                out[n++] = chunks[h];
+        }
+    }
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+    return n;
+}
+
+static size_t run_ticks(uint32_t threads, const vis_query_desc *base, uint32_t *out, size_t cap, vis_query_stats *st_out)
+{
+    return run_ticks_on(make_cpu_ctx(threads), threads, base, out, cap, st_out);
+}
+
+/* The same lists from an OpenCL context (its chunk passes run on the device); skipped where
+ * no OpenCL device can be opened. */
+static void test_backends_deterministic(void **state)
+{
+    (void)state;
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.backend = VIS_BACKEND_OPENCL;
+    vis_context *cl = NULL;
+    if (vis_context_create(&cd, &cl) != VIS_OK) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    enum { CAP = 1 << 16 };
+    uint32_t *a = malloc(CAP * 4), *b = malloc(CAP * 4);
+    assert_non_null(a);
+    assert_non_null(b);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.ray_budget = 300;
+    vis_query_stats s1, s2;
+    size_t n1 = run_ticks(2, &d, a, CAP, &s1);
+    size_t n2 = run_ticks_on(cl, 2, &d, b, CAP, &s2);
+    assert_int_equal(n1, n2);
+    assert_memory_equal(a, b, n1 * 4);
+    free(a);
+    free(b);
+}
+
+static void test_threads_deterministic(void **state)
+{
+    (void)state;
+    enum { CAP = 1 << 16 };
+    uint32_t *a = malloc(CAP * 4), *b = malloc(CAP * 4);
+    assert_non_null(a);
+    assert_non_null(b);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.ray_budget = 300; /* the budget runs out mid-tick: its split must not depend on threads */
+    vis_query_stats s1, s2;
+    size_t n1 = run_ticks(1, &d, a, CAP, &s1);
+    assert_true(s1.pairs_unchecked > 0);
+    uint32_t threads[] = {2, 4};
+    for (int t = 0; t < 2; ++t) {
+        size_t n2 = run_ticks(threads[t], &d, b, CAP, &s2);
+        assert_int_equal(n1, n2);
+        assert_memory_equal(a, b, n1 * 4);
+        assert_int_equal(s1.entity_rays, s2.entity_rays);
+    }
+    free(a);
+    free(b);
+}
+
+/* The budget: what it cannot check is reported (UNCHECKED), never hidden; rays stay within
+ * it; the nearest in-view pairs are checked first. */
+static void test_budget(void **state)
+{
+    (void)state;
+    enum { CAP = 1 << 16 };
+    uint32_t *a = malloc(CAP * 4);
+    assert_non_null(a);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    vis_query_stats full, tight, none;
+    run_ticks(1, &d, a, CAP, &full);
+    print_message("no budget: %u pairs, %u hidden, %u unchecked (pair limit), %llu rays\n", full.pairs,
+                  full.pairs_hidden, full.pairs_unchecked, (unsigned long long)full.entity_rays);
+    d.ray_budget = 120;
+    run_ticks(1, &d, a, CAP, &tight);
+    assert_true(tight.entity_rays <= 4 * 120);
+    assert_true(tight.pairs_unchecked > 0);
+    assert_true(tight.pairs_hidden < full.pairs_hidden);
+    d.ray_budget = 0;
+    d.viewer_ray_budget = 1; /* one ray per viewer: only a clear first segment settles a pair */
+    run_ticks(1, &d, a, CAP, &none);
+    assert_int_equal(none.pairs_hidden, 0);
+    assert_true(none.entity_rays <= 4 * 12);
+    free(a);
+
+    /* Priority: with room for one pair, a viewer checks the nearest in-view entity. */
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e[2];
+    corner_setup(&v, &e[0]);
+    e[0].velocity[2] = 0.0;
+    e[1] = e[0];
+    e[1].id = 3;
+    double far_lo[3] = {40.0, 1.0, 30.0}, near_lo[3] = {25.0, 1.0, 33.0}; /* both in view, behind the wall */
+    for (int k = 0; k < 3; ++k) {
+        e[0].box_min[k] = far_lo[k];
+        e[0].box_max[k] = far_lo[k] + (k == 1 ? 1.8 : 1.0);
+        e[1].box_min[k] = near_lo[k];
+        e[1].box_max[k] = near_lo[k] + (k == 1 ? 1.8 : 1.0);
+    }
+    vis_query_desc_defaults(&d);
+    d.viewer_ray_budget = 2; /* a segment and a plane test: one simple proof */
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    uint32_t reason = 0;
+    assert_int_equal(vis_query_run(q, &v, 1, e, 2, NULL), VIS_OK);
+    assert_false(listed(q, 0, 3, NULL));
+    assert_true(listed(q, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_UNCHECKED);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* Bad input: rejected with a message naming the item, nothing changed (the last tick's
+ * results stay, the tick is not counted). */
+static void test_bad_input(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.max_viewers = 2;
+    d.max_entities = 2;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    vis_query_stats st;
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.tick, 1);
+    size_t before = 0;
+    assert_int_equal(vis_query_entities(q, 0, NULL, 0, &before), VIS_OK);
+
+    struct {
+        const char *what;
+        vis_status want;
+        int field;
+    } cases[] = {{"eye", VIS_ERROR_INVALID_ARGUMENT, 0},      {"latency", VIS_ERROR_INVALID_ARGUMENT, 1},
+                 {"box is empty", VIS_ERROR_INVALID_ARGUMENT, 2}, {"id is not", VIS_ERROR_INVALID_ARGUMENT, 3},
+                 {"appears twice", VIS_ERROR_INVALID_ARGUMENT, 4}, {"velocity", VIS_ERROR_INVALID_ARGUMENT, 5},
+                 {"fov_deg", VIS_ERROR_INVALID_ARGUMENT, 6},      {"the query holds", VIS_ERROR_CAPACITY, 7},
+                 {"box is not finite", VIS_ERROR_INVALID_ARGUMENT, 8}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
+        vis_query_viewer bv = v;
+        vis_query_entity be[3] = {e, e, e};
+        be[1].id = 7;
+        be[2].id = 8;
+        uint32_t ne = 1;
+        switch (cases[c].field) {
+        case 0: bv.eye[1] = NAN; break;
+        case 1: bv.latency_ms = -5.0; break;
+        case 2: be[0].box_max[0] = be[0].box_min[0]; break;
+        case 3: be[0].id = 0; break;
+        case 4: be[1].id = be[0].id; ne = 2; break;
+        case 5: be[0].velocity[0] = INFINITY; break;
+        case 6: bv.fov_deg = 0.0; break;
+        case 7: ne = 3; break;
+        case 8: be[0].box_min[2] = -1e300; break;
+        }
+        vis_status s = vis_query_run(q, &bv, 1, be, ne, &st);
+        assert_int_equal(s, cases[c].want);
+        const char *msg = vis_context_last_error(ctx);
+        if (!strstr(msg, cases[c].what))
+            fail_msg("case %zu: message '%s' lacks '%s'", c, msg, cases[c].what);
+        size_t after = 0;
+        assert_int_equal(vis_query_entities(q, 0, NULL, 0, &after), VIS_OK);
+        assert_int_equal(before, after);
+    }
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.tick, 2);
+    /* Output capacities and indices. */
+    vis_query_hit one[1];
+    size_t n = 0;
+    assert_int_equal(vis_query_entities(q, 1, one, 1, &n), VIS_ERROR_NOT_FOUND);
+    uint32_t small[1];
+    size_t nc = 0;
+    assert_int_equal(vis_query_chunks(q, 0, NULL, 0, &nc), VIS_OK);
+    assert_true(nc >= 2);
+    assert_int_equal(vis_query_chunks(q, 0, small, 1, &n), VIS_ERROR_CAPACITY);
+    /* Capacities at creation. */
+    vis_query *q2 = NULL;
+    d.max_entities = VIS_QUERY_MAX_ENTITIES + 1;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q2), VIS_ERROR_INVALID_ARGUMENT);
+    d.max_entities = 4;
+    d.margin = NAN;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q2), VIS_ERROR_INVALID_ARGUMENT);
+    assert_null(q2);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* The chunk pass names what a vis_trace of the same camera and size names. */
+static void test_chunks_match_trace(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5eed0003;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    walls_world(&w, &rng, 24);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    random_viewer(&rng, 1, &v);
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, NULL, &q), VIS_OK);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, NULL), VIS_OK);
+    uint32_t got[1024];
+    size_t n = 0;
+    assert_int_equal(vis_query_chunks(q, 0, got, 1024, &n), VIS_OK);
+    vis_camera c;
+    memset(&c, 0, sizeof c);
+    memcpy(c.eye, v.eye, sizeof c.eye);
+    for (int k = 0; k < 3; ++k)
+        c.target[k] = v.eye[k] + v.dir[k];
+    c.fovy_deg = v.fov_deg;
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = 32;
+    uint32_t ids[32 * 32];
+    assert_int_equal(vis_trace(ctx, scene, &c, &td, ids, 32 * 32, NULL, 0), VIS_OK);
+    vis_draw_entry list[256];
+    size_t m = 0;
+    assert_int_equal(vis_drawlist_build(ctx, scene, ids, 32, 32, VIS_IDS_OBJECT, list, 256, &m), VIS_OK);
+    assert_int_equal(n, m);
+    for (size_t i = 0; i < n; ++i)
+        assert_int_equal(got[i], list[i].id);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* A counting allocator: after the first tick (the backend's copy of the scene, the pools'
+ * growth), a tick allocates nothing. */
+static size_t alloc_calls;
+static void *count_alloc(size_t size, size_t align, void *user)
+{
+    (void)user;
+    ++alloc_calls;
+    size_t al = align < sizeof(void *) ? sizeof(void *) : align;
+    return aligned_alloc(al, (size + al - 1) / al * al);
+}
+static void count_free(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+static void test_no_allocation_per_tick(void **state)
+{
+    (void)state;
+    vis_allocator a = {count_alloc, count_free, NULL};
+    vis_context *ctx = NULL;
+    assert_int_equal(cpu_ctx_create(2, &a, &ctx), VIS_OK);
+    uint64_t rng = 0x5eed0004;
+    tworld w;
+    walls_world(&w, &rng, 24);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    enum { NV = 6, NE = 12 };
+    vis_query_viewer vw[NV];
+    vis_query_entity en[NE];
+    for (uint32_t i = 0; i < NV; ++i)
+        random_viewer(&rng, 1 + i, &vw[i]);
+    for (uint32_t j = 0; j < NE; ++j)
+        random_entity(&rng, 100 + j, &en[j]);
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.threads = 2;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    assert_int_equal(vis_query_run(q, vw, NV, en, NE, NULL), VIS_OK);
+    size_t before = alloc_calls;
+    for (int t = 0; t < 5; ++t) {
+        for (uint32_t j = 0; j < NE; ++j) {
+            en[j].box_min[2] += 0.1;
+            en[j].box_max[2] += 0.1;
+        }
+        vw[t % NV].eye[0] += 0.5;
+        assert_int_equal(vis_query_run(q, vw, NV, en, NE, NULL), VIS_OK);
+    }
+    assert_int_equal(alloc_calls, before);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* ---- `vis query`: simulate, replay, and hostile replays ----------------------------------- */
+
+#define VIS_EXE VIS_BINARY_DIR "/tools/vis"
+#define MAZE "gen:maze:size=64x32x64:seed=3"
+
+static char qdir[256];
+
+static const char *qpath(const char *name)
+{
+    static char paths[4][512];
+    static int next;
+    char *p = paths[next++ % 4];
+    snprintf(p, 512, "%s/%s", qdir, name);
+    return p;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* 1 when this build's `vis query` works (it needs Jansson); else the test is skipped after
+ * checking that the command says why. */
+static int have_query(void)
+{
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qpath("none.jsonl"));
+    int have = !strstr(r.err, "no Jansson");
+    if (!have)
+        vt_assert_exit(r, 2);
+    vt_run_free(&r);
+    return have;
+}
+
+static void test_cli_simulate_replay(void **state)
+{
+    (void)state;
+    if (!have_query())
+        skip();
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --simulate 6 --ticks 48 --edit-every 16 --scene %s --out %s",
+                             MAZE, qpath("maze.jsonl"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    char *text = vt_slurp(qpath("maze.jsonl"));
+    size_t lines = 0;
+    for (const char *c = text; *c; ++c)
+        lines += *c == '\n';
+    assert_int_equal(lines, 49); /* header + 48 ticks */
+    assert_non_null(strstr(text, "\"edits\":[["));
+    free(text);
+    r = vt_run(VIS_EXE, qdir, NULL,
+               "query --scene %s --replay %s --compare --truth-every 8 --truth-res 128 --json --out %s", MAZE,
+               qpath("maze.jsonl"), qpath("out.jsonl"));
+    vt_assert_exit(r, 0);
+    const char *lib = strstr(r.out, "\"libvis\":");
+    assert_non_null(lib);
+    assert_non_null(strstr(lib, "\"hidden_while_visible\":0,"));
+    assert_non_null(strstr(r.out, "\"smac\":"));
+    assert_non_null(strstr(r.out, "\"luanti\":"));
+    vt_run_free(&r);
+    text = vt_slurp(qpath("out.jsonl"));
+    lines = 0;
+    for (const char *c = text; *c; ++c)
+        lines += *c == '\n';
+    assert_int_equal(lines, 48);
+    free(text);
+}
+
+static void test_cli_hostile_replay(void **state)
+{
+    (void)state;
+    if (!have_query())
+        skip();
+    const char *good_v = "{\"id\":1,\"eye\":[10,5,10],\"latency_ms\":50}";
+    const char *good_e = "{\"id\":2,\"min\":[20,1,20],\"max\":[21,3,21]}";
+    char line[1024];
+    struct {
+        const char *name, *body, *want;
+    } cases[] = {
+        {"nan", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[NaN,5,10]}]}\n", "line 1"},
+        {"overflow", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1e999,5,10]}]}\n", "line 1"},
+        {"far", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1e300,5,10]}]}\n", "'eye'[0]"},
+        {"id0", "{\"tick\":0,\"viewers\":[{\"id\":0,\"eye\":[1,5,10]}]}\n", "'id'"},
+        {"idbig", "{\"tick\":0,\"viewers\":[{\"id\":1099511627776,\"eye\":[1,5,10]}]}\n", "'id'"},
+        {"idfloat", "{\"tick\":0,\"viewers\":[{\"id\":1.5,\"eye\":[1,5,10]}]}\n", "'id'"},
+        {"latency", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1,5,10],\"latency_ms\":-5}]}\n", "'latency_ms'"},
+        {"emptybox", "{\"tick\":0,\"viewers\":[],\"entities\":[{\"id\":2,\"min\":[1,1,1],\"max\":[1,2,2]}]}\n", "min < max"},
+        {"dupkey", "{\"tick\":0,\"tick\":1,\"viewers\":[]}\n", "line 1"},
+        {"dupid", NULL, "appears twice"},
+        {"truncated", NULL, "cut short"},
+        {"toomany", NULL, "at most 2"},
+        {"edit", "{\"tick\":0,\"viewers\":[],\"edits\":[[1,2,99999999,0]]}\n", "outside the world"},
+        {"notobject", "[1,2,3]\n", "JSON object"},
+        {"vec2", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1,5]}]}\n", "array of 3"},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
+        const char *body = cases[c].body;
+        if (!strcmp(cases[c].name, "dupid")) {
+            snprintf(line, sizeof line, "{\"tick\":0,\"viewers\":[%s],\"entities\":[%s,%s]}\n", good_v, good_e, good_e);
+            body = line;
+        } else if (!strcmp(cases[c].name, "truncated")) {
+            snprintf(line, sizeof line, "{\"tick\":0,\"viewers\":[%s],\"entities\":[%s]}\n{\"tick\":1,\"viewers\":[%s",
+                     good_v, good_e, good_v);
+            body = line;
+        } else if (!strcmp(cases[c].name, "toomany")) {
+            snprintf(line, sizeof line, "{\"tick\":0,\"viewers\":[%s,%s,%s]}\n", good_v, good_v, good_v);
+            body = line;
+        }
+        write_text(qpath("bad.jsonl"), body);
+        vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --max-viewers 2 --out %s", MAZE,
+                                 qpath("bad.jsonl"), qpath("bad_out.jsonl"));
+        if (r.code != 1 || !strstr(r.err, cases[c].want))
+            fail_msg("case %s: exit %d, stderr '%s' (wanted exit 1 and '%s')", cases[c].name, r.code, r.err,
+                     cases[c].want);
+        vt_run_free(&r);
+        FILE *f = fopen(qpath("bad_out.jsonl"), "rb"); /* a failed run leaves no output */
+        assert_null(f);
+    }
+    /* A line over the length budget is refused without being parsed. */
+    FILE *f = fopen(qpath("long.jsonl"), "wb");
+    assert_non_null(f);
+    fputs("{\"tick\":0,\"viewers\":[],\"pad\":\"", f);
+    for (int i = 0; i < (5 << 20) / 64; ++i)
+        fputs("0123456789012345678901234567890123456789012345678901234567890123", f);
+    fputs("\"}\n", f);
+    fclose(f);
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qpath("long.jsonl"));
+    vt_assert_exit(r, 1);
+    assert_non_null(strstr(r.err, "longer than"));
+    vt_run_free(&r);
+    /* Bad options are usage errors. */
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --threads 0", MAZE, qpath("long.jsonl"));
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
+}
+
+static int cli_setup(void **state)
+{
+    return vt_run_setup(state, qdir, sizeof qdir, "vis_query", VIS_EXE);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_never_hides_visible), cmocka_unit_test(test_latency_peek),
+        cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
+        cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
+        cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
+        cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),
+    };
+    const struct CMUnitTest cli_tests[] = {
+        cmocka_unit_test(test_cli_simulate_replay),
+        cmocka_unit_test(test_cli_hostile_replay),
+    };
+    int failed = cmocka_run_group_tests(tests, NULL, NULL);
+    FILE *exe = fopen(VIS_EXE, "rb");
+    if (!exe) { /* a build without the tools (the TSan one): the library tests only */
+        print_message("%s is not built: the vis query tests are skipped\n", VIS_EXE);
+        return failed;
+    }
+    fclose(exe);
+    return failed | cmocka_run_group_tests_name("vis query", cli_tests, cli_setup, vt_tmp_dir_teardown);
+}
