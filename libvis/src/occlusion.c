@@ -113,8 +113,9 @@ static void gather_quad(occ_gather *g, const vis_flat_quad *q)
 static void gather_leaf(occ_gather *g, const vis_scene_view *view, const vis_flat_leaf *leaf)
 {
     uint32_t a = g->axis;
+    const vis_flat_quad *loose = vis_loose_quads(view->quads, leaf);
     for (uint32_t i = 0; i < leaf->loose_count; ++i) {
-        const vis_flat_quad *q = &view->quads[leaf->loose_offset + i];
+        const vis_flat_quad *q = &loose[i];
         if (VIS_META_AXIS(q->meta) == a && q->plane == g->plane)
             gather_quad(g, q);
     }
@@ -127,10 +128,11 @@ static void gather_leaf(occ_gather *g, const vis_scene_view *view, const vis_fla
     uint32_t base = a == 0 ? 0u : a == 1 ? E[0] + 1u : E[0] + E[1] + 2u;
     const uint32_t *bk = view->buckets + leaf->bucket_offset;
     uint32_t b = base + (uint32_t)kf;
+    /* Packed quads (trace_core.h, vis_flat_leaf): the bucket gives axis and plane. */
     for (uint32_t i = bk[b]; i < bk[b + 1]; ++i) {
-        const vis_flat_quad *q = &view->quads[leaf->quad_offset + i];
-        if (q->plane == g->plane && VIS_META_AXIS(q->meta) == a)
-            gather_quad(g, q);
+        vis_flat_quad q = vis_unpack_quad(view->quads[leaf->quad_offset + i], a, (int)kf, leaf, view->quads);
+        if (q.plane == g->plane)
+            gather_quad(g, &q);
     }
 }
 
