@@ -133,6 +133,10 @@ typedef struct vis_backend_ops {
     /* One pass: width*height IDs into ids; depth may be NULL. */
     vis_status (*trace)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                  uint32_t *ids, float *depth, char *err, size_t err_size);
+    /* Optional (NULL: VIS_ERROR_UNSUPPORTED): `trace` for the packet method (setup->traversal
+     * VIS_TRAVERSAL_ID_PACKET) that also writes each pixel's traversal cost (vis_trace_cost). */
+    vis_status (*trace_cost)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+                             uint32_t *ids, uint32_t *cost, char *err, size_t err_size);
     /* Bytes sent to the device by the last scene_sync (0 for host backends). */
     uint64_t (*last_upload_bytes)(void *impl, void *scene_data);
     /* Optional (NULL: libvis calls trace once per view). `count` views of one size, view i

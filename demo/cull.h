@@ -23,7 +23,10 @@ typedef struct vv_cull {
     uint32_t *ids;                /* VV_MAX_PASS^2 each                                   */
     float *depth;                 /* the ray pass's depth (picking)                       */
     float *zdepth;                /* the z-buffer culler's depth (overlay)                */
-    int ids_valid, zdepth_valid;  /* what the last frame filled                           */
+    uint32_t *cost;               /* the ray pass's traversal cost per pixel (overlay)    */
+    uint32_t *cost_ids;           /* the IDs vis_trace_cost writes beside it              */
+    int want_cost;                /* trace the cost too (the cost overlay is shown)       */
+    int ids_valid, zdepth_valid, cost_valid; /* what the last frame filled               */
     vis_draw_entry *entries;      /* the draw list                                        */
     size_t capacity, count;
     vis_camera camera;            /* the camera of the last cull                          */

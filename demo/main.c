@@ -265,6 +265,7 @@ static void handle_keys(vv_app *a, double dt)
 static int frame(vv_app *a, uint32_t index, int scripted, int last)
 {
     int rc = VV_EXIT_OK;
+    a->cull.want_cost = a->opt.overlay == VV_OVERLAY_COST;
     if (scripted) {
         if (!a->opt.have_camera && a->path_count) {
             const vis_camera *pc = &a->path[index % a->path_count].camera;
@@ -331,6 +332,9 @@ static int frame(vv_app *a, uint32_t index, int scripted, int last)
         else if (a->opt.overlay == VV_OVERLAY_DEPTH && a->cull.zdepth_valid)
             vv_overlay_depth(a->ovl, a->cull.zdepth, a->cull.width, a->cull.height, (float)a->extent, px, 0, pw, ih,
                              a->win.fb_w, a->win.fb_h);
+        else if (a->opt.overlay == VV_OVERLAY_COST && a->cull.cost_valid)
+            vv_overlay_cost(a->ovl, a->cull.cost, a->cull.width, a->cull.height, px, 0, pw, ih, a->win.fb_w,
+                            a->win.fb_h);
     }
     if (a->opt.hud)
         draw_hud(a, vx, vw);

@@ -11,7 +11,7 @@
 static const char *usage =
     "usage: vis-viewer [--scene SPEC] [--camera EX,EY,EZ,TX,TY,TZ[,FOVY]] [--res WxH] [--window WxH]\n"
     "                  [--backend auto|cpu|opencl] [--method ray|zbuf|none] [--ids object|leaf]\n"
-    "                  [--overlay none|ids|depth] [--boxes] [--no-hud] [--material N]\n"
+    "                  [--overlay none|ids|depth|cost] [--boxes] [--no-hud] [--material N]\n"
     "  scripted mode:  --frames N [--screenshot FILE.png] [--drawlist FILE] [--freeze]\n"
     "                  [--cull-camera EX,EY,EZ,TX,TY,TZ[,FOVY]] [--edit add|remove|paint:PX,PY[,R]]\n"
     "                  [--keys KEYS]\n"
@@ -160,8 +160,10 @@ int vv_options_parse(int argc, char **argv, vv_options *o)
                 o->overlay = VV_OVERLAY_IDS;
             else if (!strcmp(v, "depth"))
                 o->overlay = VV_OVERLAY_DEPTH;
+            else if (!strcmp(v, "cost"))
+                o->overlay = VV_OVERLAY_COST;
             else
-                return usage_error("--overlay wants none, ids or depth, not \"%s\"", v);
+                return usage_error("--overlay wants none, ids, depth or cost, not \"%s\"", v);
         } else if (!strcmp(a, "--frames")) {
             if (parse_uint(v, 100000, &n) != 0 || n == 0)
                 return usage_error("--frames wants 1..100000, not \"%s\"", v);

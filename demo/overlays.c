@@ -189,6 +189,30 @@ void vv_overlay_depth(vv_overlays *o, const float *depth, uint32_t w, uint32_t h
     draw_image(o, w, h, x, y, sw, sh, fb_w, fb_h);
 }
 
+void vv_overlay_cost(vv_overlays *o, const uint32_t *cost, uint32_t w, uint32_t h, int x, int y, int sw, int sh,
+                     int fb_w, int fb_h)
+{
+    if (w > TEX || h > TEX)
+        return;
+    size_t n = (size_t)w * h;
+    uint32_t lo = UINT32_MAX, hi = 0;
+    for (size_t i = 0; i < n; ++i) {
+        lo = cost[i] < lo ? cost[i] : lo;
+        hi = cost[i] > hi ? cost[i] : hi;
+    }
+    double l0 = log2(1.0 + lo), span = log2(1.0 + hi) - l0;
+    for (size_t i = 0; i < n; ++i) {
+        double t = span > 0.0 ? (log2(1.0 + cost[i]) - l0) / span : 0.0;
+        /* blue -> cyan -> green -> yellow -> red */
+        double r = t < 0.5 ? 0.0 : t < 0.75 ? (t - 0.5) * 4.0 : 1.0;
+        double g = t < 0.25 ? t * 4.0 : t < 0.75 ? 1.0 : (1.0 - t) * 4.0;
+        double b = t < 0.25 ? 1.0 : t < 0.5 ? (0.5 - t) * 4.0 : 0.0;
+        uint32_t R = (uint32_t)(r * 255.0), G = (uint32_t)(g * 255.0), B = (uint32_t)(40.0 + b * 215.0);
+        o->pixels[i] = 0xFF000000u | (B << 16) | (G << 8) | R;
+    }
+    draw_image(o, w, h, x, y, sw, sh, fb_w, fb_h);
+}
+
 void vv_lines_begin(vv_overlays *o) { o->line_count = 0; }
 
 void vv_lines_add(vv_overlays *o, const float a[3], const float b[3], uint32_t rgba)

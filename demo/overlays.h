@@ -25,6 +25,10 @@ void vv_overlay_ids(vv_overlays *o, const uint32_t *ids, uint32_t w, uint32_t h,
                     int fb_w, int fb_h);
 void vv_overlay_depth(vv_overlays *o, const float *depth, uint32_t w, uint32_t h, float far_depth, int x, int y,
                       int sw, int sh, int fb_w, int fb_h);
+/* A heat map of per-pixel traversal costs (vis_trace_cost): log scale from the cheapest pixel
+ * (dark blue) through green and yellow to the dearest (red). */
+void vv_overlay_cost(vv_overlays *o, const uint32_t *cost, uint32_t w, uint32_t h, int x, int y, int sw, int sh,
+                     int fb_w, int fb_h);
 
 /* Lines in scene-local coordinates, drawn with mvp at vv_lines_end. */
 void vv_lines_begin(vv_overlays *o);

@@ -38,6 +38,7 @@ typedef enum vv_overlay {
     VV_OVERLAY_NONE = 0,
     VV_OVERLAY_IDS,   /* the ray pass's ID buffer, a colour per ID                       */
     VV_OVERLAY_DEPTH, /* the z-buffer culler's depth buffer                               */
+    VV_OVERLAY_COST,  /* the ray pass's traversal cost per pixel (vis_trace_cost), a heat map */
     VV_OVERLAY_COUNT
 } vv_overlay;
 

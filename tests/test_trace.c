@@ -109,6 +109,54 @@ static void check_small_packets(vis_context *ctx, vis_scene *scene, const tworld
     check_one_view(ctx, scene, w, &c, 72, 72, label);
 }
 
+/* vis_trace_cost: the same IDs as vis_trace, a cost on every pixel (a hit pixel tested at
+ * least its quad), more where the view holds more; refused with the per-ray methods, short
+ * capacities and a NULL buffer. */
+static void test_trace_cost(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    uint64_t rng = 4242;
+    random_chunk_world(&w, &rng, 3, 2, 3);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_camera cam = {{-20, 40, -20}, {24, 8, 24}, 60, 0, 0}, sky = {{24, 60, 24}, {24, 200, 25}, 60, 0, 0};
+    const uint32_t W = 256, H = 192, n = W * H;
+    uint32_t *ids = malloc(n * 4), *ids2 = malloc(n * 4), *cost = malloc(n * 4);
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = W, td.height = H;
+    assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, n, NULL, 0), VIS_OK);
+    assert_int_equal(vis_trace_cost(ctx, scene, &cam, &td, ids2, n, cost, n), VIS_OK);
+    uint64_t hit_cost = 0, hits = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        if (ids[i] != ids2[i])
+            fail_msg("pixel %u: vis_trace id %u, vis_trace_cost id %u", i, ids[i], ids2[i]);
+        if (ids[i] && cost[i] < 1)
+            fail_msg("pixel %u hit object %u at a cost of %u", i, ids[i], cost[i]);
+        hits += ids[i] != 0;
+        hit_cost += ids[i] ? cost[i] : 0;
+    }
+    if (hits < n / 20)
+        fail_msg("only %llu of %u pixels hit the world", (unsigned long long)hits, n);
+    /* Looking up into the empty sky costs next to nothing. */
+    assert_int_equal(vis_trace_cost(ctx, scene, &sky, &td, ids2, n, cost, n), VIS_OK);
+    uint64_t sky_cost = 0;
+    for (uint32_t i = 0; i < n; ++i)
+        sky_cost += cost[i];
+    if (sky_cost * 10 > hit_cost)
+        fail_msg("the empty sky cost %llu, the world's hits %llu", (unsigned long long)sky_cost,
+                 (unsigned long long)hit_cost);
+    assert_int_equal(vis_trace_cost(ctx, scene, &cam, &td, ids2, n, cost, n - 1), VIS_ERROR_CAPACITY);
+    assert_int_equal(vis_trace_cost(ctx, scene, &cam, &td, ids2, n, NULL, n), VIS_ERROR_INVALID_ARGUMENT);
+    td.traversal = VIS_TRAVERSAL_STACK;
+    assert_int_equal(vis_trace_cost(ctx, scene, &cam, &td, ids2, n, cost, n), VIS_ERROR_UNSUPPORTED);
+    free(ids), free(ids2), free(cost);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* ---- random worlds -------------------------------------------------------------------- */
 
 /* random_chunk_world and random_view (scene_builder.h): chunk objects of voxel boxes, tie
@@ -1030,6 +1078,7 @@ int main(void)
         cmocka_unit_test(test_random_worlds_match_oracle),
         cmocka_unit_test(test_axis_rays_split_planes_and_corners),
         cmocka_unit_test(test_crowded_leaf_and_packing_limits),
+        cmocka_unit_test(test_trace_cost),
         cmocka_unit_test(test_closed_room_does_not_leak),
         cmocka_unit_test(test_ties_go_to_lowest_id),
         cmocka_unit_test(test_camera_inside_solid),

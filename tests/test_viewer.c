@@ -272,6 +272,34 @@ static void test_default_world(void **state)
     vt_run_free(&r);
 }
 
+/* The traversal-cost heat map beside the frame: the panel right of the 3D view holds the
+ * ramp's cool end (the cheap sky and near pixels) and its warm end (the dearest). */
+static void test_cost_overlay(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    vt_run_result r = run_viewer("--scene gen:default --camera " CAM_DEFAULT " --frames 2 --no-hud --overlay cost "
+                                 "--screenshot '%s'",
+                                 tmp_path("cost.png"));
+    vt_assert_exit(r, 0);
+    int v[4];
+    view_rect(r.out, v);
+    picture p = read_png(tmp_path("cost.png"));
+    size_t cool = 0, warm = 0, panel = 0;
+    for (uint32_t y = 0; y < p.h; ++y)
+        for (uint32_t x = (uint32_t)(v[0] + v[2]); x < p.w; ++x) {
+            const unsigned char *c = &p.rgb[((size_t)y * p.w + x) * 3];
+            ++panel;
+            cool += c[2] > 200 && c[0] < 60 && c[1] < 60;
+            warm += c[0] > 200 && c[2] < 90;
+        }
+    free(p.rgb);
+    if (panel == 0 || cool < panel / 100 || warm == 0)
+        fail_msg("cost panel: %zu pixels, %zu at the cheap end, %zu at the dear end", panel, cool, warm);
+    vt_run_free(&r);
+}
+
 static void test_vox_scene(void **state)
 {
     (void)state;
@@ -457,7 +485,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_no_display), cmocka_unit_test(test_bad_arguments), cmocka_unit_test(test_default_world),
         cmocka_unit_test(test_vox_scene),  cmocka_unit_test(test_frozen),        cmocka_unit_test(test_edit),
-        cmocka_unit_test(test_live_switches),
+        cmocka_unit_test(test_live_switches),    cmocka_unit_test(test_cost_overlay),
     };
     return cmocka_run_group_tests(tests, setup, vt_tmp_dir_teardown);
 }

@@ -31,6 +31,7 @@ typedef struct cpu_job {
     float *depth;
     uint32_t side, tiles_x; /* tile edge in pixels, tiles per row */
     uint32_t packet_side;   /* packets: vis_packet_side */
+    uint32_t *cost;         /* packets: per-pixel traversal cost, or NULL */
 } cpu_job;
 
 static void trace_tile(void *user, uint32_t tile)
@@ -40,7 +41,7 @@ static void trace_tile(void *user, uint32_t tile)
     const vis_ray_setup *s = job->setup;
     uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        vis_packet_trace_tile(s, &v, job->occupied, job->packet_side, x0, y0, job->ids, job->depth);
+        vis_packet_trace_tile(s, &v, job->occupied, job->packet_side, x0, y0, job->ids, job->depth, job->cost);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -101,21 +102,35 @@ static void cpu_scene_release(void *impl, void *scene_data)
     vis_host_free(&b->alloc, occ);
 }
 
-static vis_status cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
-                     uint32_t *ids, float *depth, char *err, size_t err_size)
+static vis_status run_pass(cpu_backend *b, const vis_occupancy *occ, const vis_scene_view *view,
+                           const vis_ray_setup *setup, uint32_t *ids, float *depth, uint32_t *cost)
 {
-    (void)err, (void)err_size;
-    cpu_backend *b = impl;
-    const vis_occupancy *occ = scene_data;
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
     cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
-                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u};
+                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u, cost};
     uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
     if (b->parallel_for)
         b->parallel_for(tiles, trace_tile_job, &job, b->parallel_for_user);
     else
         vis_pool_run(b->pool, tiles, trace_tile, &job);
     return VIS_OK;
+}
+
+static vis_status cpu_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+                            uint32_t *ids, float *depth, char *err, size_t err_size)
+{
+    (void)err, (void)err_size;
+    return run_pass(impl, scene_data, view, setup, ids, depth, NULL);
+}
+
+static vis_status cpu_trace_cost(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+                                 uint32_t *ids, uint32_t *cost, char *err, size_t err_size)
+{
+    if (setup->traversal != VIS_TRAVERSAL_ID_PACKET) {
+        snprintf(err, err_size, "traversal cost is counted by the packet method only");
+        return VIS_ERROR_UNSUPPORTED;
+    }
+    return run_pass(impl, scene_data, view, setup, ids, NULL, cost);
 }
 
 void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn parallel_for, void *user)
@@ -132,7 +147,8 @@ static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
 }
 
 static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_scene_release, cpu_trace,
-                                        cpu_last_upload_bytes, NULL /* trace_batch: libvis loops */,
+                                        cpu_trace_cost, cpu_last_upload_bytes,
+                                        NULL /* trace_batch: libvis loops */,
                                         NULL /* last_kernel_ms: libvis times the pass */};
 
 vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, vis_backend *out,

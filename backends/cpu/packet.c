@@ -6,26 +6,26 @@
  * is opened for it. So a pass takes the largest packets (16x16, 8x8 or 4x4) whose tiles spread
  * no wider than PACKET_MAX_SPREAD; where even 4x4 would, each ray is a packet of its own.
  *
- * Far away the same happens at any image size: where a pixel covers more than
- * PACKET_MAX_FOOTPRINT scene units, a tile spans several leaves, its bounds stop culling, and
- * every quad in its rectangle is tested against its rays (docs/performance.md, "Where the time
- * goes": past 2-4 voxels per pixel, 16x16 tiles cost more than single rays; measured again for
- * 8x8 and 4x4 tiles, the same footprint holds: a fixed span of the tile would keep small
- * tiles that cost 4-7x their single rays on gen:city's overview). The packet walk goes near
+ * Far away a small packet over-reaches in the same way: where a pixel covers more than
+ * PACKET_MAX_FOOTPRINT scene units, an 8x8 or 4x4 tile spans several leaves, its bounds stop
+ * culling, and every quad in its rectangle is tested against its rays (docs/performance.md:
+ * on gen:city's overview such packets cost 4-7x their single rays). The packet walk goes near
  * side first, so the first leaf it enters tells: entered beyond that distance, the packet
- * gives up and its rays go one by one. Every path gives the same pixels: the brute force's. */
+ * gives up and its rays go one by one. 16x16 packets at normal image sizes keep going: there
+ * giving up was a wash on gen:large's far views. Every path gives the same pixels: the brute
+ * force's. */
 #include <math.h>
 
 #include "cpu/packet.h"
 
 int vis_packet_trace_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                           float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 int vis_packet_trace_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 int vis_packet_trace_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
 /* Widest tile, as its extent on the image plane at distance 1 (tangent units): at 60 degrees,
  * 512x512 tiles of 16 span 0.036 and 256x256 ones 0.072 (16x16 packets 2.5-3.5x faster than
@@ -58,22 +58,24 @@ uint32_t vis_packet_side(const vis_ray_setup *setup)
 }
 
 typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, uint32_t, uint32_t,
-                         uint32_t *, float *);
+                         uint32_t *, float *, uint32_t *);
 
 void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth)
+                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
 {
     packet_fn fn = side == 16u ? vis_packet_trace_16x16 : side == 8u ? vis_packet_trace_8x8
                  : side == 4u ? vis_packet_trace_4x4 : NULL;
-    float give_up_t = PACKET_MAX_FOOTPRINT / pixel_extent(setup);
+    /* 16x16 packets keep going: on gen:large's far views giving up at 3 voxels per pixel was a
+     * wash (overview 166 -> 154 ms, top-down 156 -> 183 ms; docs/performance.md). */
+    float give_up_t = side == 16u ? INFINITY : PACKET_MAX_FOOTPRINT / pixel_extent(setup);
     uint32_t x_end = x0 + VIS_PACKET_SIDE < setup->width ? x0 + VIS_PACKET_SIDE : setup->width;
     uint32_t y_end = y0 + VIS_PACKET_SIDE < setup->height ? y0 + VIS_PACKET_SIDE : setup->height;
     for (uint32_t ty = y0; ty < y_end; ty += side)
         for (uint32_t tx = x0; tx < x_end; tx += side) {
-            if (fn && fn(setup, view, occupied, give_up_t, tx, ty, ids, depth))
+            if (fn && fn(setup, view, occupied, give_up_t, tx, ty, ids, depth, cost))
                 continue;
             for (uint32_t y = ty; y < ty + side && y < y_end; ++y)
                 for (uint32_t x = tx; x < tx + side && x < x_end; ++x)
-                    vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth);
+                    vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth, cost);
         }
 }

@@ -17,9 +17,10 @@ uint32_t vis_packet_side(const vis_ray_setup *setup);
  * `setup` (clipped to the image) and writes their IDs and depths (depth may be NULL): per
  * pixel, the nearest hit over every primitive under the lowest-ID tie rule, with the rays
  * and primitive tests of trace_core.h -- bit for bit the brute force's buffers. `occupied`
- * flags the kd nodes whose subtree holds a primitive (occupancy.h); `wide` is
- * vis_packet_wide(setup). */
+ * flags the kd nodes whose subtree holds a primitive (occupancy.h); `side` is
+ * vis_packet_side(setup). `cost` (may be NULL) gets each pixel's traversal cost
+ * (vis_trace_cost). */
 void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
 #endif /* VIS_CPU_PACKET_H */

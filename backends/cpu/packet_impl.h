@@ -73,6 +73,9 @@ typedef struct packet {
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
     int unhit;               /* lanes without a hit yet                                     */
     float give_up_t;         /* a first leaf entered past this: the tile is far (packet.c)  */
+    int counting;            /* vis_trace_cost: count nodes opened and tests per lane        */
+    uint32_t nodes;
+    uint32_t tests[LANES];
     int leaves_entered;
     int given_up;
 } packet;
@@ -131,6 +134,10 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
         p->unit_best[r] = INFINITY;
     p->unhit = LANES;
     p->give_up_t = INFINITY;
+    p->counting = 0;
+    p->nodes = 0;
+    for (int i = 0; i < LANES; ++i)
+        p->tests[i] = 0;
     p->leaves_entered = 0;
     p->given_up = 0;
     float extent = 1.0f;
@@ -336,6 +343,9 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
     int any = 0, first_hits = 0;
     for (; units; units &= units - 1u) {
         int first = __builtin_ctz(units) * UNIT;
+        if (p->counting)
+            for (int i = first; i < first + UNIT; ++i)
+                ++p->tests[i];
         for (int i = first; i < first + UNIT; ++i) {
             float t = p->plane_t[i], bt = p->best_t[i], t_in = t, t_out = t;
             int in_u = pk_slab(cu0, cu1, p->d[u][i], p->inv[u][i], &t_in, &t_out);
@@ -400,6 +410,7 @@ PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_fla
         vis_ray r;
         vis_hit h;
         packet_lane(p, i, &r, &h);
+        p->tests[i] += (uint32_t)p->counting;
         vis_test_tri(&r, tri, objects, &h);
         p->unhit -= p->best_t[i] == INFINITY && h.t != INFINITY;
         p->best_t[i] = h.t;
@@ -612,6 +623,7 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         packet_frame f = stack[--sp];
         if (!packet_box_open(p, f.lo, f.hi))
             continue;
+        p->nodes += (uint32_t)p->counting;
         uint32_t info = view->nodes[f.node].info;
         if ((info & 3u) == VIS_NODE_LEAF) {
             packet_leaf(p, view, &view->leaves[info >> 2]);
@@ -639,17 +651,18 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
 }
 
 int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
-             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth);
+             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
 __attribute__((target_clones("avx2", "default")))
 #endif
 int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
-             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth)
+             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
 {
     packet p;
     packet_rays(&p, setup, x0, y0);
     p.give_up_t = give_up_t;
+    p.counting = cost != NULL;
     packet_bounds(&p);
     packet_traverse(&p, view, occupied);
     if (p.given_up)
@@ -673,6 +686,8 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
         ids[at] = id;
         if (depth)
             depth[at] = p.best_t[i];
+        if (cost)
+            cost[at] = p.nodes + p.tests[i];
     }
     return 1;
 }

@@ -77,23 +77,32 @@ static void record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t 
     ctx->have_timing = 1;
 }
 
+/* vis_trace, or vis_trace_cost when out_cost is set (then out_depth is NULL). */
 static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
-                            uint32_t *out_ids, size_t ids_capacity, float *out_depth, size_t depth_capacity)
+                            uint32_t *out_ids, size_t ids_capacity, float *out_depth, size_t depth_capacity,
+                            uint32_t *out_cost, size_t cost_capacity)
 {
     double t0 = now_ms();
     vis_clear_error(ctx);
-    vis_status st = check_args(ctx, scene, out_ids, "vis_trace");
+    const char *fn = out_cost ? "vis_trace_cost" : "vis_trace";
+    vis_status st = check_args(ctx, scene, out_ids, fn);
     if (st != VIS_OK)
         return st;
     vis_trace_desc d;
     if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
         return st;
-    if ((st = check_capacity(ctx, (uint64_t)d.width * d.height, ids_capacity, out_depth, depth_capacity, "vis_trace", 1,
-                             &d)) != VIS_OK)
+    if ((st = check_capacity(ctx, (uint64_t)d.width * d.height, ids_capacity, out_depth, depth_capacity, fn, 1, &d)) !=
+        VIS_OK)
         return st;
+    if (out_cost && (uint64_t)cost_capacity < (uint64_t)d.width * d.height)
+        return vis_fail(ctx, VIS_ERROR_CAPACITY, "vis_trace_cost: a %ux%u view needs %llu elements, cost_capacity is %zu",
+                        d.width, d.height, (unsigned long long)d.width * d.height, cost_capacity);
     vis_ray_setup setup;
     if ((st = make_setup(ctx, scene, camera, &d, &setup)) != VIS_OK)
         return st;
+    if (out_cost && (!ctx->backend.ops->trace_cost || setup.traversal != VIS_TRAVERSAL_ID_PACKET))
+        return vis_fail(ctx, VIS_ERROR_UNSUPPORTED, "vis_trace_cost: the %s backend does not count the cost of this "
+                        "traversal (the CPU backend's packet method does)", ctx->backend.ops->name);
 
     uint64_t upload = 0;
     void *data = NULL;
@@ -102,7 +111,9 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
     vis_scene_view view = vis_scene_get_view(scene);
     char err[1024] = "";
     double p0 = now_ms();
-    int rc = ctx->backend.ops->trace(ctx->backend.impl, data, &view, &setup, out_ids, out_depth, err, sizeof err);
+    int rc = out_cost ? ctx->backend.ops->trace_cost(ctx->backend.impl, data, &view, &setup, out_ids, out_cost, err,
+                                                     sizeof err)
+                      : ctx->backend.ops->trace(ctx->backend.impl, data, &view, &setup, out_ids, out_depth, err, sizeof err);
     double pass_ms = now_ms() - p0;
     vis_scene_end_read(scene);
     if (rc != VIS_OK)
@@ -118,7 +129,21 @@ vis_status vis_trace(vis_context *ctx, vis_scene *scene, const vis_camera *camer
         return VIS_ERROR_INVALID_ARGUMENT;
     if (vis_enter(ctx) != VIS_OK)
         return VIS_ERROR_BUSY;
-    vis_status st = trace_one(ctx, scene, camera, desc, out_ids, ids_capacity, out_depth, depth_capacity);
+    vis_status st = trace_one(ctx, scene, camera, desc, out_ids, ids_capacity, out_depth, depth_capacity, NULL, 0);
+    vis_leave(ctx);
+    return st;
+}
+
+vis_status vis_trace_cost(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                          uint32_t *out_ids, size_t ids_capacity, uint32_t *out_cost, size_t cost_capacity)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (!out_cost)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_cost: out_cost must not be NULL");
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_status st = trace_one(ctx, scene, camera, desc, out_ids, ids_capacity, NULL, 0, out_cost, cost_capacity);
     vis_leave(ctx);
     return st;
 }

@@ -460,6 +460,17 @@ VIS_API vis_status vis_trace(vis_context *context, vis_scene *scene, const vis_c
                              const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity,
                              float *out_depth, size_t depth_capacity);
 
+/* vis_trace, also writing each pixel's traversal cost into out_cost (width*height elements,
+ * cost_capacity checked as ids_capacity is): the kd-tree nodes that the packet which traced
+ * the pixel opened, plus the quads and triangles tested on the pixel's own ray. Where a tile
+ * went ray by ray (wide tiles, far hits; docs/traversal.md) its packet is the ray alone. For
+ * heat maps and tuning, not for every frame. Only the CPU backend's packet method counts
+ * (VIS_TRAVERSAL_AUTO or VIS_TRAVERSAL_PACKET on a CPU context); other backends and methods
+ * return VIS_ERROR_UNSUPPORTED. out_ids gets what vis_trace writes. */
+VIS_API vis_status vis_trace_cost(vis_context *context, vis_scene *scene, const vis_camera *camera,
+                                  const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity,
+                                  uint32_t *out_cost, size_t cost_capacity);
+
 /* ------------------------------------------------------------------------------------ */
 /* Draw list                                                                            */
 /* ------------------------------------------------------------------------------------ */
