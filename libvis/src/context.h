@@ -52,4 +52,16 @@ void vis_free(vis_context *ctx, void *ptr);
 /* Scratch of at least `size` bytes, valid until the next call that takes scratch. */
 void *vis_scratch(vis_context *ctx, size_t size);
 
+/* A 32-bit integer hash for the open-addressing ID maps (the scene's, the queries'): Chris
+ * Wellons' lowbias32 (hash-prospector), every bit of the key spread over every bit. */
+static inline uint32_t vis_hash_u32(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
 #endif

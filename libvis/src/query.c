@@ -46,19 +46,9 @@ static double now_ms(void)
 
 /* ---- ID maps ------------------------------------------------------------------------------ */
 
-static uint32_t id_hash(uint32_t x)
-{
-    x ^= x >> 16;
-    x *= 0x7feb352dU;
-    x ^= x >> 15;
-    x *= 0x846ca68bU;
-    x ^= x >> 16;
-    return x;
-}
-
 uint32_t vis_idmap_find(const vis_idmap *m, uint32_t key)
 {
-    for (uint32_t i = id_hash(key) & m->mask;; i = (i + 1) & m->mask) {
+    for (uint32_t i = vis_hash_u32(key) & m->mask;; i = (i + 1) & m->mask) {
         if (m->keys[i] == key)
             return m->vals[i];
         if (m->keys[i] == 0)
@@ -68,7 +58,7 @@ uint32_t vis_idmap_find(const vis_idmap *m, uint32_t key)
 
 int vis_idmap_insert(vis_idmap *m, uint32_t key, uint32_t val)
 {
-    for (uint32_t i = id_hash(key) & m->mask;; i = (i + 1) & m->mask) {
+    for (uint32_t i = vis_hash_u32(key) & m->mask;; i = (i + 1) & m->mask) {
         if (m->keys[i] == key)
             return 0;
         if (m->keys[i] == 0) {

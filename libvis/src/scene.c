@@ -66,22 +66,12 @@ static int grow(vis_context *ctx, void **ptr, uint32_t *cap, uint32_t need, size
 
 /* ---- ID map: open addressing, ID -> slot + 1 ------------------------------------------ */
 
-static uint32_t hash_id(uint32_t id)
-{
-    id ^= id >> 16;
-    id *= 0x7feb352du;
-    id ^= id >> 15;
-    id *= 0x846ca68bu;
-    id ^= id >> 16;
-    return id;
-}
-
 uint32_t vis_scene_find(const vis_scene *s, uint32_t id)
 {
     if (!s->id_map_cap || id == 0)
         return VIS_NO_OBJECT;
     uint32_t mask = s->id_map_cap - 1;
-    for (uint32_t i = hash_id(id) & mask;; i = (i + 1) & mask) {
+    for (uint32_t i = vis_hash_u32(id) & mask;; i = (i + 1) & mask) {
         uint32_t v = s->id_map[i];
         if (v == 0)
             return VIS_NO_OBJECT;
@@ -93,7 +83,7 @@ uint32_t vis_scene_find(const vis_scene *s, uint32_t id)
 static int map_insert_raw(uint32_t *map, uint32_t cap, const vis_flat_object *objects, uint32_t slot)
 {
     uint32_t mask = cap - 1;
-    for (uint32_t i = hash_id(objects[slot].id) & mask;; i = (i + 1) & mask) {
+    for (uint32_t i = vis_hash_u32(objects[slot].id) & mask;; i = (i + 1) & mask) {
         if (map[i] == 0) {
             map[i] = slot + 1;
             return 1;
@@ -122,14 +112,14 @@ static int map_insert(vis_scene *s, uint32_t slot)
 static void map_remove(vis_scene *s, uint32_t id)
 {
     uint32_t mask = s->id_map_cap - 1;
-    uint32_t i = hash_id(id) & mask;
+    uint32_t i = vis_hash_u32(id) & mask;
     while (s->id_map[i] && s->objects[s->id_map[i] - 1].id != id)
         i = (i + 1) & mask;
     if (!s->id_map[i])
         return;
     s->id_map[i] = 0;
     for (uint32_t j = (i + 1) & mask; s->id_map[j]; j = (j + 1) & mask) {
-        uint32_t home = hash_id(s->objects[s->id_map[j] - 1].id) & mask;
+        uint32_t home = vis_hash_u32(s->objects[s->id_map[j] - 1].id) & mask;
         /* Move j back to i if its home is not cyclically within (i, j]. */
         int in_range = i <= j ? (home > i && home <= j) : (home > i || home <= j);
         if (!in_range) {
