@@ -6,8 +6,9 @@
  * that outgrows its slot moves to a free slot of the new size, or to the end of the pool
  * (vis_scene_stats.relocations), and its old slot is free for the next leaf of that size
  * (slot_free.h) — the tree is untouched.
- * Within a slot, quads on integer planes are sorted into (axis, plane) buckets so the
- * traversal can visit planes in ray order (trace_core.h). An edit's growth in bytes is
+ * Within a slot, quads on integer planes are packed into one word each and sorted into
+ * (axis, plane) buckets so the traversal can visit planes in ray order (trace_core.h,
+ * vis_flat_leaf); an object inside one leaf keeps no other copy of its quads. An edit's growth in bytes is
  * computed before anything changes (set_object_growth) and held to desc.max_bytes, so a
  * refused edit leaves the scene as it was.
  */
@@ -1039,8 +1040,8 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
     return add;
 }
 
-/* Moves an object to a new leaf set: the leaves it leaves and the leaves it joins (and, when
- * its primitives changed, the leaves it stays in) are rebuilt. */
+/* Moves an object to a new leaf set and rebuilds every leaf it leaves, joins or stays in; `pe`
+ * (NULL for a removal) gives its new quads to those rebuilds. */
 static vis_status relink(vis_scene *s, uint32_t slot, const uint32_t *new_leaves, uint32_t new_count,
                          const pending_edit *pe)
 {

@@ -319,14 +319,16 @@ VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *ou
 /* How the scene's memory is used inside: for benchmarks and debugging, not for deciding
  * anything (the fields follow the implementation and may change between versions). */
 typedef struct vis_scene_stats {
-    uint64_t relocations;     /* leaf updates that outgrew their slot and moved to a new one
-                                 at the end of the pool (the tree is never rebuilt)          */
-    uint64_t quad_slots;      /* quad pool entries handed out to leaf slots: the quads the
-                                 leaves hold, their spare capacity (vis_scene_desc.leaf_slack)
-                                 and the slots left behind by relocations                    */
-    uint64_t quads_in_leaves; /* of those, the entries leaves use (an object's quad counts
-                                 once in every leaf it overlaps)                             */
-    uint64_t tri_slots;       /* the same for the triangle pool                               */
+    uint64_t relocations;     /* leaf updates that outgrew their slot and moved to a freed slot
+                                 or the end of the pool (the tree is never rebuilt)          */
+    uint64_t quad_slots;      /* 4-byte words of the quad pool handed out to leaf slots: the
+                                 leaves' object tables and quads (a packed quad takes one
+                                 word, a loose one six), their spare capacity
+                                 (vis_scene_desc.leaf_slack, rounded up to a size class) and
+                                 freed slots waiting for reuse or compaction                 */
+    uint64_t quads_in_leaves; /* quads the leaves hold (an object's quad counts once in every
+                                 leaf it overlaps)                                           */
+    uint64_t tri_slots;       /* the same for the triangle pool, in triangles                 */
     uint64_t tris_in_leaves;
     uint64_t rope_bytes;      /* rope data held (built once with the tree, part of
                                  vis_scene_info.bytes): box + six neighbour links of every
