@@ -164,6 +164,24 @@ static void gather(occ_gather *g, const vis_scene_view *view, const double qlo[3
     }
 }
 
+/* The opaque quads of plane x[a] = p that meet `want` (on the plane's u and v axes), into g. */
+static void gather_plane(occ_gather *g, const vis_scene_view *view, uint32_t a, double p, occ_rect want)
+{
+    uint32_t u = a == 2 ? 0u : a + 1u, v = a == 0 ? 2u : a - 1u;
+    g->axis = a;
+    g->plane = (float)p;
+    g->want = want;
+    g->count = 0;
+    g->overflow = 0;
+    double qlo[3], qhi[3];
+    qlo[a] = qhi[a] = p;
+    qlo[u] = want.u0;
+    qhi[u] = want.u1;
+    qlo[v] = want.v0;
+    qhi[v] = want.v1;
+    gather(g, view, qlo, qhi);
+}
+
 /* 1 when an opaque quad of an integer plane through x (within 1e-3) touches x. */
 static int opaque_at(const vis_scene_view *view, const double x[3])
 {
@@ -173,21 +191,8 @@ static int opaque_at(const vis_scene_view *view, const double x[3])
             continue;
         occ_gather g;
         uint32_t u = a == 2 ? 0u : a + 1u, v = a == 0 ? 2u : a - 1u;
-        g.axis = a;
-        g.plane = (float)p;
-        g.want.u0 = x[u] - 1e-3;
-        g.want.u1 = x[u] + 1e-3;
-        g.want.v0 = x[v] - 1e-3;
-        g.want.v1 = x[v] + 1e-3;
-        g.count = 0;
-        g.overflow = 0;
-        double qlo[3], qhi[3];
-        qlo[a] = qhi[a] = p;
-        qlo[u] = g.want.u0;
-        qhi[u] = g.want.u1;
-        qlo[v] = g.want.v0;
-        qhi[v] = g.want.v1;
-        gather(&g, view, qlo, qhi);
+        occ_rect want = {x[u] - 1e-3, x[v] - 1e-3, x[u] + 1e-3, x[v] + 1e-3};
+        gather_plane(&g, view, a, p, want);
         if (g.count || g.overflow)
             return 1;
     }
@@ -307,19 +312,7 @@ static occ_rect crossing_rect(const vis_occ_box *e, const vis_occ_box *b, uint32
 static int plane_covers(const vis_scene_view *view, const vis_occ_box *e, const vis_occ_box *b, uint32_t a, double p)
 {
     occ_gather g;
-    g.axis = a;
-    g.plane = (float)p;
-    g.want = crossing_rect(e, b, a, p);
-    g.count = 0;
-    g.overflow = 0;
-    uint32_t u = a == 2 ? 0u : a + 1u, v = a == 0 ? 2u : a - 1u;
-    double qlo[3], qhi[3];
-    qlo[a] = qhi[a] = p;
-    qlo[u] = g.want.u0;
-    qhi[u] = g.want.u1;
-    qlo[v] = g.want.v0;
-    qhi[v] = g.want.v1;
-    gather(&g, view, qlo, qhi);
+    gather_plane(&g, view, a, p, crossing_rect(e, b, a, p));
     return !g.overflow && g.count > 0 && covered(&g);
 }
 

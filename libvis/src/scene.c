@@ -396,13 +396,13 @@ static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap
     *moved = 0;
     if (need <= *slot_cap)
         return 1;
-    uint32_t c = slot_class_for(s, need), c_end = c + VIS_SLOT_REUSE_CLASSES, off = UINT32_MAX;
-    for (; off == UINT32_MAX && c < c_end && c < VIS_SLOT_CLASSES; ++c)
+    uint32_t c0 = slot_class_for(s, need), c = vis_slot_free_class(fl, NULL, c0), off;
+    uint64_t want;
+    if (c != UINT32_MAX) {
         off = vis_slot_take(fl, *pool, elem, c);
-    uint64_t want = vis_slot_class_size(c - 1u);
-    if (off == UINT32_MAX) {
-        c = slot_class_for(s, need);
         want = vis_slot_class_size(c);
+    } else {
+        want = vis_slot_class_size(c0);
         if (*used + want > 0xFFFFFF00u || !grow(s->ctx, pool, cap, (uint32_t)(*used + want), elem))
             return 0;
         off = *used;
@@ -441,6 +441,19 @@ static int pack_quad(const vis_flat_leaf *lf, const vis_flat_quad *q, uint32_t l
     *bucket = b;
     *word = w;
     return 1;
+}
+
+/* Words of a leaf slot holding `packed` packed and `loose` loose quads of `objects` objects:
+ * the object table (when a quad is packed), one word per packed quad, VIS_LOOSE_WORDS per loose
+ * one (trace_core.h, vis_flat_leaf). rebuild_leaf fills it; leaf_words_after predicts it. */
+static uint32_t table_words(uint32_t objects, uint64_t packed)
+{
+    return packed ? (objects < VIS_PQ_TABLE_MAX + 1u ? objects : VIS_PQ_TABLE_MAX + 1u) : 0u;
+}
+
+static uint64_t slot_words(uint32_t objects, uint64_t packed, uint64_t loose)
+{
+    return table_words(objects, packed) + packed + loose * VIS_LOOSE_WORDS;
 }
 
 /* Insertion sort (stable) by u0: buckets hold a handful of quads, and a leaf rebuild must not
@@ -593,12 +606,6 @@ void vis_scene_visit_object_quads(const vis_scene *s, uint32_t slot, quad_visito
     visit_stored(s, s->object_leaves[s->objects[slot].leaf_offset], visit_object, &o);
 }
 
-static void visit_nothing(void *user, const vis_flat_quad *q)
-{
-    (void)user;
-    (void)q;
-}
-
 typedef struct gather_array {
     vis_flat_quad *q;
     uint32_t n;
@@ -610,20 +617,32 @@ static void visit_append(void *user, const vis_flat_quad *q)
     g->q[g->n++] = *q;
 }
 
-/* gather_leaf into a fresh array (freed by the caller with vis_free; NULL when empty). */
+/* gather_leaf into a fresh array (freed by the caller with vis_free; NULL when empty) of
+ * *cap entries, sized from what the leaf and the copies hold without a counting pass, with
+ * room after it for rebuild_leaf's packed words and buckets (two per entry). */
 static vis_status gather_leaf_alloc(const vis_scene *s, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
-                                    int mesh_in, vis_flat_quad **out, uint32_t *count)
+                                    int mesh_in, vis_flat_quad **out, uint32_t *count, uint32_t *cap)
 {
-    *count = gather_leaf(s, li, slot, mesh, n, mesh_in, visit_nothing, NULL);
+    const vis_flat_leaf *lf = &s->leaves[li];
+    const vis_leaf_host *lh = &s->leaf_host[li];
+    uint64_t bound = (uint64_t)lf->quad_count + lf->loose_count + (mesh_in ? mesh->quad_count : 0u);
+    for (uint32_t i = 0; i < lh->object_count; ++i)
+        if (lh->objects[i] != slot && !object_resident(s, lh->objects[i]))
+            bound += s->object_host[lh->objects[i]].quad_count;
     *out = NULL;
-    if (*count == 0)
+    *count = *cap = 0;
+    if (bound == 0)
         return VIS_OK;
-    /* Room after the quads for rebuild_leaf's packed words and buckets (two per quad). */
-    gather_array g = {vis_alloc(s->ctx, (size_t)*count * (sizeof *g.q + 2 * sizeof(uint32_t))), 0};
+    if (bound > 0xFFFFFF00u)
+        return vis_fail(s->ctx, VIS_ERROR_CAPACITY, "leaf %u would hold %llu quads, more than the pool can address", li,
+                        (unsigned long long)bound);
+    gather_array g = {vis_alloc(s->ctx, (size_t)bound * (sizeof *g.q + 2 * sizeof(uint32_t))), 0};
     if (!g.q)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory gathering a leaf's quads");
     gather_leaf(s, li, slot, mesh, n, mesh_in, visit_append, &g);
     *out = g.q;
+    *count = g.n;
+    *cap = (uint32_t)bound;
     return VIS_OK;
 }
 
@@ -643,14 +662,14 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
     uint32_t slot = pe ? pe->slot : VIS_NO_OBJECT;
     int mesh_in = pe && in_list(lh, slot);
     vis_flat_quad *g = NULL;
-    uint32_t ng = 0;
+    uint32_t ng = 0, gcap = 0;
     vis_status st = gather_leaf_alloc(s, li, slot, pe ? pe->mesh : NULL, pe ? s->objects[slot].leaf_count : 0, mesh_in,
-                                      &g, &ng);
+                                      &g, &ng, &gcap);
     if (st != VIS_OK)
         return st;
     int can_pack = leaf_has_buckets(lf);
     uint32_t packed = 0, nt = 0;
-    uint32_t *gw = (uint32_t *)(g + ng), *gb = gw + ng; /* each quad's word and bucket, or loose */
+    uint32_t *gw = (uint32_t *)(g + gcap), *gb = gw + gcap; /* each quad's word and bucket, or loose */
     for (uint32_t i = 0; i < ng; ++i) {
         gb[i] = UINT32_MAX;
         packed += can_pack && pack_quad(lf, &g[i], list_position(lh, VIS_META_OBJECT(g[i].meta)), &gb[i], &gw[i]);
@@ -661,10 +680,8 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
         for (uint32_t t = 0; t < oh->tri_count; ++t)
             nt += single || tri_overlaps_leaf(lf, &oh->tris[t]);
     }
-    uint32_t table = 0;
-    if (packed)
-        table = lh->object_count < VIS_PQ_TABLE_MAX + 1u ? lh->object_count : VIS_PQ_TABLE_MAX + 1u;
-    uint64_t words = (uint64_t)table + packed + (uint64_t)(ng - packed) * VIS_LOOSE_WORDS;
+    uint32_t table = table_words(lh->object_count, packed);
+    uint64_t words = slot_words(lh->object_count, packed, ng - packed);
     uint32_t qoff = lh->quad_slot;
     int moved_q = 0, moved_t = 0;
     if (words > 0xFFFFFF00u)
@@ -890,10 +907,8 @@ static uint64_t leaf_words_after(const vis_scene *s, uint32_t li, uint32_t slot,
     word_count c = {s, &s->leaves[li], lh, slot, contains(lh->objects, lh->object_count, slot),
                     leaf_has_buckets(&s->leaves[li]), 0, 0};
     gather_leaf(s, li, slot, mesh, n, 1, visit_count, &c);
-    uint32_t objects = lh->object_count + !c.in;
-    uint64_t table = c.packed ? (objects < VIS_PQ_TABLE_MAX + 1u ? objects : VIS_PQ_TABLE_MAX + 1u) : 0;
     *packed = (uint32_t)c.packed;
-    return table + c.packed + c.loose * VIS_LOOSE_WORDS;
+    return slot_words(lh->object_count + !c.in, c.packed, c.loose);
 }
 
 /* reserve_slot's choice for a slot of slot_cap that must hold need, without making it, with
@@ -901,7 +916,7 @@ static uint64_t leaf_words_after(const vis_scene *s, uint32_t li, uint32_t slot,
  * it appends to the pool (0 when a free slot serves). */
 typedef struct pool_sim {
     const vis_slot_free *fl;
-    uint32_t taken[VIS_SLOT_CLASSES], freed[VIS_SLOT_CLASSES]; /* by earlier moves of the edit */
+    int32_t delta[VIS_SLOT_CLASSES]; /* slots earlier moves of the edit freed, less those taken */
     uint64_t used, free_entries;
 } pool_sim;
 
@@ -916,18 +931,15 @@ static void pool_sim_init(pool_sim *p, const vis_slot_free *fl, uint32_t used)
 /* reserve_slot's choice for a slot of slot_cap that must hold need, without making it. */
 static void simulate_reserve(const vis_scene *s, pool_sim *p, uint64_t need, uint32_t slot_cap)
 {
-    uint32_t c0 = slot_class_for(s, need), c = c0;
-    for (; c < c0 + VIS_SLOT_REUSE_CLASSES && c < VIS_SLOT_CLASSES; ++c)
-        if (p->fl->count[c] + p->freed[c] > p->taken[c])
-            break;
-    if (c < c0 + VIS_SLOT_REUSE_CLASSES && c < VIS_SLOT_CLASSES) {
-        ++p->taken[c];
+    uint32_t c0 = slot_class_for(s, need), c = vis_slot_free_class(p->fl, p->delta, c0);
+    if (c != UINT32_MAX) {
+        --p->delta[c];
         p->free_entries -= vis_slot_class_size(c);
     } else {
         p->used += vis_slot_class_size(c0);
     }
     if (slot_cap) {
-        ++p->freed[vis_slot_class(slot_cap)];
+        ++p->delta[vis_slot_class(slot_cap)];
         p->free_entries += slot_cap;
     }
 }

@@ -59,6 +59,18 @@ static inline uint64_t vis_slot_class_size(uint32_t c)
     return ((uint64_t)1 << e) + (uint64_t)k * ((uint64_t)1 << (e - 3u));
 }
 
+/* Where a slot of class c0 comes from: the first class of c0 .. c0 + VIS_SLOT_REUSE_CLASSES - 1
+ * with a free slot, or UINT32_MAX (a new slot of class c0 at the end of the pool). `delta`
+ * (may be NULL) adds to each class's free count: set_object_growth's prediction of an edit
+ * walks the same rule with the slots earlier moves of the edit took and freed. */
+static inline uint32_t vis_slot_free_class(const vis_slot_free *f, const int32_t *delta, uint32_t c0)
+{
+    for (uint32_t c = c0; c < c0 + VIS_SLOT_REUSE_CLASSES && c < VIS_SLOT_CLASSES; ++c)
+        if ((int64_t)f->count[c] + (delta ? delta[c] : 0) > 0)
+            return c;
+    return UINT32_MAX;
+}
+
 /* Takes a free slot of class c from the pool (element size elem); returns its offset, or
  * UINT32_MAX when the class has none. */
 static inline uint32_t vis_slot_take(vis_slot_free *f, const void *pool, size_t elem, uint32_t c)

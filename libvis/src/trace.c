@@ -100,9 +100,10 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
     vis_ray_setup setup;
     if ((st = make_setup(ctx, scene, camera, &d, &setup)) != VIS_OK)
         return st;
-    if (out_cost && (!ctx->backend.ops->trace_cost || setup.traversal != VIS_TRAVERSAL_ID_PACKET))
-        return vis_fail(ctx, VIS_ERROR_UNSUPPORTED, "vis_trace_cost: the %s backend does not count the cost of this "
-                        "traversal (the CPU backend's packet method does)", ctx->backend.ops->name);
+    /* A backend that counts checks the method itself (the CPU: packets only). */
+    if (out_cost && !ctx->backend.ops->trace_cost)
+        return vis_fail(ctx, VIS_ERROR_UNSUPPORTED, "vis_trace_cost: the %s backend does not count traversal cost "
+                        "(the CPU backend's packet method does)", ctx->backend.ops->name);
 
     uint64_t upload = 0;
     void *data = NULL;
