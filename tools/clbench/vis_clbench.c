@@ -101,9 +101,9 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
 {
     size_t n = (size_t)W * H;
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK; ++t) {
-            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
-                continue; /* every quad of the world per ray: tiny buffers only */
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
+            if (t == VIS_TRAVERSAL_PACKET || (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12))
+                continue; /* packets: the CPU's own; brute force: every quad per ray, tiny buffers only */
             vis_trace_desc td;
             vis_trace_desc_defaults(&td);
             td.width = W;
