@@ -149,7 +149,7 @@ typedef struct vis_backend_ops {
     double (*last_kernel_ms)(void *impl);
     /* Optional (NULL: libvis traces into its scratch and builds each list on the host, as
      * vis_drawlist_build does). `count` views of one size, as trace_batch; per view the draw
-     * list of the IDs the pass gives (vis_drawlist_build's entries, in any order: libvis sorts
+     * list of the IDs the pass gives (vis_drawlist_build's entries, sorted by ID as it sorts
      * them), the lists one after the other in entries, per_view[i] entries for view i, their
      * sum in *total. ids and depth may be NULL (then nothing is read back but the lists).
      * VIS_ERROR_CAPACITY when the lists need more than `capacity` entries: *total says how

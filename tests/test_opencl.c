@@ -650,30 +650,36 @@ static void test_drawlist_on_device(void **state)
     REQUIRE_OPENCL(cl);
     uint64_t rng = 9001;
     const double zero[3] = {0, 0, 0};
+    size_t longest = 0;
     for (uint32_t depth = 0; depth <= 3; depth += 3) {
         tworld w;
-        random_chunk_world(&w, &rng, 3, 2, 3);
+        random_chunk_world(&w, &rng, depth ? 3 : 8, 2, depth ? 3 : 8); /* the larger: lists past 64 entries */
         pair p;
         pair_make(&p, cl, &w, NULL, depth);
         enum { N = 5 };
         vis_camera cams[N];
         for (int i = 0; i < N; ++i)
             random_view(&cams[i], &rng, w.size, zero);
+        vis_camera over = {{-10, w.size[1] * 2.5, -10}, {w.size[0] * 0.5, 0, w.size[2] * 0.5}, 70, 0, 0};
+        cams[0] = over; /* the whole world in view */
         for (int round = 0; round < 2; ++round) {
             for (uint32_t mode = 0; mode < 2; ++mode)
                 for (uint32_t k = 0; k < 2; ++k) {
                     vis_trace_desc td = desc_make(k ? 24 : 37, k ? 16 : 29, (vis_id_mode)mode,
                                                   k ? VIS_TRAVERSAL_CACHED_STACK : VIS_TRAVERSAL_STACK);
                     td.short_stack = 3;
-                    check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td,
-                                         round ? "opencl draw list, after edits" : "opencl draw list");
+                    size_t l = check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td,
+                                                    round ? "opencl draw list, after edits" : "opencl draw list");
+                    longest = l > longest ? l : longest;
                 }
             for (int e = 0; e < 30; ++e)
-                random_edit(&p, &w, &rng, 3, 2);
+                random_edit(&p, &w, &rng, depth ? 3 : 8, 2);
         }
         pair_free(&p);
         free_world(&w);
     }
+    printf("device draw lists: longest %zu entries\n", longest);
+    assert_true(longest >= 64); /* the radix sort's passes ran, not only its insertion sort */
     vis_context_destroy(cl);
 }
 

@@ -417,15 +417,29 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         b->tile[0] = tw;
         b->tile[1] = th;
     }
+    /* Extra build options (a tuning knob like the tile shape): register limits and the like.
+     * Options that change results are refused, as cl_program.c never uses them. */
+    const char *extra = getenv("VIS_OPENCL_BUILD_OPTIONS");
+    if (extra && *extra) {
+        if (strstr(extra, "fast-relaxed") || strstr(extra, "mad-enable") || strstr(extra, "unsafe-math") ||
+            strstr(extra, "denorms-are-zero") || strstr(extra, "finite-math") || strlen(extra) >= sizeof b->extra_options) {
+            snprintf(err, err_size, "$VIS_OPENCL_BUILD_OPTIONS \"%s\" is refused: too long, or an option that changes "
+                     "results", extra);
+            cl_destroy(b);
+            return VIS_ERROR_INVALID_ARGUMENT;
+        }
+        snprintf(b->extra_options, sizeof b->extra_options, "%s", extra);
+    }
     vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
     st = vis_cl_program_get(b, vis_cl_traversal_options(0u), &p, err, err_size);
     if (st != VIS_OK) {
         cl_destroy(b);
         return st;
     }
-    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu",
+    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu%s%s",
                b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
-               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1]);
+               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1],
+               b->extra_options[0] ? "; extra build options " : "", b->extra_options);
     if (!b->caps.fp64)
         vis_cl_log(b, 2,
                    "opencl: '%s' has no cl_khr_fp64: rays that graze a triangle edge exactly may differ from the CPU",

@@ -161,6 +161,8 @@ typedef struct vis_cl_backend {
     cl_mem ids, depth, setups;
     cl_mem dummy;             /* 16 bytes: the depth argument when no depth is asked for */
     size_t tile[2];           /* work-group shape (8x8 unless $VIS_OPENCL_TILE) */
+    char extra_options[256];  /* $VIS_OPENCL_BUILD_OPTIONS: appended to every build (tuning,
+                                 e.g. -cl-nv-maxrregcount=64; never options that change results) */
     size_t out_cap;           /* pixels of `ids` */
     size_t depth_cap;         /* pixels of `depth` */
     size_t setup_cap;         /* setups */

@@ -36,9 +36,9 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
     snprintf(opts, sizeof opts,
              "-cl-fp32-correctly-rounded-divide-sqrt -DVIS_CL_SETUP_SIZE=%zu -DVIS_CL_NODE_SIZE=%zu "
              "-DVIS_CL_LEAF_SIZE=%zu -DVIS_CL_QUAD_SIZE=%zu -DVIS_CL_TRI_SIZE=%zu -DVIS_CL_OBJECT_SIZE=%zu "
-             "-DVIS_CL_ROPE_SIZE=%zu %s",
+             "-DVIS_CL_ROPE_SIZE=%zu %s %s",
              sizeof(vis_ray_setup), sizeof(vis_kd_node), sizeof(vis_flat_leaf), sizeof(vis_flat_quad),
-             sizeof(vis_flat_tri), sizeof(vis_flat_object), sizeof(vis_rope_node), p->options);
+             sizeof(vis_flat_tri), sizeof(vis_flat_object), sizeof(vis_rope_node), p->options, b->extra_options);
     const char *srcs[2] = {preamble, vis_kernels_source};
     size_t lens[2] = {sizeof preamble - 1, vis_kernels_source_size};
     cl_int e = CL_SUCCESS;

@@ -22,7 +22,7 @@ static void sift_down(vis_draw_entry *e, size_t root, size_t n)
     }
 }
 
-void vis_drawlist_sort(vis_draw_entry *e, size_t n)
+static void sort_entries(vis_draw_entry *e, size_t n)
 {
     for (size_t i = n / 2; i-- > 0;)
         sift_down(e, i, n);
@@ -117,7 +117,7 @@ vis_status vis_drawlist_from_ids(vis_context *ctx, const vis_scene *s, const uin
             ++k;
         }
     /* Slots are not in ID order: sort by ID in place (heap sort: no allocation, n log n). */
-    vis_drawlist_sort(out, k);
+    sort_entries(out, k);
     *out_count = k;
     return VIS_OK;
 }

@@ -16,7 +16,4 @@ vis_status vis_drawlist_from_ids(vis_context *ctx, const struct vis_scene *s, co
                                  vis_id_mode mode, uint32_t *count, vis_draw_entry *out, size_t capacity,
                                  size_t *out_count);
 
-/* Sorts entries by ID in place (heap sort: no allocation). */
-void vis_drawlist_sort(vis_draw_entry *e, size_t n);
-
 #endif

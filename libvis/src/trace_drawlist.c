@@ -1,6 +1,6 @@
 /* trace_drawlist.c — vis_trace_drawlist and vis_trace_batch_drawlist: the ray pass and its
  * draw list in one call. A backend that builds lists itself (OpenCL: on the device,
- * backends/opencl/cl_drawlist.c) hands back unsorted lists, sorted here; for the others the
+ * backends/opencl/cl_drawlist.c) hands back the lists, sorted; for the others the
  * pass goes into the context's scratch and the list is built from it as vis_drawlist_build
  * builds it, so both give the same entries. */
 #include <stdint.h>
@@ -102,15 +102,8 @@ static vis_status run(vis_context *ctx, vis_scene *scene, const vis_trace_desc *
         char err[1024] = "";
         int rc = ops->trace_drawlist(ctx->backend.impl, data, &view, setups, c->count, c->ids, c->depth, c->entries,
                                      c->capacity, c->counts, c->total, err, sizeof err);
-        if (rc != VIS_OK) {
+        if (rc != VIS_OK)
             st = vis_fail(ctx, (vis_status)rc, "%s: %s backend: %s", c->fn, ops->name, err);
-        } else {
-            size_t off = 0;
-            for (uint32_t i = 0; i < c->count; ++i) {
-                vis_drawlist_sort(c->entries + off, c->counts[i]);
-                off += c->counts[i];
-            }
-        }
     } else {
         /* Objects added since the scratch was sized (another thread's edit): a larger one, and
          * the setups again, as a new scratch keeps nothing. */

@@ -10,7 +10,7 @@
 
 #include <cmocka.h>
 
-void check_trace_drawlist(vis_context *ref_ctx, vis_scene *ref_scene, vis_context *ctx, vis_scene *scene,
+size_t check_trace_drawlist(vis_context *ref_ctx, vis_scene *ref_scene, vis_context *ctx, vis_scene *scene,
                           const vis_camera *cams, uint32_t count, const vis_trace_desc *td, const char *what)
 {
     size_t px = (size_t)td->width * td->height;
@@ -75,5 +75,9 @@ void check_trace_drawlist(vis_context *ref_ctx, vis_scene *ref_scene, vis_contex
     }
     assert_int_equal(vis_trace_batch_drawlist(ctx, scene, cams, count, td, got, cap * count, got_n, count - 1, &total),
                      VIS_ERROR_CAPACITY);
+    size_t longest = 0;
+    for (uint32_t v = 0; v < count; ++v)
+        longest = ref_n[v] > longest ? ref_n[v] : longest;
     free(ref_ids), free(ids), free(ref_depth), free(depth), free(ref), free(got), free(ref_n), free(got_n);
+    return longest;
 }
