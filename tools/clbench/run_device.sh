@@ -3,7 +3,7 @@
 # OpenCL backend on an NVIDIA GPU and on PoCL. Run it from a folder holding test_opencl, vis
 # and vis_clbench (built as docs/opencl.md says) and lib/ with libcmocka.so.0 and
 # libOpenCL.so.1. Logs go to $OUT.
-#   run_device.sh        everything (two device calls' worth: over 10 minutes)
+#   run_device.sh        everything (about 4 minutes on the lent H200)
 #   run_device.sh 1      conformance, registers, gen:default (methods, draw list, batches)
 #   run_device.sh 2      gen:city and gen:large, PoCL, vis bench with edits
 cd "$(dirname "$0")"
@@ -29,6 +29,12 @@ if [ "$PHASE" = all ] || [ "$PHASE" = 1 ]; then
   timeout 230 ./vis_clbench --device NVIDIA --cameras 20 --reps 50 --methods 1 --drawlist 1 \
     --batch 1,16,64,256 > "$O/bench_default.log" 2>&1; echo "vis_clbench rc=$?"
   cat "$O/bench_default.log"
+
+  for t in 16x8 8x4; do
+    echo "== gen:default, work-groups $t: draw lists, batches of 256"
+    VIS_OPENCL_TILE=$t timeout 60 ./vis_clbench --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 20 \
+      --batch 256 2>&1 | grep -E "^default|^walk-2|^ +256"
+  done
 
   echo "== gen:default, 64 registers at most (-cl-nv-maxrregcount=64)"
   VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=64 timeout 80 ./vis_clbench --device NVIDIA --conformance 0 \
