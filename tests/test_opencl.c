@@ -678,6 +678,18 @@ static void test_drawlist_on_device(void **state)
         pair_free(&p);
         free_world(&w);
     }
+    /* An empty scene (no object slot at all), both ID modes: empty lists. */
+    tworld empty;
+    memset(&empty, 0, sizeof empty);
+    empty.size[0] = empty.size[1] = empty.size[2] = 32.0f;
+    pair pe;
+    pair_make(&pe, cl, &empty, NULL, 0);
+    vis_camera look = {{-5, 20, -5}, {16, 0, 16}, 60, 0, 0};
+    for (uint32_t mode = 0; mode < 2; ++mode) {
+        vis_trace_desc td = desc_make(24, 16, (vis_id_mode)mode, VIS_TRAVERSAL_STACK);
+        check_trace_drawlist(pe.cpu, pe.cpu_scene, pe.cl, pe.cl_scene, &look, 1, &td, "opencl draw list, empty scene");
+    }
+    pair_free(&pe);
     printf("device draw lists: longest %zu entries\n", longest);
     assert_true(longest >= 64); /* the radix sort's passes ran, not only its insertion sort */
     vis_context_destroy(cl);

@@ -214,6 +214,8 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
         return st;
     uint32_t W = setups[0].width, H = setups[0].height;
     size_t pixels = (size_t)W * H;
+    /* Buffers hold at least one of everything; the kernels get the true slot count (an empty
+     * scene's one-element object buffer holds no object to read). */
     size_t slots = view->object_count ? view->object_count : 1u;
     size_t stride = setups[0].id_mode == 1u ? (view->leaf_count ? view->leaf_count : 1u) : slots;
     uint32_t per = views_per_launch(count, pixels, ids || depth, stride, slots);
@@ -238,7 +240,8 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     size_t global[3], local[3];
     int tiled = vis_cl_grid(b, W, H, per, global, local);
     cl_int e = set_args(b, p, sc, ids ? b->ids : b->dummy, depth ? b->depth : b->dummy, ids != NULL, depth != NULL,
-                        (cl_uint)stride, (cl_uint)slots, setups[0].id_mode, vis_cl_ring_bytes(b, &setups[0], tiled),
+                        (cl_uint)stride, (cl_uint)view->object_count, setups[0].id_mode,
+                        vis_cl_ring_bytes(b, &setups[0], tiled),
                         local[0] * local[1] * sizeof(cl_uint));
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg (draw list)", err, err_size);
