@@ -19,13 +19,15 @@
  * Thread safety:
  *  - Contexts are independent of each other and may be used from different threads at the
  *    same time. One context serves one thread at a time: a call that uses a context's
- *    mutable state (vis_trace, vis_trace_batch, vis_drawlist_build, vis_camera_validate,
+ *    mutable state (vis_trace, vis_trace_batch, vis_trace_drawlist, vis_trace_batch_drawlist,
+ *    vis_drawlist_build, vis_camera_validate,
  *    vis_zcull_create/run/depth, vis_scene_create, vis_context_last_timing, and the scene
  *    edits and vis_scene_leaf_objects, which count as calls on the scene's own context)
  *    returns VIS_ERROR_BUSY at once, doing nothing, when another thread is inside such a
  *    call on that context. Destroy functions are not
  *    checked: nothing else may run on the context or object being destroyed.
- *  - A scene may be traced (vis_trace, vis_trace_batch, vis_drawlist_build) from several
+ *  - A scene may be traced (vis_trace, vis_trace_batch, vis_trace_drawlist,
+ *    vis_trace_batch_drawlist, vis_drawlist_build) from several
  *    threads through several contexts at once, its own and others (each context keeps its
  *    own backend copy of the scene, brought up to date at its first trace after a commit);
  *    vis_zcull_run takes scenes of its own context only. Traces hold the scene's
