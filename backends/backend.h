@@ -34,6 +34,7 @@ VIS_CHECK_TRAVERSAL_(SHORTSTACK);
 VIS_CHECK_TRAVERSAL_(ROPES);
 VIS_CHECK_TRAVERSAL_(ROPES_SHORTSTACK);
 VIS_CHECK_TRAVERSAL_(PACKET);
+VIS_CHECK_TRAVERSAL_(CACHED_STACK);
 #undef VIS_CHECK_TRAVERSAL_
 _Static_assert(VIS_IDS_OBJECT == 0 && VIS_IDS_LEAF == 1, "vis_ray_setup.id_mode is vis_id_mode");
 
@@ -146,6 +147,17 @@ typedef struct vis_backend_ops {
     /* Optional (NULL: libvis times the trace call itself): device time of the ray pass(es)
      * of the last trace or trace_batch, in milliseconds. */
     double (*last_kernel_ms)(void *impl);
+    /* Optional (NULL: libvis traces into its scratch and builds each list on the host, as
+     * vis_drawlist_build does). `count` views of one size, as trace_batch; per view the draw
+     * list of the IDs the pass gives (vis_drawlist_build's entries, sorted by ID as it sorts
+     * them), the lists one after the other in entries, per_view[i] entries for view i, their
+     * sum in *total. ids and depth may be NULL (then nothing is read back but the lists).
+     * VIS_ERROR_CAPACITY when the lists need more than `capacity` entries: *total says how
+     * many; entries are then untouched for a batch of one launch, unspecified beyond. */
+    vis_status (*trace_drawlist)(void *impl, void *scene_data, const vis_scene_view *view,
+                                 const vis_ray_setup *setups, uint32_t count, uint32_t *ids, float *depth,
+                                 vis_draw_entry *entries, size_t capacity, size_t *per_view, size_t *total, char *err,
+                                 size_t err_size);
 } vis_backend_ops;
 
 typedef struct vis_backend {

@@ -24,6 +24,7 @@
 #include <cmocka.h>
 
 #include "camera_path.h"
+#include "drawlist_check.h"
 #include "ref_trace.h"
 #include "scene_builder.h"
 #include "test_support.h"
@@ -153,9 +154,9 @@ static uint32_t compare_view_sel(const pair *p, const vis_camera *cam, uint32_t 
     /* The first `traversals` per-ray methods from STACK, identical on both backends. AUTO and
      * PACKET trace packets on the CPU: they are held to the brute force below. */
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < VIS_TRAVERSAL_STACK + traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK;
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < VIS_TRAVERSAL_STACK + traversals && t <= VIS_TRAVERSAL_CACHED_STACK;
              ++t) {
-            if (which == TREE_TRAVERSALS && t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE)
+            if ((which == TREE_TRAVERSALS && t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE) || t == VIS_TRAVERSAL_PACKET)
                 continue;
             vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, (vis_traversal)t);
             if (p->short_stack)
@@ -638,6 +639,62 @@ static void test_batch(void **state)
     vis_context_destroy(cl);
 }
 
+/* vis_trace_drawlist and its batch form on the device: the lists built there (pixel counts
+ * by atomics, compacted, read back alone) equal the CPU's vis_trace + vis_drawlist_build, in
+ * object and leaf IDs, with a deep tree and a shallow one (leaves of several objects), image
+ * sizes that are and are not whole tiles, the stack and the cached stack; then again after
+ * random edits (freed and reused object slots, grown device buffers). */
+static void test_drawlist_on_device(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    uint64_t rng = 9001;
+    const double zero[3] = {0, 0, 0};
+    size_t longest = 0;
+    for (uint32_t depth = 0; depth <= 3; depth += 3) {
+        tworld w;
+        random_chunk_world(&w, &rng, depth ? 3 : 8, 2, depth ? 3 : 8); /* the larger: lists past 64 entries */
+        pair p;
+        pair_make(&p, cl, &w, NULL, depth);
+        enum { N = 5 };
+        vis_camera cams[N];
+        for (int i = 0; i < N; ++i)
+            random_view(&cams[i], &rng, w.size, zero);
+        vis_camera over = {{-10, w.size[1] * 2.5, -10}, {w.size[0] * 0.5, 0, w.size[2] * 0.5}, 70, 0, 0};
+        cams[0] = over; /* the whole world in view */
+        for (int round = 0; round < 2; ++round) {
+            for (uint32_t mode = 0; mode < 2; ++mode)
+                for (uint32_t k = 0; k < 2; ++k) {
+                    vis_trace_desc td = desc_make(k ? 24 : 37, k ? 16 : 29, (vis_id_mode)mode,
+                                                  k ? VIS_TRAVERSAL_CACHED_STACK : VIS_TRAVERSAL_STACK);
+                    td.short_stack = 3;
+                    size_t l = check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td,
+                                                    round ? "opencl draw list, after edits" : "opencl draw list");
+                    longest = l > longest ? l : longest;
+                }
+            for (int e = 0; e < 30; ++e)
+                random_edit(&p, &w, &rng, depth ? 3 : 8, 2);
+        }
+        pair_free(&p);
+        free_world(&w);
+    }
+    /* An empty scene (no object slot at all), both ID modes: empty lists. */
+    tworld empty;
+    memset(&empty, 0, sizeof empty);
+    empty.size[0] = empty.size[1] = empty.size[2] = 32.0f;
+    pair pe;
+    pair_make(&pe, cl, &empty, NULL, 0);
+    vis_camera look = {{-5, 20, -5}, {16, 0, 16}, 60, 0, 0};
+    for (uint32_t mode = 0; mode < 2; ++mode) {
+        vis_trace_desc td = desc_make(24, 16, (vis_id_mode)mode, VIS_TRAVERSAL_STACK);
+        check_trace_drawlist(pe.cpu, pe.cpu_scene, pe.cl, pe.cl_scene, &look, 1, &td, "opencl draw list, empty scene");
+    }
+    pair_free(&pe);
+    printf("device draw lists: longest %zu entries\n", longest);
+    assert_true(longest >= 64); /* the radix sort's passes ran, not only its insertion sort */
+    vis_context_destroy(cl);
+}
+
 /* Bad input is rejected before any work on OpenCL too, buffers untouched; timing exists. */
 static void test_errors_and_timing(void **state)
 {
@@ -900,6 +957,7 @@ int main(void)
         cmocka_unit_test(test_errors_and_timing),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),
+        cmocka_unit_test(test_drawlist_on_device),
         cmocka_unit_test(test_edit_uploads_only_changed_bytes),
         cmocka_unit_test(test_pool_growth_reallocates),
         cmocka_unit_test(test_terrain_with_voxel_edits),

@@ -22,6 +22,7 @@
 #include <cmocka.h>
 
 #include "common/trace_core.h"
+#include "drawlist_check.h"
 #include "ref_trace.h"
 #include "scene.h"
 #include "scene_builder.h"
@@ -405,6 +406,56 @@ static void test_far_from_origin(void **state)
     }
     vis_scene_destroy(a);
     vis_scene_destroy(b);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+
+/* vis_trace_drawlist and its batch form on the CPU: the lists of vis_trace +
+ * vis_drawlist_build (object and leaf IDs, packets and per-ray methods, a shallow tree whose
+ * leaves hold several objects), also after edits that free and reuse object slots. */
+static void test_trace_drawlist(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    uint64_t rng = 777;
+    tworld w;
+    random_chunk_world(&w, &rng, 3, 2, 3);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 3);
+    enum { N = 6 };
+    vis_camera cams[N];
+    const double zero[3] = {0, 0, 0};
+    for (int i = 0; i < N; ++i)
+        random_view(&cams[i], &rng, w.size, zero);
+    const vis_traversal methods[] = {VIS_TRAVERSAL_AUTO, VIS_TRAVERSAL_STACK, VIS_TRAVERSAL_CACHED_STACK};
+    for (int round = 0; round < 2; ++round) {
+        for (uint32_t mode = 0; mode < 2; ++mode)
+            for (size_t m = 0; m < sizeof methods / sizeof methods[0]; ++m) {
+                vis_trace_desc td;
+                vis_trace_desc_defaults(&td);
+                td.width = 37, td.height = 29;
+                td.ids = (vis_id_mode)mode;
+                td.traversal = methods[m];
+                td.short_stack = 2;
+                check_trace_drawlist(ctx, scene, ctx, scene, cams, N, &td, round ? "cpu, after edits" : "cpu");
+            }
+        for (uint32_t i = 0; i < w.n; i += 3) { /* free some slots, the next round reuses them */
+            vis_status r = vis_scene_remove_object(scene, w.objs[i].id);
+            assert_true(r == VIS_OK || r == VIS_ERROR_NOT_FOUND);
+        }
+        for (uint32_t i = 0; i < w.n; i += 6)
+            if (w.objs[i].nq + w.objs[i].nt > 0)
+                set_obj(scene, &w.objs[i]);
+    }
+    vis_draw_entry e[4];
+    size_t n;
+    assert_int_equal(vis_trace_drawlist(ctx, scene, &cams[0], NULL, e, 4, NULL, NULL, 0, NULL, 0),
+                     VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_trace_drawlist(ctx, scene, &cams[0], NULL, e, 4, &n, NULL, 5, NULL, 0),
+                     VIS_ERROR_INVALID_ARGUMENT);
+    uint32_t few[4];
+    assert_int_equal(vis_trace_drawlist(ctx, scene, &cams[0], NULL, e, 4, &n, few, 4, NULL, 0), VIS_ERROR_CAPACITY);
+    vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);
 }
@@ -1084,6 +1135,7 @@ int main(void)
         cmocka_unit_test(test_camera_inside_solid),
         cmocka_unit_test(test_far_from_origin),
         cmocka_unit_test(test_leaf_ids_and_drawlist),
+        cmocka_unit_test(test_trace_drawlist),
         cmocka_unit_test(test_bad_input_rejected),
         cmocka_unit_test(test_output_capacity),
     };

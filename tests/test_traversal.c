@@ -56,6 +56,11 @@ static const method methods[] = {
     {VIS_TRAVERSAL_ROPES_SHORTSTACK, 8, "ropes-shortstack:8"},
     {VIS_TRAVERSAL_ROPES_SHORTSTACK, 16, "ropes-shortstack:16"},
     {VIS_TRAVERSAL_PACKET, 0, "packet"},
+    {VIS_TRAVERSAL_CACHED_STACK, 1, "cached-stack:1"},
+    {VIS_TRAVERSAL_CACHED_STACK, 2, "cached-stack:2"},
+    {VIS_TRAVERSAL_CACHED_STACK, 3, "cached-stack:3"},
+    {VIS_TRAVERSAL_CACHED_STACK, 7, "cached-stack:7"},
+    {VIS_TRAVERSAL_CACHED_STACK, 16, "cached-stack:16"},
 };
 #define METHOD_COUNT (sizeof methods / sizeof methods[0])
 
@@ -488,6 +493,11 @@ static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis
     case VIS_TRAVERSAL_ID_SHORTSTACK: vis_traverse_restart(r, s, s->short_stack, 0, VIS_SCENE_VIEW_ARGS(v), h); break;
     case VIS_TRAVERSAL_ID_ROPES: vis_traverse_ropes(r, s, 0, VIS_SCENE_VIEW_ARGS(v), h); break;
     case VIS_TRAVERSAL_ID_ROPES_SHORTSTACK: vis_traverse_ropes(r, s, s->short_stack, VIS_SCENE_VIEW_ARGS(v), h); break;
+    case VIS_TRAVERSAL_ID_CACHED_STACK: {
+        vis_stack_entry ring[VIS_MAX_SHORT_STACK];
+        vis_traverse_cached_stack(r, s, ring, 1u, s->short_stack, VIS_SCENE_VIEW_ARGS(v), h);
+        break;
+    }
     default: fail_msg("unknown traversal %u", s->traversal);
     }
 }
@@ -835,7 +845,7 @@ static void test_desc_validation(void **state)
     td.short_stack = VIS_MAX_SHORT_STACK + 1;
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_ERROR_INVALID_ARGUMENT);
     assert_non_null(strstr(vis_context_last_error(ctx), "short_stack"));
-    td.traversal = (vis_traversal)9;
+    td.traversal = (vis_traversal)(VIS_TRAVERSAL_CACHED_STACK + 1);
     td.short_stack = 0;
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_ERROR_INVALID_ARGUMENT);
     for (int i = 0; i < 16; ++i)

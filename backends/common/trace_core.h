@@ -1106,12 +1106,167 @@ VIS_INLINE uint32_t vis_hit_leaf_id(const vis_ray *r, const vis_hit *h, VIS_SCEN
 #define VIS_TRAVERSAL_ID_ROPES_SHORTSTACK 6u
 #define VIS_TRAVERSAL_ID_PACKET 7u /* CPU backend only: tiles as packets (backends/cpu/packet.c) */
 
-/* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write.
+#define VIS_TRAVERSAL_ID_CACHED_STACK 8u
+
+/* Address space of the cached stack's ring: the work-group's local memory on a device (the
+ * kernel hands each work-item its slice), the caller's own array on the CPU. */
+#ifdef __OPENCL_VERSION__
+#  define VIS_RING_SPACE __local
+#else
+#  define VIS_RING_SPACE
+#endif
+
+/* The cached stack of Chang & Ihm 2010, section 3.1: the stack method's stack split in two.
+ * The top ring_n entries live in a ring (on a GPU in shared/local memory, fast); a push onto
+ * a full ring first moves its oldest entry to the backing stack (private memory, which the
+ * GPU keeps in its slow per-thread "local" memory), a pop takes from the ring while it holds
+ * entries and from the backing stack after. Nothing is refilled: the paper's Table 1 shows
+ * that with a ring of a few entries nearly every pop finds its entry there.
+ *
+ * The entries and their order are those of vis_traverse_stack, only stored elsewhere, so
+ * the walk is the stack method's, decision for decision (vis_node_decide), and its buffers
+ * are the stack method's bit for bit. Entry k of the whole stack (0 = bottom) is backing[k]
+ * for k < nb, else ring[(top + ring_n - (nb + nc - k)) % ring_n]; the in-plane search of the
+ * stack method reads entries below the top through vis_cached_entry. */
+typedef struct vis_cached_stack {
+    VIS_RING_SPACE vis_stack_entry *ring;
+    uint32_t ring_n;        /* 1..VIS_MAX_SHORT_STACK                                         */
+    uint32_t top;           /* ring slot the next push writes                                 */
+    uint32_t nc;            /* entries in the ring                                            */
+    uint32_t nb;            /* entries in the backing stack                                   */
+    uint32_t stride;        /* ring slot j is ring[j * stride] (work-items interleaved in local
+                               memory, so a warp's accesses fall in different banks)         */
+} vis_cached_stack;
+
+VIS_INLINE void vis_cached_push(vis_cached_stack *cs, vis_stack_entry *backing, uint32_t node, float t_max)
+{
+    if (cs->nc == cs->ring_n) {
+        /* The ring is full: its oldest entry sits in the slot the push writes. */
+        if (cs->nb < (uint32_t)VIS_STACK_SIZE)
+            backing[cs->nb++] = cs->ring[cs->top * cs->stride];
+    } else {
+        ++cs->nc;
+    }
+    cs->ring[cs->top * cs->stride].node = node;
+    cs->ring[cs->top * cs->stride].t_max = t_max;
+    cs->top = cs->top + 1u == cs->ring_n ? 0u : cs->top + 1u;
+}
+
+VIS_INLINE vis_stack_entry vis_cached_pop(vis_cached_stack *cs, const vis_stack_entry *backing)
+{
+    if (cs->nc > 0u) {
+        cs->top = cs->top == 0u ? cs->ring_n - 1u : cs->top - 1u;
+        --cs->nc;
+        return cs->ring[cs->top * cs->stride];
+    }
+    return backing[--cs->nb];
+}
+
+/* Entry k (0 = bottom) of the whole stack, k < nb + nc. */
+VIS_INLINE vis_stack_entry vis_cached_entry(const vis_cached_stack *cs, const vis_stack_entry *backing, uint32_t k)
+{
+    if (k < cs->nb)
+        return backing[k];
+    uint32_t back = cs->nb + cs->nc - k; /* 1 = the top entry */
+    return cs->ring[(cs->top + cs->ring_n - back) % cs->ring_n * cs->stride];
+}
+
+/* Drops every entry from k up (k <= nb + nc). */
+VIS_INLINE void vis_cached_truncate(vis_cached_stack *cs, uint32_t k)
+{
+    if (k < cs->nb) {
+        cs->nb = k;
+        cs->top = (cs->top + cs->ring_n - cs->nc) % cs->ring_n;
+        cs->nc = 0u;
+    } else {
+        uint32_t drop = cs->nb + cs->nc - k;
+        cs->top = (cs->top + cs->ring_n - drop) % cs->ring_n;
+        cs->nc -= drop;
+    }
+}
+
+/* vis_traverse_stack with its stack cached (above); the ray's ring slot j is ring[j * stride],
+ * j < ring_n. */
+VIS_INLINE void vis_traverse_cached_stack(const vis_ray *r, const vis_ray_setup *s, VIS_RING_SPACE vis_stack_entry *ring,
+                                          uint32_t stride, uint32_t ring_n, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    float t_min, t_max;
+    if (!vis_clip_scene(r, s->size, &t_min, &t_max))
+        return;
+    vis_stack_entry backing[VIS_STACK_SIZE];
+    vis_cached_stack cs;
+    cs.ring = ring;
+    cs.ring_n = ring_n < 1u ? 1u : ring_n > VIS_MAX_SHORT_STACK ? VIS_MAX_SHORT_STACK : ring_n;
+    cs.top = cs.nc = cs.nb = 0u;
+    cs.stride = stride;
+    uint32_t node = s->root;
+    for (;;) {
+        uint32_t info = nodes[node].info;
+        while ((info & 3u) != VIS_NODE_LEAF) {
+            /* vis_descend, pushing onto the cached stack (a full stack never drops a push). */
+            uint32_t near_child, far_child;
+            float t_split = 0.0f;
+            int go = vis_node_decide(r, info & 3u, nodes[node].split, info >> 2, t_min, t_max, &near_child,
+                                     &far_child, &t_split);
+            if (go == VIS_GO_NEAR) {
+                node = near_child;
+            } else if (go == VIS_GO_FAR) {
+                node = far_child;
+            } else {
+                if (cs.nb + cs.nc < (uint32_t)VIS_STACK_SIZE)
+                    vis_cached_push(&cs, backing,
+                                    go == VIS_GO_BOTH_IN_PLANE ? far_child | VIS_STACK_SAME_INTERVAL : far_child,
+                                    go == VIS_GO_BOTH_IN_PLANE ? t_min : t_max);
+                if (go == VIS_GO_BOTH && t_split < t_max)
+                    t_max = t_split;
+                node = near_child;
+            }
+            info = nodes[node].info;
+        }
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        if (cs.nb + cs.nc == 0u)
+            return;
+        vis_stack_entry e = vis_cached_pop(&cs, backing);
+        node = e.node;
+        if (node & VIS_STACK_SAME_INTERVAL) {
+            node &= ~VIS_STACK_SAME_INTERVAL;
+            t_min = e.t_max;
+        } else {
+            t_min = t_max;
+            t_max = e.t_max;
+        }
+        if (t_min > vis_t_limit(h->t)) {
+            /* As in vis_traverse_stack: an in-plane far side below may still be due. */
+            for (;;) {
+                uint32_t sp = cs.nb + cs.nc;
+                int k = (int)sp - 1;
+                while (k >= 0 && !(vis_cached_entry(&cs, backing, (uint32_t)k).node & VIS_STACK_SAME_INTERVAL))
+                    --k;
+                if (k < 0)
+                    return;
+                if ((uint32_t)k + 1u < sp)
+                    t_max = vis_cached_entry(&cs, backing, (uint32_t)k + 1u).t_max;
+                e = vis_cached_entry(&cs, backing, (uint32_t)k);
+                vis_cached_truncate(&cs, (uint32_t)k);
+                node = e.node & ~VIS_STACK_SAME_INTERVAL;
+                t_min = e.t_max;
+                if (!(t_min > vis_t_limit(h->t)))
+                    break;
+            }
+        }
+    }
+}
+
+/* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write, and
+ * the hit's object slot (VIS_NO_OBJECT: none) for the draw list built on a device. ring: the
+ * cached stack's ring, slot j at ring[j * ring_stride], j < s->short_stack (only
+ * VIS_TRAVERSAL_ID_CACHED_STACK uses it).
  * A kernel built for one method only may define VIS_TRAVERSAL_ONLY to its VIS_TRAVERSAL_ID_*
  * (e.g. -DVIS_TRAVERSAL_ONLY=5u): the switch is then a constant and the other methods, with
  * their private stacks, compile away (s->traversal is ignored). */
-VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, VIS_SCENE_PARAMS,
-                                uint32_t *out_id, float *out_depth)
+VIS_INLINE void vis_trace_pixel_slot(const vis_ray_setup *s, uint32_t x, uint32_t y, VIS_SCENE_PARAMS,
+                                     VIS_RING_SPACE vis_stack_entry *ring, uint32_t ring_stride, uint32_t *out_id,
+                                     float *out_depth, uint32_t *out_slot)
 {
     vis_ray r;
     vis_ray_for_pixel(s, x, y, &r);
@@ -1128,11 +1283,14 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
         vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
     else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
         vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);
+    else if (method == VIS_TRAVERSAL_ID_CACHED_STACK)
+        vis_traverse_cached_stack(&r, s, ring, ring_stride, s->short_stack, VIS_SCENE_ARGS, &h);
     else if (method == VIS_TRAVERSAL_ID_ROPES || method == VIS_TRAVERSAL_ID_ROPES_SHORTSTACK)
         vis_traverse_ropes(&r, s, method == VIS_TRAVERSAL_ID_ROPES ? 0u : s->short_stack, VIS_SCENE_ARGS, &h);
     else
         vis_traverse_restart(&r, s, method == VIS_TRAVERSAL_ID_SHORTSTACK ? s->short_stack : 0u,
                              method == VIS_TRAVERSAL_ID_PUSHDOWN, VIS_SCENE_ARGS, &h);
+    *out_slot = h.object;
     if (h.object == VIS_NO_OBJECT) {
         *out_id = 0u;
         *out_depth = VIS_INF;
@@ -1141,5 +1299,17 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
     *out_id = s->id_mode == 1u ? vis_hit_leaf_id(&r, &h, VIS_SCENE_ARGS) : h.id;
     *out_depth = h.t;
 }
+
+#ifndef __OPENCL_VERSION__
+/* vis_trace_pixel_slot without the slot, the cached stack's ring on the C stack. (A device
+ * kernel calls vis_trace_pixel_slot with its work-item's slice of local memory.) */
+VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, VIS_SCENE_PARAMS, uint32_t *out_id,
+                                float *out_depth)
+{
+    vis_stack_entry ring[VIS_MAX_SHORT_STACK];
+    uint32_t slot;
+    vis_trace_pixel_slot(s, x, y, VIS_SCENE_ARGS, ring, 1u, out_id, out_depth, &slot);
+}
+#endif
 
 #endif /* VIS_TRACE_CORE_H */

@@ -149,7 +149,8 @@ static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
 static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_scene_release, cpu_trace,
                                         cpu_trace_cost, cpu_last_upload_bytes,
                                         NULL /* trace_batch: libvis loops */,
-                                        NULL /* last_kernel_ms: libvis times the pass */};
+                                        NULL /* last_kernel_ms: libvis times the pass */,
+                                        NULL /* trace_drawlist: libvis builds lists from the IDs */};
 
 vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, vis_backend *out,
                                   uint32_t *out_threads, char *err, size_t err_size)

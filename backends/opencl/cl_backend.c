@@ -93,6 +93,7 @@ static void cl_destroy(void *impl)
     if (b->queue)
         clFinish(b->queue);
     vis_cl_programs_release(b);
+    vis_cl_drawlist_release(b);
     if (b->ids)
         clReleaseMemObject(b->ids);
     if (b->depth)
@@ -132,8 +133,7 @@ static uint64_t cl_last_upload_bytes(void *impl, void *scene_data)
 
 static double cl_last_kernel_ms(void *impl) { return ((const vis_cl_backend *)impl)->last_kernel_ms; }
 
-/* Grows a device buffer to `need` elements of `elem` bytes (never per frame once large). */
-static int ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t need, size_t elem, cl_mem_flags flags,
+int vis_cl_ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t need, size_t elem, cl_mem_flags flags,
                          const char *what, char *err, size_t err_size)
 {
     if (*mem && *cap >= need)
@@ -159,7 +159,7 @@ static int ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t nee
     return VIS_OK;
 }
 
-static int set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
+int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
 {
     const cl_mem *m[] = {&sc->nodes.mem,   &sc->leaves.mem,        &sc->buckets.mem,
                          &sc->quads.mem,   &sc->tris.mem,          &sc->objects.mem,
@@ -177,14 +177,10 @@ static int set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
 static int launch(vis_cl_backend *b, cl_kernel k, uint32_t width, uint32_t height, uint32_t views, uint32_t *ids,
                   float *depth, char *err, size_t err_size)
 {
-    size_t tx = b->tile[0], ty = b->tile[1];
-    size_t global[3], local[3] = {tx, ty, 1};
-    int tiled = b->caps.max_wg >= tx * ty && b->caps.max_item[0] >= tx && b->caps.max_item[1] >= ty;
-    global[0] = tiled ? (width + tx - 1) / tx * tx : width;
-    global[1] = tiled ? (height + ty - 1) / ty * ty : height;
-    global[2] = views;
+    size_t global[3], local[3];
+    vis_cl_grid(b, width, height, views, global, local);
     cl_event ev = NULL;
-    cl_int e = clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, tiled ? local : NULL, 0, NULL, &ev);
+    cl_int e = clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, local, 0, NULL, &ev);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clEnqueueNDRangeKernel", err, err_size);
     size_t n = (size_t)width * height * views;
@@ -198,34 +194,69 @@ static int launch(vis_cl_backend *b, cl_kernel k, uint32_t width, uint32_t heigh
         clReleaseEvent(ev);
         return vis_cl_fail(e, "ray pass", err, err_size);
     }
-    cl_ulong t0 = 0, t1 = 0;
-    if (clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL) == CL_SUCCESS &&
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL) == CL_SUCCESS && t1 >= t0)
-        b->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+    vis_cl_add_event_time(b, ev);
     clReleaseEvent(ev);
     return VIS_OK;
 }
 
+void vis_cl_add_event_time(vis_cl_backend *b, cl_event ev)
+{
+    cl_ulong t0 = 0, t1 = 0;
+    if (clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL) == CL_SUCCESS &&
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL) == CL_SUCCESS && t1 >= t0)
+        b->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+}
+
+/* Whole tiles where the device runs them; otherwise one work-item per group (the draw-list
+ * kernel sizes its local memory from the group, so the runtime may not pick the size). */
+int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, size_t global[3],
+                size_t local[3])
+{
+    size_t tx = b->tile[0], ty = b->tile[1];
+    int tiled = b->caps.max_wg >= tx * ty && b->caps.max_item[0] >= tx && b->caps.max_item[1] >= ty;
+    if (!tiled)
+        tx = ty = 1;
+    local[0] = tx;
+    local[1] = ty;
+    local[2] = 1;
+    global[0] = (width + tx - 1) / tx * tx;
+    global[1] = (height + ty - 1) / ty * ty;
+    global[2] = views;
+    return tiled;
+}
+
+size_t vis_cl_ring_bytes(const vis_cl_backend *b, const vis_ray_setup *setup, int tiled)
+{
+    size_t items = tiled ? b->tile[0] * b->tile[1] : 1u;
+    uint32_t n = setup->traversal == VIS_TRAVERSAL_ID_CACHED_STACK ? setup->short_stack : 1u;
+    if (n < 1u)
+        n = 1u;
+    return items * n * sizeof(vis_stack_entry);
+}
+
 static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, char *err, size_t err_size)
 {
-    int st = ensure_buffer(b, &b->ids, &b->out_cap, pixels, sizeof(uint32_t), CL_MEM_WRITE_ONLY, "ID buffer", err,
+    int st = vis_cl_ensure_buffer(b, &b->ids, &b->out_cap, pixels, sizeof(uint32_t), CL_MEM_WRITE_ONLY, "ID buffer", err,
                            err_size);
     if (st == VIS_OK && want_depth)
-        st = ensure_buffer(b, &b->depth, &b->depth_cap, pixels, sizeof(float), CL_MEM_WRITE_ONLY, "depth buffer",
+        st = vis_cl_ensure_buffer(b, &b->depth, &b->depth_cap, pixels, sizeof(float), CL_MEM_WRITE_ONLY, "depth buffer",
                            err, err_size);
     return st;
 }
 
 /* The program for one traversal method: built with -DVIS_TRAVERSAL_ONLY=<id>u, so the kernel
- * holds that method alone (trace_core.h, vis_trace_pixel) and none of the others' private
- * stacks. Seven methods (libvis hands packets over as the stack method) and at most
- * VIS_CL_MAX_PROGRAMS option sets; ids above the table (none today) get the generic program
- * that switches on setup->traversal. */
-static const char *traversal_options(uint32_t traversal)
+ * holds that method alone (trace_core.h, vis_trace_pixel_slot) and none of the others'
+ * private stacks. Eight methods (libvis hands packets over as the stack method) and at most
+ * VIS_CL_MAX_PROGRAMS option sets; ids above the table get the generic program that switches
+ * on setup->traversal. */
+const char *vis_cl_traversal_options(uint32_t traversal)
 {
     static const char *const opts[] = {"-DVIS_TRAVERSAL_ONLY=0u", "-DVIS_TRAVERSAL_ONLY=1u", "-DVIS_TRAVERSAL_ONLY=2u",
                                         "-DVIS_TRAVERSAL_ONLY=3u", "-DVIS_TRAVERSAL_ONLY=4u", "-DVIS_TRAVERSAL_ONLY=5u",
-                                        "-DVIS_TRAVERSAL_ONLY=6u"};
+                                        "-DVIS_TRAVERSAL_ONLY=6u", "",
+                                        "-DVIS_TRAVERSAL_ONLY=8u"};
+    if (traversal == VIS_TRAVERSAL_ID_PACKET)
+        return ""; /* never asked for: libvis hands packets over as the stack method */
     return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
 }
 
@@ -237,7 +268,7 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     const vis_cl_scene *sc = scene_data;
     b->last_kernel_ms = 0.0;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, traversal_options(setup->traversal), &p, err, err_size);
+    int st = vis_cl_program_get(b, vis_cl_traversal_options(setup->traversal), &p, err, err_size);
     if (st != VIS_OK)
         return st;
     size_t pixels = (size_t)setup->width * setup->height;
@@ -247,13 +278,16 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     cl_mem depth_mem = depth ? b->depth : b->dummy; /* never written when write_depth = 0 */
     cl_int e = clSetKernelArg(p->trace, 0, sizeof *setup, setup);
     if (e == CL_SUCCESS)
-        e = set_scene_args(p->trace, sc, 1);
+        e = vis_cl_set_scene_args(p->trace, sc, 1);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->trace, 10, sizeof(cl_mem), &b->ids);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->trace, 11, sizeof(cl_mem), &depth_mem);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->trace, 12, sizeof write_depth, &write_depth);
+    size_t global[3], local[3];
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->trace, 13, vis_cl_ring_bytes(b, setup, vis_cl_grid(b, 1, 1, 1, global, local)), NULL);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
     return launch(b, p->trace, setup->width, setup->height, 1, ids, depth, err, err_size);
@@ -273,7 +307,7 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
         if (setups[i].traversal != traversal)
             traversal = UINT32_MAX;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, traversal_options(traversal), &p, err, err_size);
+    int st = vis_cl_program_get(b, vis_cl_traversal_options(traversal), &p, err, err_size);
     if (st != VIS_OK)
         return st;
     uint32_t W = setups[0].width, H = setups[0].height;
@@ -288,20 +322,24 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
         per = count;
     if ((st = prepare_outputs(b, per * pixels, depth != NULL, err, err_size)) != VIS_OK)
         return st;
-    if ((st = ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
+    if ((st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
                             "camera buffer", err, err_size)) != VIS_OK)
         return st;
     cl_uint write_depth = depth != NULL;
     cl_mem depth_mem = depth ? b->depth : b->dummy;
     cl_int e = clSetKernelArg(p->batch, 0, sizeof(cl_mem), &b->setups);
     if (e == CL_SUCCESS)
-        e = set_scene_args(p->batch, sc, 1);
+        e = vis_cl_set_scene_args(p->batch, sc, 1);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->batch, 10, sizeof(cl_mem), &b->ids);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->batch, 11, sizeof(cl_mem), &depth_mem);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->batch, 12, sizeof write_depth, &write_depth);
+    size_t global[3], local[3];
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(p->batch, 13, vis_cl_ring_bytes(b, &setups[0], vis_cl_grid(b, 1, 1, 1, global, local)),
+                           NULL);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
     for (uint32_t first = 0; first < count; first += (uint32_t)per) {
@@ -327,6 +365,7 @@ static const vis_backend_ops cl_ops = {
     .last_upload_bytes = cl_last_upload_bytes,
     .trace_batch = cl_trace_batch,
     .last_kernel_ms = cl_last_kernel_ms,
+    .trace_drawlist = vis_cl_trace_drawlist,
 };
 
 vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const vis_allocator *alloc,
@@ -378,15 +417,29 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         b->tile[0] = tw;
         b->tile[1] = th;
     }
+    /* Extra build options (a tuning knob like the tile shape): register limits and the like.
+     * Options that change results are refused, as cl_program.c never uses them. */
+    const char *extra = getenv("VIS_OPENCL_BUILD_OPTIONS");
+    if (extra && *extra) {
+        if (strstr(extra, "fast-relaxed") || strstr(extra, "mad-enable") || strstr(extra, "unsafe-math") ||
+            strstr(extra, "denorms-are-zero") || strstr(extra, "finite-math") || strlen(extra) >= sizeof b->extra_options) {
+            snprintf(err, err_size, "$VIS_OPENCL_BUILD_OPTIONS \"%s\" is refused: too long, or an option that changes "
+                     "results", extra);
+            cl_destroy(b);
+            return VIS_ERROR_INVALID_ARGUMENT;
+        }
+        snprintf(b->extra_options, sizeof b->extra_options, "%s", extra);
+    }
     vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
-    st = vis_cl_program_get(b, traversal_options(0u), &p, err, err_size);
+    st = vis_cl_program_get(b, vis_cl_traversal_options(0u), &p, err, err_size);
     if (st != VIS_OK) {
         cl_destroy(b);
         return st;
     }
-    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu",
+    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu%s%s",
                b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
-               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1]);
+               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1],
+               b->extra_options[0] ? "; extra build options " : "", b->extra_options);
     if (!b->caps.fp64)
         vis_cl_log(b, 2,
                    "opencl: '%s' has no cl_khr_fp64: rays that graze a triangle edge exactly may differ from the CPU",

@@ -35,6 +35,12 @@
     X(cl_program, CreateProgramWithSource, (cl_context, cl_uint, const char **, const size_t *, cl_int *))      \
     X(cl_int, EnqueueCopyBuffer,                                                                                \
       (cl_command_queue, cl_mem, cl_mem, size_t, size_t, size_t, cl_uint, const cl_event *, cl_event *))       \
+    X(cl_int, EnqueueFillBuffer,                                                                                \
+      (cl_command_queue, cl_mem, const void *, size_t, size_t, size_t, cl_uint, const cl_event *, cl_event *)) \
+    X(void *, EnqueueMapBuffer,                                                                                 \
+      (cl_command_queue, cl_mem, cl_bool, cl_map_flags, size_t, size_t, cl_uint, const cl_event *, cl_event *,  \
+       cl_int *))                                                                                               \
+    X(cl_int, EnqueueUnmapMemObject, (cl_command_queue, cl_mem, void *, cl_uint, const cl_event *, cl_event *)) \
     X(cl_int, EnqueueNDRangeKernel,                                                                             \
       (cl_command_queue, cl_kernel, cl_uint, const size_t *, const size_t *, const size_t *, cl_uint,           \
        const cl_event *, cl_event *))                                                                           \
@@ -86,6 +92,9 @@ int vis_cl_pocl_cpu_only(const char *library);
 #  define clCreateKernel (vis_cl_api_table()->CreateKernel)
 #  define clCreateProgramWithSource (vis_cl_api_table()->CreateProgramWithSource)
 #  define clEnqueueCopyBuffer (vis_cl_api_table()->EnqueueCopyBuffer)
+#  define clEnqueueFillBuffer (vis_cl_api_table()->EnqueueFillBuffer)
+#  define clEnqueueMapBuffer (vis_cl_api_table()->EnqueueMapBuffer)
+#  define clEnqueueUnmapMemObject (vis_cl_api_table()->EnqueueUnmapMemObject)
 #  define clEnqueueNDRangeKernel (vis_cl_api_table()->EnqueueNDRangeKernel)
 #  define clEnqueueReadBuffer (vis_cl_api_table()->EnqueueReadBuffer)
 #  define clEnqueueWriteBuffer (vis_cl_api_table()->EnqueueWriteBuffer)
@@ -109,13 +118,15 @@ int vis_cl_pocl_cpu_only(const char *library);
 
 /* Kernels built per option set and kept for the backend's life (DESIGN.md: a scene without
  * an effect pays nothing for it, so each effect set gets its own program). */
-#define VIS_CL_MAX_PROGRAMS 8
+#define VIS_CL_MAX_PROGRAMS 16
 
 typedef struct vis_cl_program {
     char options[512];
     cl_program program;
     cl_kernel trace;       /* vis_trace_kernel: one view, setup by value        */
     cl_kernel batch;       /* vis_trace_batch_kernel: many views, setups in a buffer */
+    cl_kernel drawlist;    /* vis_trace_drawlist_kernel: the batch kernel counting pixels per key */
+    cl_kernel compact;     /* vis_drawlist_compact: counts to per-view lists            */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -150,9 +161,20 @@ typedef struct vis_cl_backend {
     cl_mem ids, depth, setups;
     cl_mem dummy;             /* 16 bytes: the depth argument when no depth is asked for */
     size_t tile[2];           /* work-group shape (8x8 unless $VIS_OPENCL_TILE) */
+    char extra_options[256];  /* $VIS_OPENCL_BUILD_OPTIONS: appended to every build (tuning,
+                                 e.g. -cl-nv-maxrregcount=64; never options that change results) */
     size_t out_cap;           /* pixels of `ids` */
     size_t depth_cap;         /* pixels of `depth` */
     size_t setup_cap;         /* setups */
+
+    /* The draw list on the device (cl_drawlist.c): per-key pixel counts with the views' list
+     * heads in front, the lists, and pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once
+     * for the backend's life) that heads and lists are read into. */
+    cl_mem dl_counts, dl_list, dl_pinned;
+    size_t dl_counts_cap;     /* uints of dl_counts                                      */
+    size_t dl_list_cap;       /* entries (uint2) of dl_list                               */
+    size_t dl_pinned_cap;     /* bytes of dl_pinned                                       */
+    void *dl_host;            /* dl_pinned, mapped                                        */
 
     double last_kernel_ms;    /* from event profiling, summed over a batch's launches */
 } vis_cl_backend;
@@ -199,7 +221,33 @@ int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_v
                       const vis_scene_changes *changes, char *err, size_t err_size);
 void vis_cl_scene_release(vis_cl_backend *b, vis_cl_scene *scene);
 
+/* ---- cl_drawlist.c ----------------------------------------------------------------------- */
+
+/* The backend's trace_drawlist (backend.h). */
+vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
+                                 uint32_t count, uint32_t *ids, float *depth, vis_draw_entry *entries, size_t capacity,
+                                 size_t *per_view, size_t *total, char *err, size_t err_size);
+/* Releases the draw list's buffers (unmapping the pinned one). */
+void vis_cl_drawlist_release(vis_cl_backend *b);
+
 /* ---- helpers (cl_backend.c) ------------------------------------------------------------ */
+
+/* The program for one traversal method (-DVIS_TRAVERSAL_ONLY), "" when they differ. */
+const char *vis_cl_traversal_options(uint32_t traversal);
+/* Grows a device buffer to `need` elements of `elem` bytes (never per frame once large). */
+int vis_cl_ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t need, size_t elem, cl_mem_flags flags,
+                         const char *what, char *err, size_t err_size);
+/* Sets the scene arrays as kernel arguments first, first + 1, ... (VIS_SCENE_ARGS order). */
+int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first);
+/* Global and local sizes of a pass over width x height x views in the backend's tiles
+ * (local = 1x1 where the device cannot run a whole tile); returns whether it is tiled. */
+int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, size_t global[3],
+                size_t local[3]);
+/* Bytes of the cached stack's local ring for a pass with this setup (at least one entry per
+ * work-item: every kernel takes the argument). */
+size_t vis_cl_ring_bytes(const vis_cl_backend *b, const vis_ray_setup *setup, int tiled);
+/* Adds the device time of a finished event to b->last_kernel_ms. */
+void vis_cl_add_event_time(vis_cl_backend *b, cl_event ev);
 
 const char *vis_cl_error_name(cl_int e);
 /* vis_status for an OpenCL error: allocation failures are OUT_OF_MEMORY, others BACKEND. */

@@ -2,6 +2,7 @@
  * counts; leaf IDs expand to every object of the leaf (the talk's conservative mode). */
 #include <string.h>
 
+#include "drawlist.h"
 #include "scene.h"
 
 static void sift_down(vis_draw_entry *e, size_t root, size_t n)
@@ -43,6 +44,12 @@ size_t vis_drawlist_bound(const vis_scene *scene)
     return n;
 }
 
+size_t vis_drawlist_scratch_bytes(const vis_scene *s, vis_id_mode mode)
+{
+    size_t words = (size_t)s->object_slots + (mode == VIS_IDS_LEAF ? (size_t)s->leaf_count + 1 : 0);
+    return (words ? words : 1u) * sizeof(uint32_t);
+}
+
 static vis_status build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width, uint32_t height,
                         vis_id_mode mode, vis_draw_entry *out, size_t capacity, size_t *out_count)
 {
@@ -50,16 +57,21 @@ static vis_status build(vis_context *ctx, const vis_scene *s, const uint32_t *id
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_drawlist_build: NULL argument");
     if (mode != VIS_IDS_OBJECT && mode != VIS_IDS_LEAF)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown ID mode %d", (int)mode);
-    uint64_t n = (uint64_t)width * height;
+    uint32_t *count = vis_scratch(ctx, vis_drawlist_scratch_bytes(s, mode));
+    if (!count)
+        return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for draw-list scratch");
+    return vis_drawlist_from_ids(ctx, s, ids, (uint64_t)width * height, mode, count, out, capacity, out_count);
+}
+
+vis_status vis_drawlist_from_ids(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint64_t n,
+                                 vis_id_mode mode, uint32_t *count, vis_draw_entry *out, size_t capacity,
+                                 size_t *out_count)
+{
     /* Pixel counts indexed by object slot (dense, bounded by the scene), so the scratch does
      * not depend on how large the caller's IDs are. */
     uint32_t slots = s->object_slots;
     uint32_t leaves = s->leaf_count;
-    size_t need = ((size_t)slots + (mode == VIS_IDS_LEAF ? (size_t)leaves + 1 : 0)) * sizeof(uint32_t);
-    uint32_t *count = vis_scratch(ctx, need ? need : sizeof(uint32_t));
-    if (!count)
-        return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for draw-list scratch");
-    memset(count, 0, need);
+    memset(count, 0, vis_drawlist_scratch_bytes(s, mode));
     if (mode == VIS_IDS_OBJECT) {
         uint32_t last_id = 0, last_slot = VIS_NO_OBJECT;
         for (uint64_t i = 0; i < n; ++i) {
@@ -93,8 +105,10 @@ static vis_status build(vis_context *ctx, const vis_scene *s, const uint32_t *id
     size_t m = 0;
     for (uint32_t i = 0; i < slots; ++i)
         m += count[i] != 0;
-    if (m > capacity)
+    if (m > capacity) {
+        *out_count = m;
         return vis_fail(ctx, VIS_ERROR_CAPACITY, "draw list has %zu entries, capacity is %zu", m, capacity);
+    }
     size_t k = 0;
     for (uint32_t i = 0; i < slots; ++i)
         if (count[i]) {

@@ -1,30 +1,62 @@
 #!/bin/bash
 # The device-machine runs behind docs/opencl.md ("Measured"): conformance and timing of the
 # OpenCL backend on an NVIDIA GPU and on PoCL. Run it from a folder holding test_opencl, vis
-# and vis_clbench (built as docs/opencl.md says) and lib/libcmocka.so.0. Logs go to $OUT.
+# and vis_clbench (built as docs/opencl.md says) and lib/ with libcmocka.so.0 and
+# libOpenCL.so.1. Logs go to $OUT.
+#   run_device.sh        everything (about 4 minutes on the lent H200)
+#   run_device.sh 1      conformance, registers, gen:default (methods, draw list, batches)
+#   run_device.sh 2      gen:city and gen:large, PoCL, vis bench with edits
 cd "$(dirname "$0")"
 mkdir -p /etc/OpenCL/vendors && echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd
 export LD_LIBRARY_PATH=$PWD/lib:$LD_LIBRARY_PATH
 O=${OUT:-/tmp/out}; mkdir -p "$O"
+PHASE=${1:-all}
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm --format=csv
-(command -v clinfo >/dev/null && clinfo -l) || echo "no clinfo"
+date -u
 
-echo "== test_opencl on the default device (the first GPU)"
-timeout 170 ./test_opencl 2>&1 | tee "$O/test_gpu.log" | grep -vE "^\[ RUN"
+if [ "$PHASE" = all ] || [ "$PHASE" = 1 ]; then
+  echo "== test_opencl on the default device (the first GPU)"
+  timeout 150 ./test_opencl > "$O/test_gpu.log" 2>&1; echo "test_opencl rc=$?"
+  grep -E "PASSED|FAILED|cameras compared|traversal methods" "$O/test_gpu.log"
 
-echo "== conformance and timing on the GPU"
-timeout 230 ./vis_clbench --device NVIDIA --cameras 60 --reps 200 --batch 1,16,64,256 2>&1 | tee "$O/bench_gpu.log"
-./vis_clbench --nv-verbose 1 2>&1 | tee "$O/nv_verbose.log" | grep -E "registers|stack frame"
-for t in 8x8 16x8 16x16 32x4 32x8; do
-  echo "== work-groups $t"
-  VIS_OPENCL_TILE=$t timeout 60 ./vis_clbench --device NVIDIA --cameras 0 --reps 100 --batch 64,256 > "$O/bench_gpu_$t.log" 2>&1
-  grep -E "conformance|^default +0|^ +256 |RESULT" "$O/bench_gpu_$t.log"
-done
+  echo "== registers and stack frame per method program (ptxas via -cl-nv-verbose)"
+  ./vis_clbench --nv-verbose 1 > "$O/nv_verbose.log" 2>&1
+  VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=64 ./vis_clbench --nv-verbose 1 >> "$O/nv_verbose.log" 2>&1
+  grep -E "VIS_TRAVERSAL_ONLY|Function properties for vis_trace_kernel|Used [0-9]+ registers|stack frame" \
+    "$O/nv_verbose.log" | grep -A3 "VIS_TRAVERSAL_ONLY" | head -80
 
-echo "== the CLI: GPU, CPU backend, PoCL"
-timeout 60 ./vis cull --scene gen:default --backend opencl --repeat 200 --json 2>&1 | tee "$O/cli_gpu.json"
-timeout 40 ./vis cull --scene gen:default --backend cpu --repeat 20 --json 2>&1 | tee "$O/cli_cpu.json"
-VIS_OPENCL_DEVICE=pocl timeout 40 ./vis cull --scene gen:default --backend opencl --repeat 20 --json 2>&1 | tee "$O/cli_pocl.json"
+  echo "== gen:default: conformance, passes, Tables 3/5, draw list, batches, edits"
+  timeout 230 ./vis_clbench --device NVIDIA --cameras 20 --reps 50 --methods 1 --drawlist 1 \
+    --batch 1,16,64,256 > "$O/bench_default.log" 2>&1; echo "vis_clbench rc=$?"
+  cat "$O/bench_default.log"
 
-echo "== PoCL on the host's cores"
-timeout 150 ./vis_clbench --device pocl --cameras 0 --reps 10 --batch 16 2>&1 | tee "$O/bench_pocl.log"
+  for t in 16x8 8x4; do
+    echo "== gen:default, work-groups $t: draw lists, batches of 256"
+    VIS_OPENCL_TILE=$t timeout 60 ./vis_clbench --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 20 \
+      --batch 256 2>&1 | grep -E "^default|^walk-2|^ +256"
+  done
+
+  echo "== gen:default, 64 registers at most (-cl-nv-maxrregcount=64)"
+  VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=64 timeout 80 ./vis_clbench --device NVIDIA --conformance 0 \
+    --passes 0 --methods 1 --drawlist 1 --reps 20 --batch 256 > "$O/bench_default_r64.log" 2>&1
+  echo "rc=$?"; cat "$O/bench_default_r64.log"
+fi
+
+if [ "$PHASE" = all ] || [ "$PHASE" = 2 ]; then
+  for s in gen:city gen:large; do
+    echo "== $s: Tables 3/5, draw list, batches"
+    timeout 150 ./vis_clbench --scene $s --device NVIDIA --conformance 0 --passes 0 --methods 1 --drawlist 1 \
+      --reps 20 --batch 256 > "$O/bench_${s#gen:}.log" 2>&1; echo "rc=$?"
+    cat "$O/bench_${s#gen:}.log"
+  done
+  echo "== gen:default, 40 registers at most (-cl-nv-maxrregcount=40): Tables 3/5 only"
+  VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=40 timeout 60 ./vis_clbench --device NVIDIA --conformance 0 \
+    --passes 0 --methods 1 --reps 20 > "$O/bench_default_r40.log" 2>&1; echo "rc=$?"; cat "$O/bench_default_r40.log"
+  echo "== PoCL on the host's cores: Tables 3/5 at 128x128"
+  timeout 90 ./vis_clbench --device pocl --conformance 0 --passes 0 --methods 1 --reps 3 --size 128 \
+    > "$O/bench_pocl.log" 2>&1; echo "rc=$?"; cat "$O/bench_pocl.log"
+  echo "== vis bench with single-voxel edits on the GPU"
+  timeout 60 ./vis bench --scene gen:default --backend opencl --frames 10 --edits 200 > "$O/vis_bench_edits.log" 2>&1
+  echo "rc=$?"; tail -30 "$O/vis_bench_edits.log"
+fi
+date -u

@@ -12,8 +12,17 @@
  * 3. Batches: vis_trace_batch of N views at 512x512 (IDs only, and IDs + depths): kernel and
  *    end-to-end rays per second.
  * 4. Bytes uploaded per single-voxel edit (median, max over 200 edits).
+ * 5. --methods 1: Chang & Ihm's Table 3 and 5 for this scene: kernel time of each traversal
+ *    method (short and cached stacks of 1-3 and 7) on every camera-path view, 512x512, and
+ *    the median over the views in Mrays/s.
+ * 6. --drawlist 1: vis_trace_drawlist (the list built on the device, only the list read back)
+ *    per path view, kernel and end-to-end, against vis_trace + vis_drawlist_build; batches of
+ *    views with draw lists as the output (vis_trace_batch_drawlist); single-voxel edits
+ *    followed by the next draw-list pass, timed with their upload.
+ * --conformance 0 skips 1 (for large scenes), --passes 0 skips 2-4; --traversal N (the
+ * vis_traversal value) is the method of 6.
  * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
- * (registers, spills, stack per kernel).
+ * (registers, spills, stack per kernel), for the program of every method.
  *
  * Built as the CMake target vis_clbench whenever the OpenCL backend is (docs/opencl.md). */
 #define _POSIX_C_SOURCE 200809L
@@ -94,6 +103,7 @@ typedef struct bufs {
 } bufs;
 
 static uint32_t g_traversals;
+static uint32_t g_size = 512; /* --size: the square pass of sections 5 and 6 */
 static uint64_t g_compared, g_failures;
 
 static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene *sb, const vis_camera *cam, uint32_t W,
@@ -101,9 +111,9 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
 {
     size_t n = (size_t)W * H;
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK; ++t) {
-            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
-                continue; /* every quad of the world per ray: tiny buffers only */
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
+            if (t == VIS_TRAVERSAL_PACKET || (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12))
+                continue; /* packets: the CPU's own; brute force: every quad per ray, tiny buffers only */
             vis_trace_desc td;
             vis_trace_desc_defaults(&td);
             td.width = W;
@@ -158,15 +168,24 @@ static void nv_verbose(void)
         const char *pre = "#if defined(cl_khr_fp64)\n#pragma OPENCL EXTENSION cl_khr_fp64 : enable\n#endif\n";
         const char *srcs[2] = {pre, vis_kernels_source};
         size_t lens[2] = {strlen(pre), vis_kernels_source_size};
-        cl_program prog = clCreateProgramWithSource(ctx, 2, srcs, lens, &e);
-        e = clBuildProgram(prog, 1, &dev, "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose", NULL, NULL);
-        size_t n = 0;
-        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, 0, NULL, &n);
-        char *log = calloc(n + 1, 1);
-        clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, n, log, NULL);
-        printf("nvidia build (%d), -cl-nv-verbose log:\n%s\n", (int)e, log);
-        free(log);
-        clReleaseProgram(prog);
+        const char *extra = getenv("VIS_OPENCL_BUILD_OPTIONS");
+        /* The library's per-method programs (cl_backend.c, vis_cl_traversal_options). */
+        static const int only[] = {0, 2, 3, 4, 5, 6, 8};
+        for (size_t m = 0; m < sizeof only / sizeof only[0]; ++m) {
+            char opts[512];
+            snprintf(opts, sizeof opts, "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose -DVIS_TRAVERSAL_ONLY=%du %s",
+                     only[m], extra ? extra : "");
+            cl_program prog = clCreateProgramWithSource(ctx, 2, srcs, lens, &e);
+            e = clBuildProgram(prog, 1, &dev, opts, NULL, NULL);
+            size_t n = 0;
+            clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, 0, NULL, &n);
+            char *log = calloc(n + 1, 1);
+            clGetProgramBuildInfo(prog, dev, CL_PROGRAM_BUILD_LOG, n, log, NULL);
+            printf("nvidia build (%d), VIS_TRAVERSAL_ONLY=%d, options \"%s\", -cl-nv-verbose log:\n%s\n", (int)e,
+                   only[m], opts, log);
+            free(log);
+            clReleaseProgram(prog);
+        }
         clReleaseContext(ctx);
         return;
     }
@@ -178,10 +197,191 @@ static int cmp_double(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* Median of n timings (sorts them). */
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return v[n / 2];
+}
+
+/* 5. Chang & Ihm 2010, Tables 3 and 5, for this scene: per method, the kernel time on each
+ * view (median of reps after 3 warm-ups) and the median over the views in Mrays/s. */
+static void methods_table(vis_context *cl, vis_scene *B, const vis_camera *def, const vc_view *views, size_t nv,
+                          int reps, bufs *b)
+{
+    static const struct { vis_traversal t; uint32_t n; const char *name; } m[] = {
+        {VIS_TRAVERSAL_STACK, 0, "stack (local)"},     {VIS_TRAVERSAL_RESTART, 0, "restart"},
+        {VIS_TRAVERSAL_PUSHDOWN, 0, "pushdown"},       {VIS_TRAVERSAL_SHORTSTACK, 1, "restart stack 1"},
+        {VIS_TRAVERSAL_SHORTSTACK, 2, "restart stack 2"}, {VIS_TRAVERSAL_SHORTSTACK, 3, "restart stack 3"},
+        {VIS_TRAVERSAL_SHORTSTACK, 7, "restart stack 7"}, {VIS_TRAVERSAL_CACHED_STACK, 1, "cached stack 1"},
+        {VIS_TRAVERSAL_CACHED_STACK, 2, "cached stack 2"}, {VIS_TRAVERSAL_CACHED_STACK, 3, "cached stack 3"},
+        {VIS_TRAVERSAL_CACHED_STACK, 7, "cached stack 7"}, {VIS_TRAVERSAL_ROPES, 0, "rope"},
+        {VIS_TRAVERSAL_ROPES_SHORTSTACK, 1, "rope stack 1"}, {VIS_TRAVERSAL_ROPES_SHORTSTACK, 2, "rope stack 2"},
+        {VIS_TRAVERSAL_ROPES_SHORTSTACK, 3, "rope stack 3"},
+    };
+    double *km = malloc((size_t)reps * sizeof *km);
+    printf("\nmethods (Chang & Ihm Tables 3 and 5), %ux%u, kernel ms per view (median of %d), Mrays/s:\n", g_size,
+           g_size, reps);
+    printf("%-18s", "method");
+    for (size_t v = 0; v <= nv; ++v)
+        printf(" %8.8s", v == 0 ? "default" : views[v - 1].name);
+    printf(" %10s %10s %10s\n", "max ms", "med Mrays", "min Mrays");
+    for (size_t i = 0; i < sizeof m / sizeof m[0]; ++i) {
+        double per[VC_MAX_VIEWS + 1], mr[VC_MAX_VIEWS + 1], worst = 0.0;
+        printf("%-18s", m[i].name);
+        for (size_t v = 0; v <= nv; ++v) {
+            const vis_camera *cam = v == 0 ? def : &views[v - 1].camera;
+            vis_trace_desc td;
+            vis_trace_desc_defaults(&td);
+            td.width = td.height = g_size;
+            td.traversal = m[i].t;
+            if (m[i].n)
+                td.short_stack = m[i].n;
+            vis_timing tg;
+            for (int r = 0; r < 3; ++r)
+                vis_trace(cl, B, cam, &td, b->ib, b->n, NULL, 0);
+            for (int r = 0; r < reps; ++r) {
+                if (vis_trace(cl, B, cam, &td, b->ib, b->n, NULL, 0) != VIS_OK)
+                    die("trace", cl);
+                vis_context_last_timing(cl, &tg);
+                km[r] = tg.kernel_ms;
+            }
+            per[v] = median(km, reps);
+            mr[v] = (double)g_size * g_size / (per[v] * 1e3);
+            worst = per[v] > worst ? per[v] : worst;
+            printf(" %8.4f", per[v]);
+        }
+        double mm = median(mr, (int)nv + 1);
+        printf(" %10.4f %10.1f %10.1f\n", worst, mm, mr[0]);
+    }
+    free(km);
+}
+
+/* 6. The draw list built on the device, per view, in batches, and after single-voxel edits. */
+static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *def, const vc_view *views, size_t nv,
+                             int reps, bufs *b, const char *batches, vis_traversal trav, vw_world *wb, world_scene *sb,
+                             uint64_t *rng)
+{
+    size_t cap = vis_drawlist_bound(B) + 16;
+    vis_draw_entry *e1 = malloc(cap * sizeof *e1), *e2 = malloc(cap * sizeof *e2);
+    double *km = malloc((size_t)reps * sizeof *km), *tm = malloc((size_t)reps * sizeof *tm),
+           *om = malloc((size_t)reps * sizeof *om);
+    printf("\ndraw list on the device (vis_trace_drawlist, traversal %d), %ux%u, median of %d (ms):\n", (int)trav,
+           g_size, g_size, reps);
+    printf("%-12s %8s %12s %12s %12s %22s\n", "view", "entries", "kernel", "end-to-end", "min e2e",
+           "vis_trace+build e2e");
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = g_size;
+    td.traversal = trav;
+    for (size_t v = 0; v <= nv; ++v) {
+        const vis_camera *cam = v == 0 ? def : &views[v - 1].camera;
+        const char *name = v == 0 ? "default" : views[v - 1].name;
+        size_t n1 = 0, n2 = 0;
+        vis_timing tg;
+        for (int r = 0; r < 5; ++r)
+            vis_trace_drawlist(cl, B, cam, &td, e1, cap, &n1, NULL, 0, NULL, 0);
+        for (int r = 0; r < reps; ++r) {
+            if (vis_trace_drawlist(cl, B, cam, &td, e1, cap, &n1, NULL, 0, NULL, 0) != VIS_OK)
+                die("trace_drawlist", cl);
+            vis_context_last_timing(cl, &tg);
+            km[r] = tg.kernel_ms;
+            tm[r] = tg.total_ms;
+            double t0 = vc_now_ms();
+            if (vis_trace(cl, B, cam, &td, b->ib, b->n, NULL, 0) != VIS_OK ||
+                vis_drawlist_build(cl, B, b->ib, g_size, g_size, VIS_IDS_OBJECT, e2, cap, &n2) != VIS_OK)
+                die("trace + build", cl);
+            om[r] = vc_now_ms() - t0;
+        }
+        if (n1 != n2 || memcmp(e1, e2, n1 * sizeof *e1) != 0) {
+            printf("MISMATCH draw list %s: %zu entries on the device, %zu from the IDs\n", name, n1, n2);
+            ++g_failures;
+        }
+        double kmed = median(km, reps), tmed = median(tm, reps), tmin = tm[0], omed = median(om, reps);
+        printf("%-12s %8zu %12.4f %12.4f %12.4f %22.4f\n", name, n1, kmed, tmed, tmin, omed);
+    }
+    /* Batches: lists as the only output. */
+    printf("\nbatches of %ux%u views, draw lists as the output (vis_trace_batch_drawlist, median of 5):\n", g_size,
+           g_size);
+    printf("%6s %12s %12s %14s %14s %12s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
+           "entries");
+    for (const char *p = batches; *p;) {
+        uint32_t n = (uint32_t)strtoul(p, (char **)&p, 10);
+        if (*p == ',')
+            ++p;
+        if (n == 0)
+            break;
+        vis_camera *cams = malloc(n * sizeof *cams);
+        for (uint32_t i = 0; i < n; ++i)
+            cams[i] = views[i % nv].camera;
+        size_t bcap = cap * n, total = 0;
+        vis_draw_entry *be = malloc(bcap * sizeof *be);
+        size_t *counts = malloc(n * sizeof *counts);
+        double bk[5], bt[5];
+        vis_timing tg;
+        for (int r = 0; r < 6; ++r) {
+            if (vis_trace_batch_drawlist(cl, B, cams, n, &td, be, bcap, counts, n, &total) != VIS_OK)
+                die("batch drawlist", cl);
+            vis_context_last_timing(cl, &tg);
+            if (r) {
+                bk[r - 1] = tg.kernel_ms;
+                bt[r - 1] = tg.total_ms;
+            }
+        }
+        double rays = (double)n * g_size * g_size, k = median(bk, 5), t = median(bt, 5);
+        printf("%6u %12.3f %12.3f %14.2f %14.2f %12zu\n", n, k, t, rays / (k * 1e6), rays / (t * 1e6), total);
+        /* spot check: the last view's list equals a single call's */
+        size_t n1 = 0;
+        vis_trace_drawlist(cl, B, &cams[n - 1], &td, e1, cap, &n1, NULL, 0, NULL, 0);
+        if (n1 != counts[n - 1] || memcmp(e1, be + total - n1, n1 * sizeof *e1) != 0) {
+            printf("MISMATCH batch draw list, view %u\n", n - 1);
+            ++g_failures;
+        }
+        free(cams), free(be), free(counts);
+    }
+    /* Single-voxel edits: the edit (remesh + scene update on the host), then the next
+     * draw-list pass, which uploads the changed leaves first. */
+    vw_world_info wi;
+    vw_world_get_info(wb, &wi);
+    int ne = 100;
+    double *ed = malloc((size_t)ne * sizeof *ed), *pass = malloc((size_t)ne * sizeof *pass),
+           *plain = malloc((size_t)ne * sizeof *plain), *bytes = malloc((size_t)ne * sizeof *bytes);
+    vw_error werr;
+    for (int i = 0; i < ne; ++i) {
+        int64_t x = wi.origin[0] + (int64_t)(rng_next(rng) % (uint64_t)wi.size[0]);
+        int64_t z = wi.origin[2] + (int64_t)(rng_next(rng) % (uint64_t)wi.size[2]);
+        int64_t y = vc_surface_height(wb, x, z) - (int64_t)(rng_next(rng) % 2);
+        size_t n1 = 0;
+        vis_timing tg;
+        vis_trace_drawlist(cl, B, def, &td, e1, cap, &n1, NULL, 0, NULL, 0);
+        vis_context_last_timing(cl, &tg);
+        plain[i] = tg.total_ms;
+        double t0 = vc_now_ms();
+        vw_world_set(wb, x, y, z, vw_world_get(wb, x, y, z) ? 0 : 1);
+        if (world_scene_update(sb, NULL, &werr))
+            die("update", NULL);
+        ed[i] = vc_now_ms() - t0;
+        if (vis_trace_drawlist(cl, B, def, &td, e1, cap, &n1, NULL, 0, NULL, 0) != VIS_OK)
+            die("trace_drawlist after edit", cl);
+        vis_context_last_timing(cl, &tg);
+        pass[i] = tg.total_ms;
+        bytes[i] = (double)tg.upload_bytes;
+    }
+    double med_ed = median(ed, ne), med_pass = median(pass, ne), med_plain = median(plain, ne),
+           med_bytes = median(bytes, ne); /* sorted now: [ne - 1] is the maximum */
+    printf("\nsingle-voxel edits then the next draw-list pass (default view), %d edits, median / max:\n"
+           "  edit on the host (world + scene update) %.4f / %.4f ms; next pass with upload %.4f / %.4f ms; "
+           "pass without edit %.4f ms; uploaded %.0f / %.0f bytes\n",
+           ne, med_ed, ed[ne - 1], med_pass, pass[ne - 1], med_plain, med_bytes, bytes[ne - 1]);
+    free(ed), free(pass), free(plain), free(bytes);
+    free(e1), free(e2), free(km), free(tm), free(om);
+}
+
 int main(int argc, char **argv)
 {
     const char *spec = "gen:default", *device = NULL, *batches = "16,64,256";
-    int ncams = 100, reps = 200;
+    int ncams = 100, reps = 200, conformance = 1, methods = 0, drawlist = 0, passes = 1;
+    vis_traversal trav = VIS_TRAVERSAL_AUTO;
     for (int i = 1; i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--scene"))
             spec = argv[i + 1];
@@ -193,13 +393,25 @@ int main(int argc, char **argv)
             reps = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--batch"))
             batches = argv[i + 1];
+        else if (!strcmp(argv[i], "--conformance"))
+            conformance = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--size") && atoi(argv[i + 1]) >= 1 && atoi(argv[i + 1]) <= 512)
+            g_size = (uint32_t)atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--passes"))
+            passes = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--methods"))
+            methods = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--drawlist"))
+            drawlist = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--traversal"))
+            trav = (vis_traversal)atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--nv-verbose") && !strcmp(argv[i + 1], "1")) {
             nv_verbose();
             return 0;
         }
         else {
             fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..] "
-                            "[--nv-verbose 1]\n");
+                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--drawlist 0|1] [--traversal ENUM] [--nv-verbose 1]\n");
             return 2;
         }
     }
@@ -261,165 +473,173 @@ int main(int argc, char **argv)
             die("opencl trace", cl);
         full_bytes = timing.upload_bytes;
     }
-    for (size_t i = 0; i < nv; ++i, ++cams) {
-        compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, views[i].name);
-        compare(cpu, A, cl, B, &views[i].camera, 48, 40, &b, views[i].name);
-    }
-    for (int i = 0; i < ncams; ++i, ++cams) {
-        vis_camera c;
-        random_camera(wa, &rng, &c);
-        char what[32];
-        snprintf(what, sizeof what, "random %d", i);
-        compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, what);
-        if (i % 10 == 0)
-            compare(cpu, A, cl, B, &c, 16, 12, &b, what); /* with the brute force */
-    }
-    /* Random voxel edits on both worlds, then everything again. */
     vw_world_info wi;
     vw_world_get_info(wa, &wi);
-    for (int e = 0; e < 300; ++e) {
-        int64_t x = wi.origin[0] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[0]);
-        int64_t z = wi.origin[2] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[2]);
-        int64_t y = vc_surface_height(wa, x, z) - (int64_t)(rng_next(&rng) % 3);
-        vw_voxel v = (vw_voxel)(rng_next(&rng) % 2 ? 0 : 1 + rng_next(&rng) % 8);
-        vw_world_set(wa, x, y, z, v);
-        vw_world_set(wb, x, y, z, v);
+    if (conformance) {
+        for (size_t i = 0; i < nv; ++i, ++cams) {
+            compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, views[i].name);
+            compare(cpu, A, cl, B, &views[i].camera, 48, 40, &b, views[i].name);
+        }
+        for (int i = 0; i < ncams; ++i, ++cams) {
+            vis_camera c;
+            random_camera(wa, &rng, &c);
+            char what[32];
+            snprintf(what, sizeof what, "random %d", i);
+            compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, what);
+            if (i % 10 == 0)
+                compare(cpu, A, cl, B, &c, 16, 12, &b, what); /* with the brute force */
+        }
+        /* Random voxel edits on both worlds, then everything again. */
+        for (int e = 0; e < 300; ++e) {
+            int64_t x = wi.origin[0] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[0]);
+            int64_t z = wi.origin[2] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[2]);
+            int64_t y = vc_surface_height(wa, x, z) - (int64_t)(rng_next(&rng) % 3);
+            vw_voxel v = (vw_voxel)(rng_next(&rng) % 2 ? 0 : 1 + rng_next(&rng) % 8);
+            vw_world_set(wa, x, y, z, v);
+            vw_world_set(wb, x, y, z, v);
+        }
+        if (world_scene_update(sa, NULL, &werr) || world_scene_update(sb, NULL, &werr)) {
+            fprintf(stderr, "vis_clbench: update: %s\n", werr.message);
+            return 2;
+        }
+        for (size_t i = 0; i < nv; ++i, ++cams)
+            compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, "after edits");
+        for (int i = 0; i < ncams / 2; ++i, ++cams) {
+            vis_camera c;
+            random_camera(wa, &rng, &c);
+            compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, "after edits");
+        }
+        printf("conformance: %u cameras, %llu buffer pairs (%u traversals x object/leaf IDs), %llu mismatches, %.1f s\n",
+               cams, (unsigned long long)g_compared, g_traversals, (unsigned long long)g_failures,
+               (vc_now_ms() - c0) * 1e-3);
     }
-    if (world_scene_update(sa, NULL, &werr) || world_scene_update(sb, NULL, &werr)) {
-        fprintf(stderr, "vis_clbench: update: %s\n", werr.message);
-        return 2;
-    }
-    for (size_t i = 0; i < nv; ++i, ++cams)
-        compare(cpu, A, cl, B, &views[i].camera, 512, 512, &b, "after edits");
-    for (int i = 0; i < ncams / 2; ++i, ++cams) {
-        vis_camera c;
-        random_camera(wa, &rng, &c);
-        compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, "after edits");
-    }
-    printf("conformance: %u cameras, %llu buffer pairs (%u traversals x object/leaf IDs), %llu mismatches, %.1f s\n",
-           cams, (unsigned long long)g_compared, g_traversals, (unsigned long long)g_failures,
-           (vc_now_ms() - c0) * 1e-3);
 
     /* ---- 2. one 512x512 pass ---- */
     double *km = malloc((size_t)reps * sizeof *km), *tm = malloc((size_t)reps * sizeof *tm);
     vis_camera def;
     vc_camera_default(wa, &def);
-    printf("\n512x512 pass, %d reps after %d warm-ups (median / min ms):\n", reps, reps < 20 ? reps : 20);
-    printf("%-12s %-10s %18s %18s %18s %14s\n", "view", "traversal", "opencl kernel", "opencl end-to-end",
-           "e2e ids only", "cpu e2e");
-    for (size_t vi = 0; vi <= nv; ++vi) {
-        const vis_camera *cam = vi == 0 ? &def : &views[vi - 1].camera;
-        const char *name = vi == 0 ? "default" : views[vi - 1].name;
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_ROPES_SHORTSTACK; ++t) {
-            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || (vi > 0 && t != VIS_TRAVERSAL_STACK))
-                continue;
-            vis_trace_desc td;
-            vis_trace_desc_defaults(&td);
-            td.traversal = (vis_traversal)t;
+    if (methods)
+        methods_table(cl, B, &def, views, nv, reps, &b);
+    if (drawlist)
+        drawlist_section(cl, B, &def, views, nv, reps, &b, batches, trav, wb, sb, &rng);
+    if (passes) {
+        printf("\n512x512 pass, %d reps after %d warm-ups (median / min ms):\n", reps, reps < 20 ? reps : 20);
+        printf("%-12s %-10s %18s %18s %18s %14s\n", "view", "traversal", "opencl kernel", "opencl end-to-end",
+               "e2e ids only", "cpu e2e");
+        for (size_t vi = 0; vi <= nv; ++vi) {
+            const vis_camera *cam = vi == 0 ? &def : &views[vi - 1].camera;
+            const char *name = vi == 0 ? "default" : views[vi - 1].name;
+            for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
+                if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || t == VIS_TRAVERSAL_PACKET || (vi > 0 && t != VIS_TRAVERSAL_STACK))
+                    continue;
+                vis_trace_desc td;
+                vis_trace_desc_defaults(&td);
+                td.traversal = (vis_traversal)t;
+                vis_timing tg;
+                for (int r = 0; r < (reps < 20 ? reps : 20); ++r) /* warm-up */
+                    vis_trace(cl, B, cam, &td, b.ib, b.n, b.db, b.n);
+                for (int r = 0; r < reps; ++r) {
+                    if (vis_trace(cl, B, cam, &td, b.ib, b.n, b.db, b.n) != VIS_OK)
+                        die("trace", cl);
+                    vis_context_last_timing(cl, &tg);
+                    km[r] = tg.kernel_ms;
+                    tm[r] = tg.total_ms;
+                }
+                qsort(km, (size_t)reps, sizeof *km, cmp_double);
+                qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
+                double kmed = km[reps / 2], kmin = km[0], tmed = tm[reps / 2], tmin = tm[0];
+                for (int r = 0; r < reps; ++r) {
+                    vis_trace(cl, B, cam, &td, b.ib, b.n, NULL, 0);
+                    vis_context_last_timing(cl, &tg);
+                    tm[r] = tg.total_ms;
+                }
+                qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
+                double imed = tm[reps / 2];
+                int creps = 5;
+                for (int r = 0; r < creps; ++r) {
+                    vis_trace(cpu, A, cam, &td, b.ia, b.n, b.da, b.n);
+                    vis_context_last_timing(cpu, &tg);
+                    km[r] = tg.total_ms;
+                }
+                qsort(km, (size_t)creps, sizeof *km, cmp_double);
+                printf("%-12s %-10u %8.4f / %7.4f %8.4f / %7.4f %18.4f %14.3f\n", name, t, kmed, kmin, tmed, tmin, imed,
+                       km[creps / 2]);
+            }
+        }
+
+        /* ---- 3. batches ---- */
+        printf("\nbatches of 512x512 views (vis_trace_batch, stack traversal, object IDs):\n");
+        printf("%6s %12s %12s %14s %14s %16s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
+               "e2e+depth Grays/s");
+        for (const char *p = batches; *p;) {
+            uint32_t n = (uint32_t)strtoul(p, (char **)&p, 10);
+            if (*p == ',')
+                ++p;
+            if (n == 0)
+                break;
+            vis_camera *cams_b = malloc(n * sizeof *cams_b);
+            for (uint32_t i = 0; i < n; ++i)
+                random_camera(wa, &rng, &cams_b[i]);
+            uint32_t *ids = malloc((size_t)n * big * 4);
+            float *depth = malloc((size_t)n * big * 4);
+            if (!ids || !depth) {
+                printf("%6u: out of host memory\n", n);
+                break;
+            }
             vis_timing tg;
-            for (int r = 0; r < (reps < 20 ? reps : 20); ++r) /* warm-up */
-                vis_trace(cl, B, cam, &td, b.ib, b.n, b.db, b.n);
-            for (int r = 0; r < reps; ++r) {
-                if (vis_trace(cl, B, cam, &td, b.ib, b.n, b.db, b.n) != VIS_OK)
-                    die("trace", cl);
+            double bk[5], bt[5], bd[5];
+            for (int r = 0; r < 6; ++r) {
+                if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, (size_t)n * big, NULL, 0) != VIS_OK)
+                    die("batch", cl);
                 vis_context_last_timing(cl, &tg);
-                km[r] = tg.kernel_ms;
-                tm[r] = tg.total_ms;
+                if (r) {
+                    bk[r - 1] = tg.kernel_ms;
+                    bt[r - 1] = tg.total_ms;
+                }
             }
-            qsort(km, (size_t)reps, sizeof *km, cmp_double);
-            qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
-            double kmed = km[reps / 2], kmin = km[0], tmed = tm[reps / 2], tmin = tm[0];
-            for (int r = 0; r < reps; ++r) {
-                vis_trace(cl, B, cam, &td, b.ib, b.n, NULL, 0);
+            for (int r = 0; r < 5; ++r) {
+                if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, (size_t)n * big, depth, (size_t)n * big) != VIS_OK)
+                    die("batch", cl);
                 vis_context_last_timing(cl, &tg);
-                tm[r] = tg.total_ms;
+                bd[r] = tg.total_ms;
             }
-            qsort(tm, (size_t)reps, sizeof *tm, cmp_double);
-            double imed = tm[reps / 2];
-            int creps = 5;
-            for (int r = 0; r < creps; ++r) {
-                vis_trace(cpu, A, cam, &td, b.ia, b.n, b.da, b.n);
-                vis_context_last_timing(cpu, &tg);
-                km[r] = tg.total_ms;
+            qsort(bk, 5, sizeof(double), cmp_double);
+            qsort(bt, 5, sizeof(double), cmp_double);
+            qsort(bd, 5, sizeof(double), cmp_double);
+            double rays = (double)n * (double)big;
+            printf("%6u %12.3f %12.3f %14.2f %14.2f %16.2f\n", n, bk[2], bt[2], rays / (bk[2] * 1e6), rays / (bt[2] * 1e6),
+                   rays / (bd[2] * 1e6));
+            /* spot check: the batch's first and last views equal single passes */
+            vis_trace(cl, B, &cams_b[n - 1], NULL, b.ib, b.n, NULL, 0);
+            if (memcmp(b.ib, ids + (size_t)(n - 1) * big, big * 4) != 0) {
+                printf("MISMATCH batch view %u vs single pass\n", n - 1);
+                ++g_failures;
             }
-            qsort(km, (size_t)creps, sizeof *km, cmp_double);
-            printf("%-12s %-10u %8.4f / %7.4f %8.4f / %7.4f %18.4f %14.3f\n", name, t, kmed, kmin, tmed, tmin, imed,
-                   km[creps / 2]);
+            free(cams_b);
+            free(ids);
+            free(depth);
         }
-    }
 
-    /* ---- 3. batches ---- */
-    printf("\nbatches of 512x512 views (vis_trace_batch, stack traversal, object IDs):\n");
-    printf("%6s %12s %12s %14s %14s %16s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
-           "e2e+depth Grays/s");
-    for (const char *p = batches; *p;) {
-        uint32_t n = (uint32_t)strtoul(p, (char **)&p, 10);
-        if (*p == ',')
-            ++p;
-        if (n == 0)
-            break;
-        vis_camera *cams_b = malloc(n * sizeof *cams_b);
-        for (uint32_t i = 0; i < n; ++i)
-            random_camera(wa, &rng, &cams_b[i]);
-        uint32_t *ids = malloc((size_t)n * big * 4);
-        float *depth = malloc((size_t)n * big * 4);
-        if (!ids || !depth) {
-            printf("%6u: out of host memory\n", n);
-            break;
-        }
-        vis_timing tg;
-        double bk[5], bt[5], bd[5];
-        for (int r = 0; r < 6; ++r) {
-            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, (size_t)n * big, NULL, 0) != VIS_OK)
-                die("batch", cl);
+        /* ---- 4. bytes per single-voxel edit ---- */
+        int ne = 200;
+        double *eb = malloc((size_t)ne * sizeof *eb);
+        for (int e = 0; e < ne; ++e) {
+            int64_t x = wi.origin[0] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[0]);
+            int64_t z = wi.origin[2] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[2]);
+            int64_t y = vc_surface_height(wb, x, z) - (int64_t)(rng_next(&rng) % 2);
+            vw_world_set(wb, x, y, z, vw_world_get(wb, x, y, z) ? 0 : 1);
+            if (world_scene_update(sb, NULL, &werr))
+                die("update", NULL);
+            vis_timing tg;
+            if (vis_trace(cl, B, &def, NULL, b.ib, b.n, NULL, 0) != VIS_OK)
+                die("trace", cl);
             vis_context_last_timing(cl, &tg);
-            if (r) {
-                bk[r - 1] = tg.kernel_ms;
-                bt[r - 1] = tg.total_ms;
-            }
+            eb[e] = (double)tg.upload_bytes;
         }
-        for (int r = 0; r < 5; ++r) {
-            if (vis_trace_batch(cl, B, cams_b, n, NULL, ids, (size_t)n * big, depth, (size_t)n * big) != VIS_OK)
-                die("batch", cl);
-            vis_context_last_timing(cl, &tg);
-            bd[r] = tg.total_ms;
-        }
-        qsort(bk, 5, sizeof(double), cmp_double);
-        qsort(bt, 5, sizeof(double), cmp_double);
-        qsort(bd, 5, sizeof(double), cmp_double);
-        double rays = (double)n * (double)big;
-        printf("%6u %12.3f %12.3f %14.2f %14.2f %16.2f\n", n, bk[2], bt[2], rays / (bk[2] * 1e6), rays / (bt[2] * 1e6),
-               rays / (bd[2] * 1e6));
-        /* spot check: the batch's first and last views equal single passes */
-        vis_trace(cl, B, &cams_b[n - 1], NULL, b.ib, b.n, NULL, 0);
-        if (memcmp(b.ib, ids + (size_t)(n - 1) * big, big * 4) != 0) {
-            printf("MISMATCH batch view %u vs single pass\n", n - 1);
-            ++g_failures;
-        }
-        free(cams_b);
-        free(ids);
-        free(depth);
+        qsort(eb, (size_t)ne, sizeof *eb, cmp_double);
+        printf("\nsingle-voxel edits: %d, bytes uploaded per edit: median %.0f, min %.0f, max %.0f (whole scene: %llu)\n",
+               ne, eb[ne / 2], eb[0], eb[ne - 1], (unsigned long long)full_bytes);
     }
-
-    /* ---- 4. bytes per single-voxel edit ---- */
-    int ne = 200;
-    double *eb = malloc((size_t)ne * sizeof *eb);
-    for (int e = 0; e < ne; ++e) {
-        int64_t x = wi.origin[0] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[0]);
-        int64_t z = wi.origin[2] + (int64_t)(rng_next(&rng) % (uint64_t)wi.size[2]);
-        int64_t y = vc_surface_height(wb, x, z) - (int64_t)(rng_next(&rng) % 2);
-        vw_world_set(wb, x, y, z, vw_world_get(wb, x, y, z) ? 0 : 1);
-        if (world_scene_update(sb, NULL, &werr))
-            die("update", NULL);
-        vis_timing tg;
-        if (vis_trace(cl, B, &def, NULL, b.ib, b.n, NULL, 0) != VIS_OK)
-            die("trace", cl);
-        vis_context_last_timing(cl, &tg);
-        eb[e] = (double)tg.upload_bytes;
-    }
-    qsort(eb, (size_t)ne, sizeof *eb, cmp_double);
-    printf("\nsingle-voxel edits: %d, bytes uploaded per edit: median %.0f, min %.0f, max %.0f (whole scene: %llu)\n",
-           ne, eb[ne / 2], eb[0], eb[ne - 1], (unsigned long long)full_bytes);
     printf("\nRESULT %s\n", g_failures ? "MISMATCHES FOUND" : "bit-identical");
     world_scene_destroy(sa);
     world_scene_destroy(sb);

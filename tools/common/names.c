@@ -14,6 +14,7 @@ static const vc_name traversal_names[] = {
     {"shortstack", VIS_TRAVERSAL_SHORTSTACK}, /* the library default N */
     {"ropes-shortstack", VIS_TRAVERSAL_ROPES_SHORTSTACK},
     {"packet", VIS_TRAVERSAL_PACKET},
+    {"cached-stack", VIS_TRAVERSAL_CACHED_STACK}, /* the library default ring */
     {"shortstack:1", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 1)},
     {"shortstack:2", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 2)},
     {"shortstack:3", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 3)},
@@ -46,6 +47,22 @@ static const vc_name traversal_names[] = {
     {"ropes-shortstack:14", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 14)},
     {"ropes-shortstack:15", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 15)},
     {"ropes-shortstack:16", VC_TRAVERSAL(VIS_TRAVERSAL_ROPES_SHORTSTACK, 16)},
+    {"cached-stack:1", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 1)},
+    {"cached-stack:2", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 2)},
+    {"cached-stack:3", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 3)},
+    {"cached-stack:4", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 4)},
+    {"cached-stack:5", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 5)},
+    {"cached-stack:6", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 6)},
+    {"cached-stack:7", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 7)},
+    {"cached-stack:8", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 8)},
+    {"cached-stack:9", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 9)},
+    {"cached-stack:10", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 10)},
+    {"cached-stack:11", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 11)},
+    {"cached-stack:12", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 12)},
+    {"cached-stack:13", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 13)},
+    {"cached-stack:14", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 14)},
+    {"cached-stack:15", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 15)},
+    {"cached-stack:16", VC_TRAVERSAL(VIS_TRAVERSAL_CACHED_STACK, 16)},
 };
 
 static const vc_name backend_names[] = {

@@ -28,18 +28,26 @@ typedef char vis_cl_check_rope[sizeof(vis_rope_node) == VIS_CL_ROPE_SIZE ? 1 : -
         const __global uint *restrict object_leaves, const __global vis_rope_node *restrict ropes, \
         const __global uint *restrict rope_index
 
+/* The cached stack's ring (VIS_TRAVERSAL_ID_CACHED_STACK): the host gives every kernel a
+ * local buffer of short_stack entries per work-item (one entry for the other methods);
+ * work-item i of the group uses ring[i], ring[i + items], ..., interleaved so that a warp's
+ * accesses to one slot fall in different banks. */
+#define VIS_CL_RING(ring) (ring + (get_local_id(1) * get_local_size(0) + get_local_id(0)))
+#define VIS_CL_RING_STRIDE ((uint)(get_local_size(0) * get_local_size(1)))
+
 /* One view. The setup comes by value (the host's struct, byte for byte). write_depth = 0
  * when the caller asked for no depth buffer. */
 __kernel void vis_trace_kernel(const vis_ray_setup setup, VIS_CL_SCENE_PARAMS, __global uint *restrict ids,
-                               __global float *restrict depth, const uint write_depth)
+                               __global float *restrict depth, const uint write_depth,
+                               __local vis_stack_entry *ring)
 {
     uint x = (uint)get_global_id(0), y = (uint)get_global_id(1);
     vis_ray_setup s = setup;
     if (x >= s.width || y >= s.height)
         return;
-    uint id;
+    uint id, slot;
     float t;
-    vis_trace_pixel(&s, x, y, VIS_SCENE_ARGS, &id, &t);
+    vis_trace_pixel_slot(&s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, &id, &t, &slot);
     size_t i = (size_t)y * s.width + x;
     ids[i] = id;
     if (write_depth)
@@ -50,17 +58,91 @@ __kernel void vis_trace_kernel(const vis_ray_setup setup, VIS_CL_SCENE_PARAMS, _
  * v * width * height. setups[v] is view v's setup. */
 __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setups, VIS_CL_SCENE_PARAMS,
                                      __global uint *restrict ids, __global float *restrict depth,
-                                     const uint write_depth)
+                                     const uint write_depth, __local vis_stack_entry *ring)
 {
     uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
     vis_ray_setup s = setups[v];
     if (x >= s.width || y >= s.height)
         return;
-    uint id;
+    uint id, slot;
     float t;
-    vis_trace_pixel(&s, x, y, VIS_SCENE_ARGS, &id, &t);
+    vis_trace_pixel_slot(&s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, &id, &t, &slot);
     size_t i = ((size_t)v * s.height + y) * s.width + x;
     ids[i] = id;
     if (write_depth)
         depth[i] = t;
+}
+
+/* ---- the draw list on the device ------------------------------------------------------
+ *
+ * vis_trace_drawlist_kernel: the batch kernel that also counts, per view, the pixels of each
+ * object slot (object IDs) or leaf (leaf IDs) in counts[counts_offset + v * stride + key]. IDs and depths are
+ * written only when asked for (write_ids, write_depth). A pixel's count goes through the
+ * work-group's local memory first: each run of equal keys along a row of the tile adds its
+ * length with one atomic, so an object filling a tile costs one atomic per row, not per pixel.
+ *
+ * vis_drawlist_compact: one work-item per (object slot, view), the views' list heads in the
+ * first words of `counts` (before counts_offset). Object IDs: the slot's count;
+ * leaf IDs: the sum of the counts of the slot's leaves (object_leaves, the same relation
+ * vis_drawlist_build expands through). A non-zero count appends (ID, count) to the view's list
+ * at list[v * slots + k], k from an atomic on heads[v]; the host sorts each list by ID, so the
+ * order the atomics give does not show. counts and heads are zeroed by the host before. */
+#define VIS_CL_NO_KEY 0xFFFFFFFFu
+
+__kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict setups, VIS_CL_SCENE_PARAMS,
+                                        __global uint *restrict ids, __global float *restrict depth,
+                                        const uint write_ids, const uint write_depth, __global uint *counts,
+                                        const uint counts_offset, const uint stride, __local vis_stack_entry *ring,
+                                        __local uint *keys)
+{
+    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
+    vis_ray_setup s = setups[v];
+    uint key = VIS_CL_NO_KEY;
+    if (x < s.width && y < s.height) { /* no early return: every item reaches the barrier */
+        uint id, slot;
+        float t;
+        vis_trace_pixel_slot(&s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, &id, &t, &slot);
+        size_t i = ((size_t)v * s.height + y) * s.width + x;
+        if (write_ids)
+            ids[i] = id;
+        if (write_depth)
+            depth[i] = t;
+        key = s.id_mode == 1u ? (id ? id - 1u : VIS_CL_NO_KEY) : slot;
+    }
+    uint lx = (uint)get_local_id(0), lw = (uint)get_local_size(0);
+    uint li = (uint)get_local_id(1) * lw + lx;
+    keys[li] = key;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (key == VIS_CL_NO_KEY || (lx > 0u && keys[li - 1u] == key))
+        return; /* nothing hit, or not the first of its run */
+    uint n = 1u;
+    while (lx + n < lw && keys[li + n] == key)
+        ++n;
+    atomic_add(&counts[counts_offset + (size_t)v * stride + key], n);
+}
+
+__kernel void vis_drawlist_compact(const __global vis_flat_object *restrict objects,
+                                   const __global uint *restrict object_leaves, const uint slots, const uint id_mode,
+                                   __global uint *counts, const uint counts_offset, const uint stride,
+                                   __global uint2 *restrict list)
+{
+    uint o = (uint)get_global_id(0), v = (uint)get_global_id(1);
+    if (o >= slots)
+        return;
+    __global uint *heads = counts;
+    const __global uint *c = counts + counts_offset + (size_t)v * stride;
+    uint n = 0u;
+    if (id_mode == 1u) {
+        vis_flat_object ob = objects[o];
+        if (ob.id == 0u)
+            return; /* a free slot */
+        for (uint k = 0u; k < ob.leaf_count; ++k)
+            n += c[object_leaves[ob.leaf_offset + k]];
+    } else {
+        n = c[o];
+    }
+    if (n == 0u)
+        return;
+    uint k = atomic_inc(&heads[v]);
+    list[(size_t)v * slots + k] = (uint2)(objects[o].id, n);
 }

@@ -19,13 +19,15 @@
  * Thread safety:
  *  - Contexts are independent of each other and may be used from different threads at the
  *    same time. One context serves one thread at a time: a call that uses a context's
- *    mutable state (vis_trace, vis_trace_batch, vis_drawlist_build, vis_camera_validate,
+ *    mutable state (vis_trace, vis_trace_batch, vis_trace_drawlist, vis_trace_batch_drawlist,
+ *    vis_drawlist_build, vis_camera_validate,
  *    vis_zcull_create/run/depth, vis_scene_create, vis_context_last_timing, and the scene
  *    edits and vis_scene_leaf_objects, which count as calls on the scene's own context)
  *    returns VIS_ERROR_BUSY at once, doing nothing, when another thread is inside such a
  *    call on that context. Destroy functions are not
  *    checked: nothing else may run on the context or object being destroyed.
- *  - A scene may be traced (vis_trace, vis_trace_batch, vis_drawlist_build) from several
+ *  - A scene may be traced (vis_trace, vis_trace_batch, vis_trace_drawlist,
+ *    vis_trace_batch_drawlist, vis_drawlist_build) from several
  *    threads through several contexts at once, its own and others (each context keeps its
  *    own backend copy of the scene, brought up to date at its first trace after a commit);
  *    vis_zcull_run takes scenes of its own context only. Traces hold the scene's
@@ -397,17 +399,22 @@ typedef enum vis_traversal {
                                      no stack                                                */
     VIS_TRAVERSAL_ROPES_SHORTSTACK = 7, /* ropes on the nodes short_stack levels above the
                                      leaves, a short stack below them (Chang & Ihm 2010)     */
-    VIS_TRAVERSAL_PACKET = 8      /* CPU: each 16x16 tile walks the tree once as a packet, with
+    VIS_TRAVERSAL_PACKET = 8,     /* CPU: each 16x16 tile walks the tree once as a packet, with
                                      interval culling and exact per-ray tests (Wald et al.
                                      2001; Reshetov et al. 2005; Boulos et al. 2007); other
                                      backends run STACK                                      */
+    VIS_TRAVERSAL_CACHED_STACK = 9 /* the full stack with its top short_stack entries in a ring
+                                     in the GPU's local (shared) memory, the rest in private
+                                     memory (Chang & Ihm 2010, section 3.1); on the CPU the
+                                     same walk with the ring on the C stack                  */
 } vis_traversal;
 
 typedef struct vis_trace_desc {
     uint32_t width, height;    /* default 512 x 512; each at most VIS_MAX_RESOLUTION           */
     vis_id_mode ids;           /* default VIS_IDS_OBJECT                                      */
     vis_traversal traversal;   /* default VIS_TRAVERSAL_AUTO                                  */
-    uint32_t short_stack;      /* N for VIS_TRAVERSAL_SHORTSTACK and _ROPES_SHORTSTACK:
+    uint32_t short_stack;      /* N for VIS_TRAVERSAL_SHORTSTACK, _ROPES_SHORTSTACK and the
+                                  ring of _CACHED_STACK:
                                   1..VIS_MAX_SHORT_STACK, default (0) 4; ignored otherwise    */
 } vis_trace_desc;
 
@@ -494,6 +501,35 @@ VIS_API size_t vis_drawlist_bound(const vis_scene *scene);
 VIS_API vis_status vis_drawlist_build(vis_context *context, const vis_scene *scene, const uint32_t *ids,
                                       uint32_t width, uint32_t height, vis_id_mode mode,
                                       vis_draw_entry *out_entries, size_t capacity, size_t *out_count);
+
+/* The ray pass and its draw list in one call: what an engine needs each frame. The entries
+ * equal vis_trace followed by vis_drawlist_build on its IDs (same entries, same pixel counts,
+ * sorted by ID, object or leaf IDs as desc->ids says), on every backend and for every
+ * traversal. On OpenCL the list is built on the device and only the list is read back (into
+ * pinned host memory): the IDs and depths stay on the device unless out_ids / out_depth ask
+ * for them (each may be NULL with its capacity 0; otherwise as vis_trace checks them). The
+ * CPU backend traces into the context's scratch (or out_ids) and builds the list from it.
+ * capacity in entries (vis_drawlist_bound(scene) always suffices): VIS_ERROR_CAPACITY when
+ * the list is longer, *out_count then holding the entries it needs, out_entries untouched.
+ * Allocates nothing once the scene's backend copy and the scratch are large enough; the
+ * timing (vis_context_last_timing) covers the whole call, its kernel_ms the trace and the
+ * list's compaction. */
+VIS_API vis_status vis_trace_drawlist(vis_context *context, vis_scene *scene, const vis_camera *camera,
+                                      const vis_trace_desc *desc, vis_draw_entry *out_entries, size_t capacity,
+                                      size_t *out_count, uint32_t *out_ids, size_t ids_capacity, float *out_depth,
+                                      size_t depth_capacity);
+
+/* vis_trace_drawlist for `count` views of one size (server-style batches; OpenCL: one launch
+ * for all, or a few for large batches), IDs and depths not read back. View i's list follows
+ * view i-1's in out_entries; out_counts[i] (counts_capacity >= count) its entry count, the
+ * sum in *out_total. VIS_ERROR_CAPACITY when the lists need more than capacity entries:
+ * *out_total then holds at least the number needed, and the entries are unspecified (the
+ * lists of views traced in an earlier launch may have been written). Each view's list equals
+ * vis_trace_drawlist's for its camera. Cameras are validated before any work. */
+VIS_API vis_status vis_trace_batch_drawlist(vis_context *context, vis_scene *scene, const vis_camera *cameras,
+                                            uint32_t count, const vis_trace_desc *desc, vis_draw_entry *out_entries,
+                                            size_t capacity, size_t *out_counts, size_t counts_capacity,
+                                            size_t *out_total);
 
 /* ------------------------------------------------------------------------------------ */
 /* Software z-buffer occlusion culler (the comparison to the ray pass)                 */

@@ -1,0 +1,302 @@
+/* cl_drawlist.c — the draw list built on the device: trace, count pixels per object (or leaf),
+ * compact the counts into per-view lists, read back only the lists.
+ *
+ * Reading a 512x512 ID buffer back (1 MiB) costs more than tracing it on a fast GPU; the
+ * list of a view is a few kilobytes. Per launch:
+ *   1. one fill zeroes the views' list heads and pixel counts (one buffer: heads first);
+ *   2. vis_trace_drawlist_kernel traces and adds each pixel to its key's count (kernels/trace.cl);
+ *   3. vis_drawlist_compact turns the counts into (ID, pixels) entries, per view;
+ *   4. the heads and the lists are read into pinned host memory (CL_MEM_ALLOC_HOST_PTR,
+ *      mapped once), with the IDs and depths only when the caller asked for them; one finish;
+ *   5. each list is sorted by ID from there into the caller's entries (a radix sort).
+ * Nothing is allocated per frame once the buffers are large enough. */
+#include <stdio.h>
+#include <string.h>
+
+#include "opencl/cl_internal.h"
+
+_Static_assert(sizeof(vis_draw_entry) == 2 * sizeof(cl_uint), "a draw entry is the kernel's uint2 (ID, pixels)");
+
+/* Per launch, the counts and lists take at most this many bytes (larger batches run as
+ * several launches); the pixel limit of trace batches applies to IDs and depths. */
+#define DL_MAX_BYTES ((size_t)64 << 20)
+#define DL_MAX_PIXELS ((size_t)1 << 26)
+/* Lists up to this size are read whole in the same round trip as the heads; larger ones
+ * after the heads say how long each list is. */
+#define DL_READ_WHOLE_BYTES ((size_t)1 << 20)
+
+void vis_cl_drawlist_release(vis_cl_backend *b)
+{
+    if (b->dl_pinned && b->dl_host && b->queue) {
+        clEnqueueUnmapMemObject(b->queue, b->dl_pinned, b->dl_host, 0, NULL, NULL);
+        clFinish(b->queue);
+    }
+    cl_mem *m[] = {&b->dl_counts, &b->dl_list, &b->dl_pinned};
+    for (size_t i = 0; i < sizeof m / sizeof m[0]; ++i)
+        if (*m[i]) {
+            clReleaseMemObject(*m[i]);
+            *m[i] = NULL;
+        }
+    b->dl_host = NULL;
+    b->dl_counts_cap = b->dl_list_cap = b->dl_pinned_cap = 0;
+}
+
+/* Pinned host memory of at least `bytes`, mapped for the backend's life. */
+static int ensure_pinned(vis_cl_backend *b, size_t bytes, char *err, size_t err_size)
+{
+    if (b->dl_pinned && b->dl_pinned_cap >= bytes)
+        return VIS_OK;
+    if (b->dl_pinned) {
+        clEnqueueUnmapMemObject(b->queue, b->dl_pinned, b->dl_host, 0, NULL, NULL);
+        clFinish(b->queue);
+        clReleaseMemObject(b->dl_pinned);
+        b->dl_pinned = NULL;
+        b->dl_host = NULL;
+        b->dl_pinned_cap = 0;
+    }
+    cl_int e = CL_SUCCESS;
+    cl_mem m = clCreateBuffer(b->context, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, bytes, NULL, &e);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clCreateBuffer (pinned draw-list memory)", err, err_size);
+    void *host = clEnqueueMapBuffer(b->queue, m, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes, 0, NULL, NULL, &e);
+    if (e != CL_SUCCESS || !host) {
+        clReleaseMemObject(m);
+        return vis_cl_fail(e != CL_SUCCESS ? e : CL_OUT_OF_HOST_MEMORY, "clEnqueueMapBuffer (draw list)", err,
+                           err_size);
+    }
+    b->dl_pinned = m;
+    b->dl_host = host;
+    b->dl_pinned_cap = bytes;
+    return VIS_OK;
+}
+
+/* Sorts src[0..n) by ID into dst (src is scratch: it is overwritten). LSD radix sort, three
+ * passes of 11 bits: linear in n (a heap sort of a large scene's 30,000 entries took
+ * milliseconds, more than the trace), no allocation, src -> dst -> src -> dst. IDs are unique,
+ * so stability does not show, but the sort is stable anyway. */
+static void radix_sort_into(vis_draw_entry *src, vis_draw_entry *dst, size_t n)
+{
+    if (n < 64) { /* insertion sort, straight into dst */
+        for (size_t i = 0; i < n; ++i) {
+            vis_draw_entry x = src[i];
+            size_t j = i;
+            for (; j > 0 && dst[j - 1].id > x.id; --j)
+                dst[j] = dst[j - 1];
+            dst[j] = x;
+        }
+        return;
+    }
+    vis_draw_entry *from = src, *to = dst;
+    for (unsigned shift = 0; shift < 33u; shift += 11u) {
+        size_t count[2048];
+        memset(count, 0, sizeof count);
+        for (size_t i = 0; i < n; ++i)
+            ++count[(from[i].id >> shift) & 2047u];
+        size_t sum = 0;
+        for (unsigned b = 0; b < 2048u; ++b) {
+            size_t c = count[b];
+            count[b] = sum;
+            sum += c;
+        }
+        for (size_t i = 0; i < n; ++i)
+            to[count[(from[i].id >> shift) & 2047u]++] = from[i];
+        vis_draw_entry *t = from;
+        from = to;
+        to = t;
+    }
+    /* Three passes: the result is in dst. */
+}
+
+/* Views per launch: within the pixel limit for IDs/depths read back and DL_MAX_BYTES for
+ * the counts and lists; at least one. */
+static uint32_t views_per_launch(uint32_t count, size_t pixels, int want_pixels, size_t stride, size_t slots)
+{
+    size_t per_view = (1u + stride) * sizeof(cl_uint) + slots * sizeof(vis_draw_entry);
+    size_t per = DL_MAX_BYTES / per_view;
+    if (want_pixels && DL_MAX_PIXELS / pixels < per)
+        per = DL_MAX_PIXELS / pixels;
+    if (per == 0)
+        per = 1;
+    return per < count ? (uint32_t)per : count;
+}
+
+/* The kernels' arguments that stay the same for every launch of a call (kernels/trace.cl);
+ * the counts offset (the launch's view count: its heads come first) is set per launch. */
+static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene *sc, cl_mem ids, cl_mem depth,
+                       cl_uint write_ids, cl_uint write_depth, cl_uint stride, cl_uint slots, cl_uint id_mode,
+                       size_t ring_bytes, size_t key_bytes)
+{
+    cl_kernel k = p->drawlist;
+    cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &b->setups);
+    if (e == CL_SUCCESS)
+        e = vis_cl_set_scene_args(k, sc, 1);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 10, sizeof(cl_mem), &ids);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 11, sizeof(cl_mem), &depth);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 12, sizeof write_ids, &write_ids);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 13, sizeof write_depth, &write_depth);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 14, sizeof(cl_mem), &b->dl_counts);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 16, sizeof stride, &stride);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 17, ring_bytes, NULL);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 18, key_bytes, NULL);
+    k = p->compact;
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 0, sizeof(cl_mem), &sc->objects.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 1, sizeof(cl_mem), &sc->object_leaves.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 2, sizeof slots, &slots);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 3, sizeof id_mode, &id_mode);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 4, sizeof(cl_mem), &b->dl_counts);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 6, sizeof stride, &stride);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 7, sizeof(cl_mem), &b->dl_list);
+    return e;
+}
+
+/* Reads the launch's heads and lists (the lists whole when small, else each list's used part
+ * once the heads are known), IDs and depths when asked; waits. */
+static cl_int read_back(vis_cl_backend *b, uint32_t n, size_t slots, size_t pixels, uint32_t *ids, float *depth)
+{
+    cl_uint *heads = b->dl_host;
+    vis_draw_entry *lists = (vis_draw_entry *)(heads + n);
+    size_t list_bytes = (size_t)n * slots * sizeof(vis_draw_entry);
+    int whole = list_bytes <= DL_READ_WHOLE_BYTES;
+    cl_int e = clEnqueueReadBuffer(b->queue, b->dl_counts, CL_FALSE, 0, n * sizeof(cl_uint), heads, 0, NULL, NULL);
+    if (e == CL_SUCCESS && whole)
+        e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, 0, list_bytes, lists, 0, NULL, NULL);
+    if (e == CL_SUCCESS && ids)
+        e = clEnqueueReadBuffer(b->queue, b->ids, CL_FALSE, 0, (size_t)n * pixels * sizeof(uint32_t), ids, 0, NULL,
+                                NULL);
+    if (e == CL_SUCCESS && depth)
+        e = clEnqueueReadBuffer(b->queue, b->depth, CL_FALSE, 0, (size_t)n * pixels * sizeof(float), depth, 0, NULL,
+                                NULL);
+    cl_int f = clFinish(b->queue);
+    if (e != CL_SUCCESS || f != CL_SUCCESS || whole)
+        return e != CL_SUCCESS ? e : f;
+    for (uint32_t v = 0; v < n && e == CL_SUCCESS; ++v) {
+        size_t h = heads[v] <= slots ? heads[v] : slots;
+        if (h)
+            e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, (size_t)v * slots * sizeof(vis_draw_entry),
+                                    h * sizeof(vis_draw_entry), lists + (size_t)v * slots, 0, NULL, NULL);
+    }
+    f = clFinish(b->queue);
+    return e != CL_SUCCESS ? e : f;
+}
+
+vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
+                                 uint32_t count, uint32_t *ids, float *depth, vis_draw_entry *entries, size_t capacity,
+                                 size_t *per_view, size_t *total, char *err, size_t err_size)
+{
+    vis_cl_backend *b = impl;
+    const vis_cl_scene *sc = scene_data;
+    b->last_kernel_ms = 0.0;
+    *total = 0;
+    if (count == 0)
+        return VIS_OK;
+    uint32_t traversal = setups[0].traversal; /* one program when every camera shares it */
+    for (uint32_t i = 1; i < count; ++i)
+        if (setups[i].traversal != traversal)
+            traversal = UINT32_MAX;
+    vis_cl_program *p = NULL;
+    int st = vis_cl_program_get(b, vis_cl_traversal_options(traversal), &p, err, err_size);
+    if (st != VIS_OK)
+        return st;
+    uint32_t W = setups[0].width, H = setups[0].height;
+    size_t pixels = (size_t)W * H;
+    /* Buffers hold at least one of everything; the kernels get the true slot count (an empty
+     * scene's one-element object buffer holds no object to read). */
+    size_t slots = view->object_count ? view->object_count : 1u;
+    size_t stride = setups[0].id_mode == 1u ? (view->leaf_count ? view->leaf_count : 1u) : slots;
+    uint32_t per = views_per_launch(count, pixels, ids || depth, stride, slots);
+
+    /* Cameras; counts with the heads in front; lists; pinned heads + lists; IDs/depths if asked. */
+    if ((st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
+                                   "camera buffer", err, err_size)) != VIS_OK ||
+        (st = vis_cl_ensure_buffer(b, &b->dl_counts, &b->dl_counts_cap, (size_t)per * (1u + stride), sizeof(cl_uint),
+                                   CL_MEM_READ_WRITE, "draw-list counts", err, err_size)) != VIS_OK ||
+        (st = vis_cl_ensure_buffer(b, &b->dl_list, &b->dl_list_cap, (size_t)per * slots, sizeof(vis_draw_entry),
+                                   CL_MEM_READ_WRITE, "draw-list entries", err, err_size)) != VIS_OK ||
+        (st = ensure_pinned(b, per * sizeof(cl_uint) + (size_t)per * slots * sizeof(vis_draw_entry), err,
+                            err_size)) != VIS_OK)
+        return st;
+    if (ids && (st = vis_cl_ensure_buffer(b, &b->ids, &b->out_cap, (size_t)per * pixels, sizeof(uint32_t),
+                                          CL_MEM_WRITE_ONLY, "ID buffer", err, err_size)) != VIS_OK)
+        return st;
+    if (depth && (st = vis_cl_ensure_buffer(b, &b->depth, &b->depth_cap, (size_t)per * pixels, sizeof(float),
+                                            CL_MEM_WRITE_ONLY, "depth buffer", err, err_size)) != VIS_OK)
+        return st;
+
+    size_t global[3], local[3];
+    int tiled = vis_cl_grid(b, W, H, per, global, local);
+    cl_int e = set_args(b, p, sc, ids ? b->ids : b->dummy, depth ? b->depth : b->dummy, ids != NULL, depth != NULL,
+                        (cl_uint)stride, (cl_uint)view->object_count, setups[0].id_mode,
+                        vis_cl_ring_bytes(b, &setups[0], tiled),
+                        local[0] * local[1] * sizeof(cl_uint));
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clSetKernelArg (draw list)", err, err_size);
+
+    size_t done = 0;
+    for (uint32_t first = 0; first < count; first += per) {
+        uint32_t n = count - first < per ? count - first : per;
+        vis_cl_grid(b, W, H, n, global, local);
+        cl_uint zero = 0, off = n; /* the launch's n heads come first, then its counts */
+        e = clEnqueueWriteBuffer(b->queue, b->setups, CL_FALSE, 0, (size_t)n * sizeof *setups, setups + first, 0, NULL,
+                                 NULL);
+        if (e == CL_SUCCESS)
+            e = clEnqueueFillBuffer(b->queue, b->dl_counts, &zero, sizeof zero, 0,
+                                    (size_t)n * (1u + stride) * sizeof(cl_uint), 0, NULL, NULL);
+        if (e == CL_SUCCESS)
+            e = clSetKernelArg(p->drawlist, 15, sizeof off, &off);
+        if (e == CL_SUCCESS)
+            e = clSetKernelArg(p->compact, 5, sizeof off, &off);
+        cl_event ev[2] = {NULL, NULL};
+        if (e == CL_SUCCESS)
+            e = clEnqueueNDRangeKernel(b->queue, p->drawlist, 3, NULL, global, local, 0, NULL, &ev[0]);
+        size_t cg[2] = {(slots + 63) / 64 * 64, n};
+        if (e == CL_SUCCESS)
+            e = clEnqueueNDRangeKernel(b->queue, p->compact, 2, NULL, cg, NULL, 0, NULL, &ev[1]);
+        if (e == CL_SUCCESS)
+            e = read_back(b, n, slots, pixels, ids ? ids + (size_t)first * pixels : NULL,
+                          depth ? depth + (size_t)first * pixels : NULL);
+        else
+            clFinish(b->queue);
+        for (int i = 0; i < 2; ++i)
+            if (ev[i]) {
+                if (e == CL_SUCCESS)
+                    vis_cl_add_event_time(b, ev[i]);
+                clReleaseEvent(ev[i]);
+            }
+        if (e != CL_SUCCESS)
+            return vis_cl_fail(e, "draw-list pass", err, err_size);
+        const cl_uint *heads = b->dl_host;
+        vis_draw_entry *lists = (vis_draw_entry *)((cl_uint *)b->dl_host + n);
+        size_t need = done;
+        for (uint32_t v = 0; v < n; ++v)
+            need += heads[v] <= slots ? heads[v] : slots; /* never trust a size read */
+        if (need > capacity) {
+            *total = need;
+            snprintf(err, err_size, "the draw lists need %zu entries%s, capacity is %zu", need,
+                     first + n < count ? " or more" : "", capacity);
+            return VIS_ERROR_CAPACITY;
+        }
+        for (uint32_t v = 0; v < n; ++v) {
+            size_t h = heads[v] <= slots ? heads[v] : slots;
+            radix_sort_into(lists + (size_t)v * slots, entries + done, h);
+            per_view[first + v] = h;
+            done += h;
+        }
+    }
+    *total = done;
+    return VIS_OK;
+}
