@@ -9,7 +9,7 @@
 #include "scene.h"
 #include "trace.h"
 
-static double now_ms(void)
+double vis_trace_now_ms(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -25,9 +25,9 @@ static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
     return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6 */
 }
 
-/* The float ray setup of one view: validated camera, resolved desc. */
-static vis_status make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
-                             const vis_trace_desc *d, vis_ray_setup *setup)
+/* The float ray setup of one view: validated camera, resolved desc (fog shortens t_far). */
+vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
+                                const vis_trace_desc *d, vis_ray_setup *setup)
 {
     vis_camera_frame frame;
     vis_status st = vis_camera_frame_make(ctx, camera, scene->desc.origin, d->width, d->height, &frame);
@@ -40,6 +40,20 @@ static vis_status make_setup(vis_context *ctx, const vis_scene *scene, const vis
     setup->short_stack = d->short_stack;
     setup->root = 0;
     setup->leaf_count = scene->leaf_count;
+    if (d->effects & VIS_EFFECT_FOG) {
+        float fog = (float)d->fog_dist;
+        if (fog < setup->t_far)
+            setup->t_far = fog;
+    }
+    return VIS_OK;
+}
+
+/* vis_trace and vis_trace_batch have buffers for the ID pass only: fog is all they take. */
+static vis_status check_plain_effects(vis_context *ctx, const vis_trace_desc *d, const char *fn)
+{
+    if (d->effects & ~VIS_EFFECT_FOG)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
+                        "%s: effects 0x%x need vis_trace_effects (only VIS_EFFECT_FOG is taken here)", fn, d->effects);
     return VIS_OK;
 }
 
@@ -66,10 +80,10 @@ static vis_status check_capacity(vis_context *ctx, uint64_t needed, size_t ids_c
                     ids_short ? ids_capacity : depth_capacity);
 }
 
-static void record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t upload, uint64_t rays, uint32_t views)
+void vis_trace_record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t upload, uint64_t rays, uint32_t views)
 {
     vis_timing *t = &ctx->timing;
-    t->total_ms = now_ms() - t0;
+    t->total_ms = vis_trace_now_ms() - t0;
     t->kernel_ms = ctx->backend.ops->last_kernel_ms ? ctx->backend.ops->last_kernel_ms(ctx->backend.impl) : pass_ms;
     t->upload_bytes = upload;
     t->rays = rays;
@@ -82,14 +96,14 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
                             uint32_t *out_ids, size_t ids_capacity, float *out_depth, size_t depth_capacity,
                             uint32_t *out_cost, size_t cost_capacity)
 {
-    double t0 = now_ms();
+    double t0 = vis_trace_now_ms();
     vis_clear_error(ctx);
     const char *fn = out_cost ? "vis_trace_cost" : "vis_trace";
     vis_status st = check_args(ctx, scene, out_ids, fn);
     if (st != VIS_OK)
         return st;
     vis_trace_desc d;
-    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
+    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK || (st = check_plain_effects(ctx, &d, fn)) != VIS_OK)
         return st;
     if ((st = check_capacity(ctx, (uint64_t)d.width * d.height, ids_capacity, out_depth, depth_capacity, fn, 1, &d)) !=
         VIS_OK)
@@ -98,7 +112,7 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
         return vis_fail(ctx, VIS_ERROR_CAPACITY, "vis_trace_cost: a %ux%u view needs %llu elements, cost_capacity is %zu",
                         d.width, d.height, (unsigned long long)d.width * d.height, cost_capacity);
     vis_ray_setup setup;
-    if ((st = make_setup(ctx, scene, camera, &d, &setup)) != VIS_OK)
+    if ((st = vis_trace_make_setup(ctx, scene, camera, &d, &setup)) != VIS_OK)
         return st;
     /* A backend that counts checks the method itself (the CPU: packets only). */
     if (out_cost && !ctx->backend.ops->trace_cost)
@@ -111,15 +125,15 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
         return st;
     vis_scene_view view = vis_scene_get_view(scene);
     char err[1024] = "";
-    double p0 = now_ms();
+    double p0 = vis_trace_now_ms();
     int rc = out_cost ? ctx->backend.ops->trace_cost(ctx->backend.impl, data, &view, &setup, out_ids, out_cost, err,
                                                      sizeof err)
                       : ctx->backend.ops->trace(ctx->backend.impl, data, &view, &setup, out_ids, out_depth, err, sizeof err);
-    double pass_ms = now_ms() - p0;
+    double pass_ms = vis_trace_now_ms() - p0;
     vis_scene_end_read(scene);
     if (rc != VIS_OK)
         return vis_fail(ctx, (vis_status)rc, "%s backend: %s", ctx->backend.ops->name, err);
-    record_timing(ctx, t0, pass_ms, upload, (uint64_t)d.width * d.height, 1);
+    vis_trace_record_timing(ctx, t0, pass_ms, upload, (uint64_t)d.width * d.height, 1);
     return VIS_OK;
 }
 
@@ -153,7 +167,7 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
                               const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity, float *out_depth,
                               size_t depth_capacity)
 {
-    double t0 = now_ms();
+    double t0 = vis_trace_now_ms();
     vis_clear_error(ctx);
     if (count == 0)
         return VIS_OK;
@@ -163,7 +177,8 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
     if (!cameras)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_batch: cameras must not be NULL");
     vis_trace_desc d;
-    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
+    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK ||
+        (st = check_plain_effects(ctx, &d, "vis_trace_batch")) != VIS_OK)
         return st;
     size_t pixels = (size_t)d.width * d.height;
     /* W, H <= 2^14 and count < 2^32: the product fits 64 bits, and a capacity that holds it
@@ -178,7 +193,7 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
     if (!setups)
         return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "vis_trace_batch: out of memory for %u views", count);
     for (uint32_t i = 0; i < count && st == VIS_OK; ++i) {
-        st = make_setup(ctx, scene, &cameras[i], &d, &setups[i]);
+        st = vis_trace_make_setup(ctx, scene, &cameras[i], &d, &setups[i]);
         if (st != VIS_OK) {
             char msg[sizeof ctx->last_error];
             memcpy(msg, ctx->last_error, sizeof msg);
@@ -194,7 +209,7 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
     vis_scene_view view = vis_scene_get_view(scene);
     char err[1024] = "";
     const vis_backend_ops *ops = ctx->backend.ops;
-    double p0 = now_ms();
+    double p0 = vis_trace_now_ms();
     int rc = VIS_OK;
     if (ops->trace_batch) {
         rc = ops->trace_batch(ctx->backend.impl, data, &view, setups, count, out_ids, out_depth, err,
@@ -204,11 +219,11 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
             rc = ops->trace(ctx->backend.impl, data, &view, &setups[i], out_ids + i * pixels,
                             out_depth ? out_depth + i * pixels : NULL, err, sizeof err);
     }
-    double pass_ms = now_ms() - p0;
+    double pass_ms = vis_trace_now_ms() - p0;
     vis_scene_end_read(scene);
     if (rc != VIS_OK)
         return vis_fail(ctx, (vis_status)rc, "%s backend: %s", ops->name, err);
-    record_timing(ctx, t0, pass_ms, upload, (uint64_t)count * pixels, count);
+    vis_trace_record_timing(ctx, t0, pass_ms, upload, (uint64_t)count * pixels, count);
     return VIS_OK;
 }
 
