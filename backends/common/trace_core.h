@@ -1281,9 +1281,13 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
     vis_ray r;
     vis_ray_for_pixel(s, x, y, &r);
     vis_hit h;
+#ifdef VIS_TRACE_EFFECTS
+    vis_hit_init(&h, VIS_ST_OCCLUDE, 0u, VIS_NO_AXIS, 0.0f); /* the plain pass, in an effects program */
+#else
     h.t = VIS_INF;
     h.object = VIS_NO_OBJECT;
     h.id = 0u;
+#endif
 #ifdef VIS_TRAVERSAL_ONLY
     uint32_t method = VIS_TRAVERSAL_ONLY;
 #else
@@ -1355,7 +1359,13 @@ VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect
 {
     vis_ray r;
     vis_ray_for_pixel(s, x, y, &r);
+    /* A program built for one effect set defines VIS_EFFECTS_ONLY to its bits: the code of
+     * the other effects compiles away. */
+#ifdef VIS_EFFECTS_ONLY
+    uint32_t fx = VIS_EFFECTS_ONLY;
+#else
     uint32_t fx = e->effects;
+#endif
     uint32_t st = fx & VIS_FX_SEE_THROUGH;
     vis_hit h;
     vis_hit_init(&h, st ? VIS_ST_RECORD : VIS_ST_OCCLUDE, e->layers, VIS_NO_AXIS, 0.0f);

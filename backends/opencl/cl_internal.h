@@ -109,13 +109,14 @@ int vis_cl_pocl_cpu_only(const char *library);
 
 /* Kernels built per option set and kept for the backend's life (DESIGN.md: a scene without
  * an effect pays nothing for it, so each effect set gets its own program). */
-#define VIS_CL_MAX_PROGRAMS 8
+#define VIS_CL_MAX_PROGRAMS 24
 
 typedef struct vis_cl_program {
     char options[512];
     cl_program program;
     cl_kernel trace;       /* vis_trace_kernel: one view, setup by value        */
     cl_kernel batch;       /* vis_trace_batch_kernel: many views, setups in a buffer */
+    cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -153,6 +154,8 @@ typedef struct vis_cl_backend {
     size_t out_cap;           /* pixels of `ids` */
     size_t depth_cap;         /* pixels of `depth` */
     size_t setup_cap;         /* setups */
+    cl_mem fx_layers, fx_reflection, fx_shadow; /* effects outputs (vis_trace_effects)    */
+    size_t fx_layers_cap, fx_reflection_cap, fx_shadow_cap;
 
     double last_kernel_ms;    /* from event profiling, summed over a batch's launches */
 } vis_cl_backend;
