@@ -138,6 +138,7 @@ typedef struct vis_effect_outputs {
     uint32_t *see_through;
     uint32_t *reflection;
     uint32_t *shadow;
+    uint64_t *secondary_rays; /* set to the reflected and shadow rays cast (the CPU counts) */
 } vis_effect_outputs;
 
 typedef struct vis_backend_ops {

@@ -1329,6 +1329,7 @@ typedef struct vis_effect_pixel {
     float depth;
     uint32_t reflection;              /* VIS_FX_REFLECT: ID the reflected ray hits, 0: none */
     uint32_t shadow;                  /* VIS_FX_SHADOWS: the caster's ID, 0: none            */
+    uint32_t secondary;               /* secondary rays cast (0..2)                          */
     uint32_t see_through[VIS_MAX_LAYERS]; /* nearest first, 0 past the last                  */
 } vis_effect_pixel;
 
@@ -1383,6 +1384,7 @@ VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect
         out->see_through[k] = k < h.st_n && vis_hit_better(h.st_t[k], h.st_id[k], &h) ? h.st_id[k] : 0u;
     out->reflection = 0u;
     out->shadow = 0u;
+    out->secondary = 0u;
     uint32_t second = method == VIS_TRAVERSAL_ID_BRUTEFORCE ? method : VIS_TRAVERSAL_ID_STACK;
     if (fx & VIS_FX_REFLECT) {
         float t = 0.0f, plane = 0.0f;
@@ -1405,6 +1407,7 @@ VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect
             }
             o[a] = plane;
             d[a] = -d[a];
+            ++out->secondary;
             out->reflection = vis_trace_secondary(s, second, o, d, s->t_far, st ? VIS_ST_SKIP : VIS_ST_OCCLUDE, a,
                                                   plane, VIS_SCENE_ARGS);
         }
@@ -1418,6 +1421,7 @@ VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect
             for (uint32_t i = 0u; i < 3u; ++i)
                 o[i] = r.o[i] + h.t * r.d[i];
             o[a] = h.plane;
+            ++out->secondary;
             out->shadow = vis_trace_secondary(s, second, o, e->light, VIS_INF, VIS_ST_SKIP, a, h.plane, VIS_SCENE_ARGS);
         }
     }

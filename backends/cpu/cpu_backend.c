@@ -6,6 +6,7 @@
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
  * instance of that code (effects.c) per ray in 8x8 tiles, whatever the method. */
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -36,6 +37,7 @@ typedef struct cpu_job {
     uint32_t *cost;         /* packets: per-pixel traversal cost, or NULL */
     const vis_effect_setup *effects; /* an effects pass, or NULL */
     const vis_effect_outputs *effect_out;
+    atomic_ullong secondary; /* secondary rays cast by the effects pass */
 } cpu_job;
 
 static void trace_tile(void *user, uint32_t tile)
@@ -47,7 +49,8 @@ static void trace_tile(void *user, uint32_t tile)
     if (job->effects) {
         uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
         uint32_t y1 = y0 + job->side < s->height ? y0 + job->side : s->height;
-        vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
+        uint64_t n = vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
+        atomic_fetch_add_explicit((atomic_ullong *)&job->secondary, (unsigned long long)n, memory_order_relaxed);
         return;
     }
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
@@ -119,7 +122,7 @@ static vis_status run_pass(cpu_backend *b, const vis_occupancy *occ, const vis_s
 {
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
     cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
-                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u, cost, NULL, NULL};
+                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u, cost, NULL, NULL, 0};
     run_job(b, &job);
     return VIS_OK;
 }
@@ -142,8 +145,10 @@ static vis_status cpu_trace_effects(void *impl, void *scene_data, const vis_scen
     (void)err, (void)err_size;
     const vis_occupancy *occ = scene_data;
     cpu_job job = {view, occ->occupied, setup, out->ids, out->depth, TILE, (setup->width + TILE - 1) / TILE, 0u,
-                   NULL, effects, out};
+                   NULL, effects, out, 0};
     run_job(impl, &job);
+    if (out->secondary_rays)
+        *out->secondary_rays = atomic_load(&job.secondary);
     return VIS_OK;
 }
 

@@ -5,11 +5,12 @@
 #define VIS_TRACE_EFFECTS 1
 #include "cpu/effects.h"
 
-void vis_cpu_effects_tile(const vis_scene_view *view, const vis_ray_setup *setup, const vis_effect_setup *effects,
+uint64_t vis_cpu_effects_tile(const vis_scene_view *view, const vis_ray_setup *setup, const vis_effect_setup *effects,
                           const vis_effect_outputs *out, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1)
 {
     const vis_scene_view v = *view; /* a local copy: its arrays stay in registers */
     uint32_t layers = effects->layers;
+    uint64_t secondary = 0;
     for (uint32_t y = y0; y < y1; ++y)
         for (uint32_t x = x0; x < x1; ++x) {
             vis_effect_pixel px;
@@ -25,5 +26,7 @@ void vis_cpu_effects_tile(const vis_scene_view *view, const vis_ray_setup *setup
                 out->reflection[i] = px.reflection;
             if (out->shadow)
                 out->shadow[i] = px.shadow;
+            secondary += px.secondary;
         }
+    return secondary;
 }

@@ -398,6 +398,8 @@ static vis_status cl_trace_effects(void *impl, void *scene_data, const vis_scene
                                 NULL);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "reading the effect buffers", err, err_size);
+    if (out->secondary_rays)
+        *out->secondary_rays = 0; /* not counted on the device */
     return VIS_OK;
 }
 

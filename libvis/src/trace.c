@@ -88,6 +88,7 @@ void vis_trace_record_timing(vis_context *ctx, double t0, double pass_ms, uint64
     t->upload_bytes = upload;
     t->rays = rays;
     t->views = views;
+    t->secondary_rays = 0;
     ctx->have_timing = 1;
 }
 

@@ -85,9 +85,10 @@ static vis_status trace_effects(vis_context *ctx, vis_scene *scene, const vis_ca
         return vis_fail(ctx, VIS_ERROR_UNSUPPORTED, "vis_trace_effects: the %s backend has no effects pass", ops->name);
     vis_effect_setup fx;
     make_effect_setup(&d, &fx);
+    uint64_t secondary = 0;
     vis_effect_outputs out = {b->ids, b->depth, fx.effects & VIS_EFFECT_SEE_THROUGH ? b->see_through : NULL,
                               fx.effects & VIS_EFFECT_REFLECT ? b->reflection : NULL,
-                              fx.effects & VIS_EFFECT_SHADOWS ? b->shadow : NULL};
+                              fx.effects & VIS_EFFECT_SHADOWS ? b->shadow : NULL, &secondary};
 
     uint64_t upload = 0;
     void *data = NULL;
@@ -102,6 +103,7 @@ static vis_status trace_effects(vis_context *ctx, vis_scene *scene, const vis_ca
     if (rc != VIS_OK)
         return vis_fail(ctx, (vis_status)rc, "%s backend: %s", ops->name, err);
     vis_trace_record_timing(ctx, t0, pass_ms, upload, (uint64_t)d.width * d.height, 1);
+    ctx->timing.secondary_rays = secondary;
     return VIS_OK;
 }
 

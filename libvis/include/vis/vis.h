@@ -711,6 +711,8 @@ typedef struct vis_timing {
                               host arrays directly                                           */
     uint64_t rays;         /* rays traced: width * height * views                           */
     uint32_t views;        /* 1 for vis_trace()                                              */
+    uint64_t secondary_rays; /* vis_trace_effects on the CPU backend: reflected and shadow
+                              rays cast (0 elsewhere: the OpenCL kernel does not count them) */
 } vis_timing;
 
 /* VIS_ERROR_NOT_FOUND before the first successful trace on the context. */
