@@ -14,7 +14,7 @@ const cli_command cli_commands[] = {
          OPT_PNG | OPT_JSON | OPT_EFFECTS,
      0, 0, cmd_cull},
     {"run", "Generate the world (progress on stderr) and cull it along the camera path, view by view.",
-     RAY_PASS_OPTS | OPT_IDS | OPT_REPEAT, 0, 0, cmd_run},
+     RAY_PASS_OPTS | OPT_IDS | OPT_REPEAT | OPT_EFFECTS, 0, 0, cmd_run},
     {"bench", "Time the camera path (N frames per view), single-voxel edits, and optionally Embree.",
      RAY_PASS_OPTS | OPT_METHOD | OPT_FRAMES | OPT_EDITS | OPT_SEED | OPT_COMPARE | OPT_JSON | OPT_EFFECTS,
      OPT_THREADS | OPT_BACKEND, 0, cmd_bench},
