@@ -182,6 +182,7 @@ static void test_worlds_match_bruteforce(void **state)
     /* The worlds exercise every effect (else the comparison above would prove little). */
     assert_true(terrain.see_through > 0 && terrain.reflected > 0 && terrain.casters > 0);
     assert_true(city.see_through > 0 && city.reflected > 0 && city.casters > 0);
+    assert_true(city.off_screen > 0); /* casters the frustum misses: what the effect is for */
     vis_context_destroy(ctx);
 }
 
