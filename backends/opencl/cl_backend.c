@@ -323,17 +323,22 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
 }
 
 /* The effects program for one method and effect set (-DVIS_TRACE_EFFECTS -DVIS_TRAVERSAL_ONLY
- * -DVIS_EFFECTS_ONLY: only that code is compiled). When the program cache is nearly full, the
- * generic effects program (switching on both at run time) serves every further set. */
+ * -DVIS_EFFECTS_ONLY: only that code is compiled). Once VIS_CL_MAX_EFFECT_PROGRAMS of those
+ * are built, the generic effects program (switching on both at run time) serves every
+ * further set, so the plain programs always keep their slots. */
 static int effects_program(vis_cl_backend *b, uint32_t traversal, uint32_t effects, vis_cl_program **p, char *err,
                            size_t err_size)
 {
     char opts[96];
-    if (b->program_count + 1u < VIS_CL_MAX_PROGRAMS && traversal <= VIS_TRAVERSAL_ID_ROPES_SHORTSTACK)
-        snprintf(opts, sizeof opts, "-DVIS_TRACE_EFFECTS -DVIS_TRAVERSAL_ONLY=%uu -DVIS_EFFECTS_ONLY=%uu", traversal,
-                 effects);
-    else
+    snprintf(opts, sizeof opts, "-DVIS_TRACE_EFFECTS -DVIS_TRAVERSAL_ONLY=%uu -DVIS_EFFECTS_ONLY=%uu", traversal,
+             effects);
+    int cached = 0;
+    for (uint32_t i = 0; i < b->program_count && !cached; ++i)
+        cached = strcmp(b->programs[i].options, opts) == 0;
+    if (!cached && (b->effect_programs >= VIS_CL_MAX_EFFECT_PROGRAMS || traversal > VIS_TRAVERSAL_ID_ROPES_SHORTSTACK))
         snprintf(opts, sizeof opts, "-DVIS_TRACE_EFFECTS");
+    else if (!cached)
+        ++b->effect_programs; /* counted once tried: a set that fails to build fails again */
     int st = vis_cl_program_get(b, opts, p, err, err_size);
     if (st == VIS_OK && !(*p)->effects) {
         snprintf(err, err_size, "no effects kernel in program \"%s\"", opts);

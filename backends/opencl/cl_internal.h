@@ -110,6 +110,9 @@ int vis_cl_pocl_cpu_only(const char *library);
 /* Kernels built per option set and kept for the backend's life (DESIGN.md: a scene without
  * an effect pays nothing for it, so each effect set gets its own program). */
 #define VIS_CL_MAX_PROGRAMS 24
+/* Of those, the effects programs built for one method and effect set (cl_backend.c): the rest
+ * stays for the eight plain option sets and the one generic effects program. */
+#define VIS_CL_MAX_EFFECT_PROGRAMS 15
 
 typedef struct vis_cl_program {
     char options[512];
@@ -146,6 +149,7 @@ typedef struct vis_cl_backend {
 
     vis_cl_program programs[VIS_CL_MAX_PROGRAMS];
     uint32_t program_count;
+    uint32_t effect_programs; /* built for one method and effect set (at most VIS_CL_MAX_EFFECT_PROGRAMS) */
 
     /* Output buffers (grown on demand, never per frame once large enough). */
     cl_mem ids, depth, setups;
