@@ -531,8 +531,10 @@ typedef struct vis_effect_buffers {
  * (by the brute force when that is the pass's method). Bad effect parameters (a zero or
  * non-finite light, fog <= 0 or non-finite, layers above VIS_MAX_SEE_THROUGH_LAYERS) are
  * VIS_ERROR_INVALID_ARGUMENT with nothing written. desc->effects == 0 gives vis_trace's
- * buffers. Allocates nothing once the scene's backend copy is up to date; vis_context_last_timing
- * counts primary rays. A backend without effects: VIS_ERROR_UNSUPPORTED. */
+ * buffers. Allocates nothing once the scene's backend copy is up to date (the OpenCL backend
+ * grows its device buffers on first use); vis_context_last_timing's `rays` counts primary rays,
+ * `secondary_rays` the reflected and shadow rays (CPU backend). A backend without effects:
+ * VIS_ERROR_UNSUPPORTED. */
 VIS_API vis_status vis_trace_effects(vis_context *context, vis_scene *scene, const vis_camera *camera,
                                      const vis_trace_desc *desc, const vis_effect_buffers *buffers);
 
