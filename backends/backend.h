@@ -37,6 +37,12 @@ VIS_CHECK_TRAVERSAL_(PACKET);
 VIS_CHECK_TRAVERSAL_(CACHED_STACK);
 #undef VIS_CHECK_TRAVERSAL_
 _Static_assert(VIS_IDS_OBJECT == 0 && VIS_IDS_LEAF == 1, "vis_ray_setup.id_mode is vis_id_mode");
+_Static_assert(VIS_FLAG_SEE_THROUGH == VIS_PRIM_SEE_THROUGH && VIS_FLAG_REFLECTIVE == VIS_PRIM_REFLECTIVE,
+               "trace_core.h and vis.h disagree on the material flags");
+_Static_assert(VIS_FX_SEE_THROUGH == VIS_EFFECT_SEE_THROUGH && VIS_FX_REFLECT == VIS_EFFECT_REFLECT &&
+                   VIS_FX_SHADOWS == VIS_EFFECT_SHADOWS && VIS_FX_FOG == VIS_EFFECT_FOG,
+               "trace_core.h and vis.h disagree on the effect bits");
+_Static_assert(VIS_MAX_LAYERS == VIS_MAX_SEE_THROUGH_LAYERS, "trace_core.h and vis.h disagree on the layers");
 
 /* The flat layout is copied to devices byte for byte: 4-byte fields only, no padding, the
  * sizes trace_core.h states. The kernels check the same sizes against the host's on their
@@ -50,6 +56,7 @@ VIS_CHECK_LAYOUT_(vis_flat_tri, 40);
 VIS_CHECK_LAYOUT_(vis_flat_object, 16);
 VIS_CHECK_LAYOUT_(vis_rope_node, 56);
 VIS_CHECK_LAYOUT_(vis_ray_setup, 96);
+VIS_CHECK_LAYOUT_(vis_effect_setup, 32);
 #undef VIS_CHECK_LAYOUT_
 
 /* Host memory of a backend comes from the context's allocator (vis_context_desc.allocator, or
@@ -123,6 +130,18 @@ typedef struct vis_scene_changes {
     uint32_t object_leaf_lo, object_leaf_hi;
 } vis_scene_changes;
 
+/* The buffers of an effects pass (vis_trace_effects): ids always; the others NULL when
+ * not asked for (depth) or their effect is off. see_through holds setup->layers IDs per
+ * pixel, pixel-major. Sizes were checked by libvis. */
+typedef struct vis_effect_outputs {
+    uint32_t *ids;
+    float *depth;
+    uint32_t *see_through;
+    uint32_t *reflection;
+    uint32_t *shadow;
+    uint64_t *secondary_rays; /* set to the reflected and shadow rays cast (the CPU counts) */
+} vis_effect_outputs;
+
 typedef struct vis_backend_ops {
     const char *name;
     void (*destroy)(void *impl);
@@ -158,6 +177,11 @@ typedef struct vis_backend_ops {
                                  const vis_ray_setup *setups, uint32_t count, uint32_t *ids, float *depth,
                                  vis_draw_entry *entries, size_t capacity, size_t *per_view, size_t *total, char *err,
                                  size_t err_size);
+    /* Optional (NULL: VIS_ERROR_UNSUPPORTED): one pass with effects (trace_core.h,
+     * vis_trace_pixel_effects), every method equal to the brute force. */
+    vis_status (*trace_effects)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
+                                const vis_effect_setup *effects, const vis_effect_outputs *out, char *err,
+                                size_t err_size);
 } vis_backend_ops;
 
 typedef struct vis_backend {

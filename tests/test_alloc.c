@@ -150,9 +150,10 @@ static vis_scene *make_small_scene(vis_context *ctx)
     vis_quad floor_q = {1, 0, 8, 0, 0, 64, 64};
     vis_quad wall = {0, 0, 40, 8, 0, 30, 64};
     vis_triangle tri = {{{10, 8, 10}, {20, 20, 12}, {30, 8, 14}}, 0};
-    vis_mesh m1 = {&floor_q, 1, NULL, 0}, m2 = {&wall, 1, NULL, 0}, m3 = {NULL, 0, &tri, 1};
+    vis_quad glass = {2, VIS_PRIM_SEE_THROUGH | VIS_PRIM_REFLECTIVE, 20, 0, 8, 64, 30}; /* for the effects */
+    vis_mesh m1 = {&floor_q, 1, NULL, 0}, m2 = {&wall, 1, NULL, 0}, m3 = {NULL, 0, &tri, 1}, m4 = {&glass, 1, NULL, 0};
     if (vis_scene_set_object(s, 1, &m1) != VIS_OK || vis_scene_set_object(s, 2, &m2) != VIS_OK ||
-        vis_scene_set_object(s, 7, &m3) != VIS_OK) {
+        vis_scene_set_object(s, 7, &m3) != VIS_OK || vis_scene_set_object(s, 9, &m4) != VIS_OK) {
         vis_scene_destroy(s);
         return NULL;
     }
@@ -162,6 +163,7 @@ static vis_scene *make_small_scene(vis_context *ctx)
 enum { W = 64, H = 48 };
 static uint32_t g_ids[2 * W * H];
 static float g_depth[2 * W * H];
+static uint32_t g_layers[2 * W * H], g_reflection[W * H], g_shadow[W * H];
 
 /* One frame of every per-frame call; returns the first status that is not VIS_OK. */
 static vis_status frame(vis_context *ctx, vis_scene *s, vis_zcull *z, const vis_camera *cam)
@@ -182,6 +184,21 @@ static vis_status frame(vis_context *ctx, vis_scene *s, vis_zcull *z, const vis_
             if ((st = vis_drawlist_build(ctx, s, g_ids, W, H, (vis_id_mode)mode, list, 8, &count)) != VIS_OK)
                 return st;
         }
+    for (int t = 0; t <= (int)VIS_TRAVERSAL_PACKET; ++t) { /* every effect, every method */
+        vis_trace_desc td;
+        vis_trace_desc_defaults(&td);
+        td.width = W;
+        td.height = H;
+        td.traversal = (vis_traversal)t;
+        td.effects = VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG;
+        td.light_dir[0] = 0.3, td.light_dir[1] = 1.0, td.light_dir[2] = 0.2;
+        td.fog_dist = 80.0;
+        vis_effect_buffers b = {g_ids, W * H, g_depth, W * H, g_layers, 2 * W * H, g_reflection, W * H, g_shadow, W * H};
+        vis_effect_entry fx[8];
+        if ((st = vis_trace_effects(ctx, s, cam, &td, &b)) != VIS_OK ||
+            (st = vis_drawlist_build_effects(ctx, s, &b, W, H, 2, fx, 8, &count)) != VIS_OK)
+            return st;
+    }
     vis_camera two[2] = {*cam, *cam};
     two[1].eye[1] += 3;
     vis_trace_desc td;

@@ -377,6 +377,13 @@ static void test_bad_arguments(void **state)
         {"info --res 4x4", "--res"},
         {"bench --compare nothing", "embree"},
         {"bench --frames 0", "--frames"},
+        {"cull --effects glitter", "glitter"},
+        {"cull --effects shadows:1,2", "shadows"},
+        {"cull --effects shadows:0,0,0", "zero"},
+        {"cull --effects fog:-3", "fog"},
+        {"cull --effects reflect,reflect", "twice"},
+        {"cull --effects reflect --method zbuf", "--method ray"},
+        {"cull --effects reflect --ids leaf", "--ids object"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         vt_run_result r = run_vis("%s", cases[i].args);
@@ -387,6 +394,56 @@ static void test_bad_arguments(void **state)
         assert_string_equal(r.out, ""); /* nothing on stdout for scripts to mistake */
         vt_run_free(&r);
     }
+}
+
+/* --effects: the JSON's reasons agree with the draw list dump (ID DIRECT SEE_THROUGH
+ * REFLECTION SHADOW per line), and the direct column is what the ID dump holds. */
+static void test_cull_effects(void **state)
+{
+    (void)state;
+    const uint32_t w = 64, h = 48;
+    const char *ids_path = tmp_path("fx_ids.bin"), *list_path = tmp_path("fx_list.txt");
+    vt_run_result r = run_vis("cull --scene %s --res %ux%u --camera 32,40,-30,32,8,32,70 --threads 2 "
+                              "--effects see-through,reflect,shadows:1,0.7,0.4,fog:200 --dump-ids '%s' "
+                              "--dump-list '%s' --json",
+                              CITY, w, h, ids_path, list_path);
+    vt_assert_exit(r, 0);
+    assert_one_object(r.out);
+    static const char *const keys[] = {"effects", "reasons", "direct", "see_through", "reflection", "shadow",
+                                       "shadow_only", "secondary_rays", NULL};
+    assert_keys(r.out, keys);
+    char s[128];
+    json_str(r.out, "effects", s, sizeof s);
+    assert_string_equal(s, "see-through,reflect,shadows,fog");
+    size_t n = 0;
+    uint32_t *ids = (uint32_t *)vt_read_file(ids_path, &n);
+    assert_non_null(ids);
+    assert_int_equal(n, (size_t)w * h * 4);
+    char *list = vt_slurp(list_path);
+    unsigned lines = 0, direct_objects = 0, shadow_objects = 0;
+    unsigned long long direct_pixels = 0;
+    for (char *p = list; *p;) {
+        unsigned id, px[4];
+        int used = 0;
+        assert_int_equal(sscanf(p, "%u %u %u %u %u\n%n", &id, &px[0], &px[1], &px[2], &px[3], &used), 5);
+        assert_true(used > 0 && (px[0] | px[1] | px[2] | px[3]) != 0);
+        direct_objects += px[0] != 0;
+        shadow_objects += px[3] != 0;
+        direct_pixels += px[0];
+        ++lines;
+        p += used;
+    }
+    unsigned long long hit = 0;
+    for (size_t i = 0; i < (size_t)w * h; ++i)
+        hit += ids[i] != 0;
+    assert_true(direct_pixels == hit);
+    assert_int_equal(lines, (unsigned)json_num(r.out, "visible"));
+    assert_int_equal(direct_objects, (unsigned)json_num(r.out, "direct"));
+    assert_int_equal(shadow_objects, (unsigned)json_num(r.out, "shadow"));
+    assert_true(json_num(r.out, "secondary_rays") > 0);
+    free(ids);
+    free(list);
+    vt_run_free(&r);
 }
 
 /* Failures that are not the arguments' fault: exit code 1 with a message. */
@@ -972,6 +1029,7 @@ int main(void)
         cmocka_unit_test(test_cull_variants_agree),
         cmocka_unit_test(test_cull_png),
         cmocka_unit_test(test_cull_zbuf),
+        cmocka_unit_test(test_cull_effects),
         cmocka_unit_test(test_bad_arguments),
         cmocka_unit_test(test_runtime_errors),
         cmocka_unit_test(test_info),

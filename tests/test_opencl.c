@@ -949,6 +949,73 @@ static void test_aimed_cameras(void **state)
     vis_context_destroy(cl);
 }
 
+/* vis_trace_effects on OpenCL equals the CPU's buffers bit for bit (the CPU's equal the
+ * brute force: test_effects.c), on worlds with water and glass, for the stack method and the
+ * brute force, every effect together and reflections and shadows without see-through. Small
+ * images: every (method, effect set) is a program of its own, which PoCL builds slowly. */
+static void test_effects_bit_identical(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    static const char *const specs[] = {"gen:terrain:size=64x48x64:seed=3", "gen:city:size=64x48x64:seed=2"};
+    static const struct { vis_traversal method; uint32_t effects; } runs[] = {
+        {VIS_TRAVERSAL_STACK, VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG},
+        {VIS_TRAVERSAL_BRUTEFORCE, VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG},
+        {VIS_TRAVERSAL_STACK, VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS},
+    };
+    enum { S = 24, N = S * S, L = 3 };
+    vis_context *cpu = make_ctx(VIS_BACKEND_CPU, NULL, NULL);
+    uint32_t *buf[2][4];
+    float *depth[2];
+    for (int k = 0; k < 2; ++k) {
+        for (int j = 0; j < 4; ++j)
+            assert_non_null(buf[k][j] = calloc((size_t)N * L, 4));
+        assert_non_null(depth[k] = calloc(N, 4));
+    }
+    uint64_t seen = 0;
+    for (size_t wi = 0; wi < sizeof specs / sizeof specs[0]; ++wi) {
+        world_pair wp;
+        world_pair_open(&wp, cpu, cl, specs[wi]);
+        vis_scene_info info;
+        vis_scene_get_info(wp.p.cpu_scene, &info);
+        const float *sz = info.size;
+        vis_camera cam = {{sz[0] * 0.1, sz[1] * 0.9, sz[2] * 0.1}, {sz[0] * 0.6, sz[1] * 0.2, sz[2] * 0.7}, 60, 0.05, 0};
+        for (size_t r = 0; r < sizeof runs / sizeof runs[0]; ++r) {
+            vis_trace_desc td = desc_make(S, S, VIS_IDS_OBJECT, runs[r].method);
+            td.effects = runs[r].effects;
+            td.see_through_layers = L;
+            td.light_dir[0] = 1.0, td.light_dir[1] = 0.7, td.light_dir[2] = 0.4;
+            td.fog_dist = 0.5 * sz[0];
+            for (int k = 0; k < 2; ++k) {
+                vis_effect_buffers b = {buf[k][0], N, depth[k], N, buf[k][1], (size_t)N * L, buf[k][2], N, buf[k][3], N};
+                vis_context *c = k ? cl : cpu;
+                if (vis_trace_effects(c, k ? wp.p.cl_scene : wp.p.cpu_scene, &cam, &td, &b) != VIS_OK)
+                    fail_msg("%s: %s", k ? "opencl" : "cpu", vis_context_last_error(c));
+            }
+            size_t st_n = (td.effects & VIS_EFFECT_SEE_THROUGH) ? (size_t)N * L : 0;
+            assert_memory_equal(buf[0][0], buf[1][0], N * 4);
+            assert_memory_equal(depth[0], depth[1], N * 4);
+            if (st_n)
+                assert_memory_equal(buf[0][1], buf[1][1], st_n * 4);
+            assert_memory_equal(buf[0][2], buf[1][2], N * 4);
+            assert_memory_equal(buf[0][3], buf[1][3], N * 4);
+            for (int i = 0; i < N; ++i)
+                seen += (st_n && buf[1][1][(size_t)i * L] != 0) + (buf[1][2][i] != 0) + (buf[1][3][i] != 0);
+        }
+        world_pair_close(&wp);
+    }
+    printf("effects on OpenCL: %llu see-through, reflection and shadow results, all equal to the CPU's\n",
+           (unsigned long long)seen);
+    assert_true(seen > 0);
+    for (int k = 0; k < 2; ++k) {
+        for (int j = 0; j < 4; ++j)
+            free(buf[k][j]);
+        free(depth[k]);
+    }
+    vis_context_destroy(cpu);
+    vis_context_destroy(cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -964,6 +1031,7 @@ int main(void)
         cmocka_unit_test(test_real_vox_scenes),
         cmocka_unit_test(test_random_worlds_bit_identical),
         cmocka_unit_test(test_aimed_cameras),
+        cmocka_unit_test(test_effects_bit_identical),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

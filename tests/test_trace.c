@@ -346,7 +346,7 @@ static void test_ties_go_to_lowest_id(void **state)
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_camera cam = {{16, 16, 0.5}, {16, 16, 30}, 40, 0, 0};
     uint32_t ids[16 * 16];
-    vis_trace_desc td = {16, 16, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK, 0};
+    vis_trace_desc td = {.width = 16, .height = 16, .ids = VIS_IDS_OBJECT, .traversal = VIS_TRAVERSAL_STACK};
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16 * 16, NULL, 0), VIS_OK);
     for (int i = 0; i < 256; ++i)
         assert_int_equal(ids[i], 7);
@@ -368,7 +368,7 @@ static void test_camera_inside_solid(void **state)
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_camera cam = {{16.5, 16.5, 16.5}, {30, 20, 10}, 90, 0, 0};
     uint32_t ids[20 * 20];
-    vis_trace_desc td = {20, 20, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK, 0};
+    vis_trace_desc td = {.width = 20, .height = 20, .ids = VIS_IDS_OBJECT, .traversal = VIS_TRAVERSAL_STACK};
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 20 * 20, NULL, 0), VIS_OK);
     for (int i = 0; i < 400; ++i)
         assert_int_equal(ids[i], 5); /* the enclosing solid, seen from inside */
@@ -398,7 +398,7 @@ static void test_far_from_origin(void **state)
         }
         uint32_t ia[32 * 32], ib[32 * 32];
         float da[32 * 32], db[32 * 32];
-        vis_trace_desc td = {32, 32, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK, 0};
+        vis_trace_desc td = {.width = 32, .height = 32, .ids = VIS_IDS_OBJECT, .traversal = VIS_TRAVERSAL_STACK};
         assert_int_equal(vis_trace(ctx, a, &ca, &td, ia, 32 * 32, da, 32 * 32), VIS_OK);
         assert_int_equal(vis_trace(ctx, b, &cb, &td, ib, 32 * 32, db, 32 * 32), VIS_OK);
         assert_memory_equal(ia, ib, sizeof ia);
@@ -477,7 +477,7 @@ static void test_leaf_ids_and_drawlist(void **state)
     cam.target[0] = 24, cam.target[1] = 8, cam.target[2] = 24;
     enum { W = 64, H = 48 };
     static uint32_t obj_ids[W * H], leaf_ids[W * H];
-    vis_trace_desc td = {W, H, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK, 0};
+    vis_trace_desc td = {.width = W, .height = H, .ids = VIS_IDS_OBJECT, .traversal = VIS_TRAVERSAL_STACK};
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, obj_ids, W * H, NULL, 0), VIS_OK);
     td.ids = VIS_IDS_LEAF;
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, leaf_ids, W * H, NULL, 0), VIS_OK);
@@ -549,7 +549,7 @@ static void expect_rejected(vis_context *ctx, vis_scene *scene, const vis_camera
         ids[i] = 0xABCDABCD;
         depth[i] = -7.0f;
     }
-    vis_trace_desc td = {W, H, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK, 0};
+    vis_trace_desc td = {.width = W, .height = H, .ids = VIS_IDS_OBJECT, .traversal = VIS_TRAVERSAL_STACK};
     expect_error(ctx, vis_trace(ctx, scene, cam, &td, ids, N, depth, N), VIS_ERROR_INVALID_ARGUMENT, needle);
     for (int i = 0; i < N; ++i) {
         assert_int_equal(ids[i], 0xABCDABCD);

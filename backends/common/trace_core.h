@@ -171,11 +171,48 @@ typedef struct vis_ray_setup {
         const VIS_GLOBAL uint32_t *rope_index
 #define VIS_SCENE_ARGS nodes, leaves, buckets, quads, tris, objects, object_leaves, ropes, rope_index
 
+/* Material flags of a primitive (meta's flags field): vis.h's VIS_PRIM_* (backend.h checks). */
+#define VIS_FLAG_SEE_THROUGH 1u
+#define VIS_FLAG_REFLECTIVE 2u
+
+/* Effects of a pass (vis_effect_setup.effects): vis.h's VIS_EFFECT_* (backend.h checks). */
+#define VIS_FX_SEE_THROUGH 1u
+#define VIS_FX_REFLECT 2u
+#define VIS_FX_SHADOWS 4u
+#define VIS_FX_FOG 8u
+/* The most see-through objects a ray records (vis.h's VIS_MAX_SEE_THROUGH_LAYERS). */
+#define VIS_MAX_LAYERS 4u
+
+/* The per-pass effect parameters (fog is already in vis_ray_setup.t_far). */
+typedef struct vis_effect_setup {
+    float light[3];     /* toward the light, normalised in double then rounded (shadows)   */
+    uint32_t effects;   /* VIS_FX_*                                                         */
+    uint32_t layers;    /* see-through objects recorded per pixel, 1..VIS_MAX_LAYERS        */
+    uint32_t pad[3];
+} vis_effect_setup;
+
 /* Hit state of one ray. */
 typedef struct vis_hit {
     float t;          /* best distance so far (+inf: none)                                  */
     uint32_t object;  /* object slot index of the best hit, VIS_NO_OBJECT if none           */
     uint32_t id;      /* its ID (for the tie rule), 0 if none                               */
+#ifdef VIS_TRACE_EFFECTS
+    /* The effects instance (a program or translation unit built with VIS_TRACE_EFFECTS; the
+     * plain pass compiles none of this). The hit primitive is kept for the secondary rays,
+     * and ties in (t, ID) go on to (prim, plane), so that every method keeps the same one. */
+    uint32_t prim;    /* axis (3: a triangle) | flags << 2 of the best hit                 */
+    float plane;      /* its plane (quads; 0 for triangles)                                */
+    uint32_t policy;  /* VIS_ST_*: what a see-through primitive does to this ray           */
+    uint32_t layers;  /* VIS_ST_RECORD: how many to keep                                    */
+    uint32_t ignore_axis;  /* quads in this plane are not offered (VIS_NO_AXIS: none)      */
+    float ignore_plane;
+    uint32_t st_n;         /* see-through objects kept, nearest first by (t, ID)            */
+    float st_t[VIS_MAX_LAYERS];
+    uint32_t st_id[VIS_MAX_LAYERS];
+    float rt;              /* the nearest reflective see-through crossing (rid 0: none)     */
+    uint32_t rid, rprim;
+    float rplane;
+#endif
 } vis_hit;
 
 typedef struct vis_ray {
@@ -222,6 +259,118 @@ VIS_INLINE void vis_hit_offer(float t, uint32_t obj, const VIS_GLOBAL vis_flat_o
         h->object = obj;
         h->id = id;
     }
+}
+
+#ifdef VIS_TRACE_EFFECTS
+#define VIS_ST_OCCLUDE 0u /* see-through primitives occlude like any other (effect off)     */
+#define VIS_ST_RECORD 1u  /* they never occlude; the nearest `layers` objects are recorded  */
+#define VIS_ST_SKIP 2u    /* they are not there (secondary rays)                              */
+#define VIS_NO_AXIS 7u
+
+VIS_INLINE void vis_hit_init(vis_hit *h, uint32_t policy, uint32_t layers, uint32_t ignore_axis, float ignore_plane)
+{
+    h->t = VIS_INF;
+    h->object = VIS_NO_OBJECT;
+    h->id = 0u;
+    h->prim = 0u;
+    h->plane = 0.0f;
+    h->policy = policy;
+    h->layers = layers;
+    h->ignore_axis = ignore_axis;
+    h->ignore_plane = ignore_plane;
+    h->st_n = 0u;
+    for (uint32_t i = 0u; i < VIS_MAX_LAYERS; ++i) {
+        h->st_t[i] = VIS_INF;
+        h->st_id[i] = 0u;
+    }
+    h->rt = VIS_INF;
+    h->rid = 0u;
+    h->rprim = 0u;
+    h->rplane = 0.0f;
+}
+
+/* The total order of hits: (t, ID), then (prim, plane), so a tie between two primitives of
+ * one object resolves the same whichever a method offers first. */
+VIS_INLINE int vis_prim_better(float t, uint32_t id, uint32_t prim, float plane, float bt, uint32_t bid, uint32_t bprim,
+                               float bplane)
+{
+    if (t != bt)
+        return t < bt;
+    if (id != bid)
+        return id < bid;
+    if (prim != bprim)
+        return prim < bprim;
+    return plane < bplane;
+}
+
+/* A see-through crossing (policy VIS_ST_RECORD): the object joins the ray's list of the
+ * `layers` nearest distinct objects by (t, ID), an object offered again keeping its smallest
+ * t; a reflective one is also the reflector candidate if it is the nearest so far. */
+VIS_INLINE void vis_see_through_offer(float t, uint32_t id, uint32_t prim, float plane, vis_hit *h)
+{
+    if ((prim >> 2 & VIS_FLAG_REFLECTIVE) && vis_prim_better(t, id, prim, plane, h->rt, h->rid, h->rprim, h->rplane)) {
+        h->rt = t;
+        h->rid = id;
+        h->rprim = prim;
+        h->rplane = plane;
+    }
+    uint32_t n = h->st_n;
+    for (uint32_t i = 0u; i < n; ++i)
+        if (h->st_id[i] == id) {
+            if (!(t < h->st_t[i]))
+                return;
+            for (uint32_t j = i; j + 1u < n; ++j) { /* taken out; put back at its new place */
+                h->st_t[j] = h->st_t[j + 1u];
+                h->st_id[j] = h->st_id[j + 1u];
+            }
+            --n;
+            break;
+        }
+    uint32_t at = n;
+    while (at > 0u && (t < h->st_t[at - 1u] || (t == h->st_t[at - 1u] && id < h->st_id[at - 1u])))
+        --at;
+    if (at >= h->layers) {
+        h->st_n = n;
+        return;
+    }
+    if (n == h->layers)
+        --n; /* the farthest drops out */
+    for (uint32_t j = n; j > at; --j) {
+        h->st_t[j] = h->st_t[j - 1u];
+        h->st_id[j] = h->st_id[j - 1u];
+    }
+    h->st_t[at] = t;
+    h->st_id[at] = id;
+    h->st_n = n + 1u;
+}
+#endif
+
+/* vis_hit_offer for a primitive with its axis (3: a triangle), flags and plane. The plain
+ * pass ignores all three (the compiler drops them); the effects instance applies the ray's
+ * see-through policy and ignored plane, and breaks ties by primitive. */
+VIS_INLINE void vis_hit_offer_prim(float t, uint32_t obj, uint32_t axis, uint32_t flags, float plane,
+                                   const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
+{
+#ifdef VIS_TRACE_EFFECTS
+    if (axis == h->ignore_axis && plane == h->ignore_plane)
+        return; /* the reflector's or receiver's own plane: a ray leaving it cannot meet it */
+    uint32_t id = objects[obj].id, prim = axis | flags << 2;
+    if ((flags & VIS_FLAG_SEE_THROUGH) && h->policy != VIS_ST_OCCLUDE) {
+        if (h->policy == VIS_ST_RECORD)
+            vis_see_through_offer(t, id, prim, plane, h);
+        return;
+    }
+    if (vis_prim_better(t, id, prim, plane, h->t, h->id, h->prim, h->plane)) {
+        h->t = t;
+        h->object = obj;
+        h->id = id;
+        h->prim = prim;
+        h->plane = plane;
+    }
+#else
+    (void)axis, (void)flags, (void)plane;
+    vis_hit_offer(t, obj, objects, h);
+#endif
 }
 
 /* Distance slack: two distances computed independently (each within 3 ulps of the exact
@@ -342,7 +491,7 @@ VIS_INLINE void vis_test_quad(const vis_ray *r, vis_flat_quad q, const VIS_GLOBA
         return;
     if (t < r->t_near || t > r->t_far || t > h->t)
         return;
-    vis_hit_offer(t, VIS_META_OBJECT(q.meta), objects, h);
+    vis_hit_offer_prim(t, VIS_META_OBJECT(q.meta), VIS_META_AXIS(q.meta), VIS_META_FLAGS(q.meta), q.plane, objects, h);
 }
 
 /* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013), two-sided. Returns the
@@ -413,7 +562,7 @@ VIS_INLINE void vis_test_tri(const vis_ray *r, const VIS_GLOBAL vis_flat_tri *tr
         return;
     if (!(t >= r->t_near) || t > r->t_far || t > h->t)
         return;
-    vis_hit_offer(t, VIS_META_OBJECT(tri->meta), objects, h);
+    vis_hit_offer_prim(t, VIS_META_OBJECT(tri->meta), 3u, VIS_META_FLAGS(tri->meta), 0.0f, objects, h);
 }
 
 /* ---- one leaf ----------------------------------------------------------------------- */
@@ -529,7 +678,8 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
                 if (!vis_quad_slab(r, u, v, t, c, lv + (float)VIS_PQ_FIELD(w, 1u), lu + (float)VIS_PQ_FIELD(w, 2u),
                                    lv + (float)VIS_PQ_FIELD(w, 3u)))
                     continue;
-                vis_hit_offer(t, table[VIS_PQ_TABLE(w)], objects, h);
+                vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], (uint32_t)a, VIS_PQ_FLAGS(w), lo[a] + (float)k[a], objects,
+                                   h);
             }
         }
         if (k[a] == kend[a]) {
@@ -1257,6 +1407,23 @@ VIS_INLINE void vis_traverse_cached_stack(const vis_ray *r, const vis_ray_setup 
     }
 }
 
+/* The ray through the method with VIS_TRAVERSAL_ID `method`. Packets are the CPU's own, and
+ * the cached stack needs its caller's ring: a ray handed here with either goes through the
+ * stack method, whose walk (and so whose buffers) the cached stack repeats exactly. */
+VIS_INLINE void vis_traverse(const vis_ray *r, const vis_ray_setup *s, uint32_t method, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    if (method == VIS_TRAVERSAL_ID_STACK || method == VIS_TRAVERSAL_ID_PACKET ||
+        method == VIS_TRAVERSAL_ID_CACHED_STACK)
+        vis_traverse_stack(r, s, VIS_SCENE_ARGS, h);
+    else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
+        vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h);
+    else if (method == VIS_TRAVERSAL_ID_ROPES || method == VIS_TRAVERSAL_ID_ROPES_SHORTSTACK)
+        vis_traverse_ropes(r, s, method == VIS_TRAVERSAL_ID_ROPES ? 0u : s->short_stack, VIS_SCENE_ARGS, h);
+    else
+        vis_traverse_restart(r, s, method == VIS_TRAVERSAL_ID_SHORTSTACK ? s->short_stack : 0u,
+                             method == VIS_TRAVERSAL_ID_PUSHDOWN, VIS_SCENE_ARGS, h);
+}
+
 /* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write, and
  * the hit's object slot (VIS_NO_OBJECT: none) for the draw list built on a device. ring: the
  * cached stack's ring, slot j at ring[j * ring_stride], j < s->short_stack (only
@@ -1271,25 +1438,22 @@ VIS_INLINE void vis_trace_pixel_slot(const vis_ray_setup *s, uint32_t x, uint32_
     vis_ray r;
     vis_ray_for_pixel(s, x, y, &r);
     vis_hit h;
+#ifdef VIS_TRACE_EFFECTS
+    vis_hit_init(&h, VIS_ST_OCCLUDE, 0u, VIS_NO_AXIS, 0.0f); /* the plain pass, in an effects program */
+#else
     h.t = VIS_INF;
     h.object = VIS_NO_OBJECT;
     h.id = 0u;
+#endif
 #ifdef VIS_TRAVERSAL_ONLY
     uint32_t method = VIS_TRAVERSAL_ONLY;
 #else
     uint32_t method = s->traversal;
 #endif
-    if (method == VIS_TRAVERSAL_ID_STACK)
-        vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
-    else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
-        vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);
-    else if (method == VIS_TRAVERSAL_ID_CACHED_STACK)
+    if (method == VIS_TRAVERSAL_ID_CACHED_STACK)
         vis_traverse_cached_stack(&r, s, ring, ring_stride, s->short_stack, VIS_SCENE_ARGS, &h);
-    else if (method == VIS_TRAVERSAL_ID_ROPES || method == VIS_TRAVERSAL_ID_ROPES_SHORTSTACK)
-        vis_traverse_ropes(&r, s, method == VIS_TRAVERSAL_ID_ROPES ? 0u : s->short_stack, VIS_SCENE_ARGS, &h);
     else
-        vis_traverse_restart(&r, s, method == VIS_TRAVERSAL_ID_SHORTSTACK ? s->short_stack : 0u,
-                             method == VIS_TRAVERSAL_ID_PUSHDOWN, VIS_SCENE_ARGS, &h);
+        vis_traverse(&r, s, method, VIS_SCENE_ARGS, &h);
     *out_slot = h.object;
     if (h.object == VIS_NO_OBJECT) {
         *out_id = 0u;
@@ -1311,5 +1475,130 @@ VIS_INLINE void vis_trace_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, 
     vis_trace_pixel_slot(s, x, y, VIS_SCENE_ARGS, ring, 1u, out_id, out_depth, &slot);
 }
 #endif
+
+#ifdef VIS_TRACE_EFFECTS
+/* ---- effects (docs/effects.md) -----------------------------------------------------------
+ *
+ * One pixel with the pass's effects: the primary ray with its see-through policy, then at
+ * most two secondary rays, each traced alone (they are incoherent) by the stack method, or by
+ * the brute force when that is the pass's method (the reference stays tree-free):
+ *  - see-through: a see-through primitive never becomes the hit, so every method walks to the
+ *    opaque hit and offers every see-through crossing nearer than it (the exactness argument
+ *    of docs/traversal.md, unchanged); the list is then cut to the crossings that beat the
+ *    opaque hit in vis_hit_better's (t, ID) order -- the same set in every method;
+ *  - reflect: one reflected ray from the nearest reflective surface met (the nearest
+ *    reflective see-through crossing that beats the opaque hit, else the opaque hit if it is
+ *    a reflective quad): exact for an axis-aligned quad, d[axis] negated, the origin on the
+ *    quad's plane exactly, quads of that plane ignored; triangles do not reflect;
+ *  - shadows (Bittner, Mattausch, Silvennoinen, Wimmer 2011, "Shadow Caster Culling for
+ *    Efficient Shadow Mapping"): from the opaque hit, when it is a quad whose seen side faces
+ *    the light, a ray toward the light from the hit point (plane coordinate exact, that plane
+ *    ignored) to the scene bounds; its first hit is the shadow caster. See-through quads are
+ *    not there for it (they cast no shadow); a seen side facing away from the light is its
+ *    own shadow (no ray, 0); triangle receivers cast no ray. */
+
+typedef struct vis_effect_pixel {
+    uint32_t id;
+    float depth;
+    uint32_t reflection;              /* VIS_FX_REFLECT: ID the reflected ray hits, 0: none */
+    uint32_t shadow;                  /* VIS_FX_SHADOWS: the caster's ID, 0: none            */
+    uint32_t secondary;               /* secondary rays cast (0..2)                          */
+    uint32_t see_through[VIS_MAX_LAYERS]; /* nearest first, 0 past the last                  */
+} vis_effect_pixel;
+
+/* A secondary ray from o along d over [0, t_far], ignoring the quads of plane `plane` on
+ * `axis`; returns the ID of its first hit (0: none). */
+VIS_INLINE uint32_t vis_trace_secondary(const vis_ray_setup *s, uint32_t method, const float *o, const float *d,
+                                        float t_far, uint32_t policy, uint32_t axis, float plane, VIS_SCENE_PARAMS)
+{
+    vis_ray r;
+    for (int a = 0; a < 3; ++a) {
+        r.o[a] = o[a];
+        r.d[a] = d[a];
+        r.inv[a] = 1.0f / d[a];
+    }
+    r.t_near = 0.0f;
+    r.t_far = t_far;
+    vis_hit h;
+    vis_hit_init(&h, policy, 0u, axis, plane);
+    if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
+        vis_traverse_bruteforce(&r, s, VIS_SCENE_ARGS, &h);
+    else
+        vis_traverse_stack(&r, s, VIS_SCENE_ARGS, &h);
+    return h.object == VIS_NO_OBJECT ? 0u : h.id;
+}
+
+VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect_setup *e, uint32_t x, uint32_t y,
+                                        VIS_SCENE_PARAMS, vis_effect_pixel *out)
+{
+    vis_ray r;
+    vis_ray_for_pixel(s, x, y, &r);
+    /* A program built for one effect set defines VIS_EFFECTS_ONLY to its bits: the code of
+     * the other effects compiles away. */
+#ifdef VIS_EFFECTS_ONLY
+    uint32_t fx = VIS_EFFECTS_ONLY;
+#else
+    uint32_t fx = e->effects;
+#endif
+    uint32_t st = fx & VIS_FX_SEE_THROUGH;
+    vis_hit h;
+    vis_hit_init(&h, st ? VIS_ST_RECORD : VIS_ST_OCCLUDE, e->layers, VIS_NO_AXIS, 0.0f);
+#ifdef VIS_TRAVERSAL_ONLY
+    uint32_t method = VIS_TRAVERSAL_ONLY;
+#else
+    uint32_t method = s->traversal;
+#endif
+    vis_traverse(&r, s, method, VIS_SCENE_ARGS, &h);
+    int hit = h.object != VIS_NO_OBJECT;
+    out->id = hit ? h.id : 0u;
+    out->depth = hit ? h.t : VIS_INF;
+    /* Sorted by (t, ID): the crossings that beat the opaque hit are a prefix. */
+    for (uint32_t k = 0u; k < VIS_MAX_LAYERS; ++k)
+        out->see_through[k] = k < h.st_n && vis_hit_better(h.st_t[k], h.st_id[k], &h) ? h.st_id[k] : 0u;
+    out->reflection = 0u;
+    out->shadow = 0u;
+    out->secondary = 0u;
+    uint32_t second = method == VIS_TRAVERSAL_ID_BRUTEFORCE ? method : VIS_TRAVERSAL_ID_STACK;
+    if (fx & VIS_FX_REFLECT) {
+        float t = 0.0f, plane = 0.0f;
+        uint32_t prim = 3u;
+        if (h.rid != 0u && vis_hit_better(h.rt, h.rid, &h)) {
+            t = h.rt;
+            prim = h.rprim;
+            plane = h.rplane;
+        } else if (hit && (h.prim & 3u) != 3u && (h.prim >> 2 & VIS_FLAG_REFLECTIVE)) {
+            t = h.t;
+            prim = h.prim;
+            plane = h.plane;
+        }
+        uint32_t a = prim & 3u;
+        if (a != 3u) {
+            float o[3], d[3];
+            for (uint32_t i = 0u; i < 3u; ++i) {
+                o[i] = r.o[i] + t * r.d[i];
+                d[i] = r.d[i];
+            }
+            o[a] = plane;
+            d[a] = -d[a];
+            ++out->secondary;
+            out->reflection = vis_trace_secondary(s, second, o, d, s->t_far, st ? VIS_ST_SKIP : VIS_ST_OCCLUDE, a,
+                                                  plane, VIS_SCENE_ARGS);
+        }
+    }
+    if ((fx & VIS_FX_SHADOWS) && hit && (h.prim & 3u) != 3u) {
+        uint32_t a = h.prim & 3u;
+        /* The seen side faces -d[a] (d[a] != 0 for a quad hit); lit when the light is on it. */
+        float facing = r.d[a] > 0.0f ? -e->light[a] : e->light[a];
+        if (facing > 0.0f) {
+            float o[3];
+            for (uint32_t i = 0u; i < 3u; ++i)
+                o[i] = r.o[i] + h.t * r.d[i];
+            o[a] = h.plane;
+            ++out->secondary;
+            out->shadow = vis_trace_secondary(s, second, o, e->light, VIS_INF, VIS_ST_SKIP, a, h.plane, VIS_SCENE_ARGS);
+        }
+    }
+}
+#endif /* VIS_TRACE_EFFECTS */
 
 #endif /* VIS_TRACE_CORE_H */

@@ -4,12 +4,15 @@
  * pool. The scene arrays are the host's own; a sync
  * only refreshes the subtree occupancy flags the packet method skips empty space with.
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
- * pixel by pixel, the same code the OpenCL kernel runs. */
+ * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
+ * instance of that code (effects.c) per ray in 8x8 tiles, whatever the method. */
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
 
 #include "backend.h"
+#include "cpu/effects.h"
 #include "cpu/occupancy.h"
 #include "cpu/packet.h"
 #include "cpu/threadpool.h"
@@ -32,6 +35,9 @@ typedef struct cpu_job {
     uint32_t side, tiles_x; /* tile edge in pixels, tiles per row */
     uint32_t packet_side;   /* packets: vis_packet_side */
     uint32_t *cost;         /* packets: per-pixel traversal cost, or NULL */
+    const vis_effect_setup *effects; /* an effects pass, or NULL */
+    const vis_effect_outputs *effect_out;
+    atomic_ullong secondary; /* secondary rays cast by the effects pass */
 } cpu_job;
 
 static void trace_tile(void *user, uint32_t tile)
@@ -40,6 +46,13 @@ static void trace_tile(void *user, uint32_t tile)
     const vis_scene_view v = *job->view; /* a local copy: its arrays stay in registers */
     const vis_ray_setup *s = job->setup;
     uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
+    if (job->effects) {
+        uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
+        uint32_t y1 = y0 + job->side < s->height ? y0 + job->side : s->height;
+        uint64_t n = vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
+        atomic_fetch_add_explicit((atomic_ullong *)&job->secondary, (unsigned long long)n, memory_order_relaxed);
+        return;
+    }
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
         vis_packet_trace_tile(s, &v, job->occupied, job->packet_side, x0, y0, job->ids, job->depth, job->cost);
         return;
@@ -102,17 +115,40 @@ static void cpu_scene_release(void *impl, void *scene_data)
     vis_host_free(&b->alloc, occ);
 }
 
+static void run_job(cpu_backend *b, cpu_job *job);
+
 static vis_status run_pass(cpu_backend *b, const vis_occupancy *occ, const vis_scene_view *view,
                            const vis_ray_setup *setup, uint32_t *ids, float *depth, uint32_t *cost)
 {
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
     cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
-                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u, cost};
-    uint32_t tiles = job.tiles_x * ((setup->height + side - 1) / side);
+                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u, cost, NULL, NULL, 0};
+    run_job(b, &job);
+    return VIS_OK;
+}
+
+static void run_job(cpu_backend *b, cpu_job *job)
+{
+    const vis_ray_setup *setup = job->setup;
+    uint32_t side = job->side;
+    uint32_t tiles = job->tiles_x * ((setup->height + side - 1) / side);
     if (b->parallel_for)
-        b->parallel_for(tiles, trace_tile_job, &job, b->parallel_for_user);
+        b->parallel_for(tiles, trace_tile_job, job, b->parallel_for_user);
     else
-        vis_pool_run(b->pool, tiles, trace_tile, &job);
+        vis_pool_run(b->pool, tiles, trace_tile, job);
+}
+
+static vis_status cpu_trace_effects(void *impl, void *scene_data, const vis_scene_view *view,
+                                    const vis_ray_setup *setup, const vis_effect_setup *effects,
+                                    const vis_effect_outputs *out, char *err, size_t err_size)
+{
+    (void)err, (void)err_size;
+    const vis_occupancy *occ = scene_data;
+    cpu_job job = {view, occ->occupied, setup, out->ids, out->depth, TILE, (setup->width + TILE - 1) / TILE, 0u,
+                   NULL, effects, out, 0};
+    run_job(impl, &job);
+    if (out->secondary_rays)
+        *out->secondary_rays = atomic_load(&job.secondary);
     return VIS_OK;
 }
 
@@ -150,7 +186,8 @@ static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_
                                         cpu_trace_cost, cpu_last_upload_bytes,
                                         NULL /* trace_batch: libvis loops */,
                                         NULL /* last_kernel_ms: libvis times the pass */,
-                                        NULL /* trace_drawlist: libvis builds lists from the IDs */};
+                                        NULL /* trace_drawlist: libvis builds lists from the IDs */,
+                                        cpu_trace_effects};
 
 vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, vis_backend *out,
                                   uint32_t *out_threads, char *err, size_t err_size)

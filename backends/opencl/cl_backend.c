@@ -102,6 +102,10 @@ static void cl_destroy(void *impl)
         clReleaseMemObject(b->setups);
     if (b->dummy)
         clReleaseMemObject(b->dummy);
+    cl_mem fx[3] = {b->fx_layers, b->fx_reflection, b->fx_shadow};
+    for (int i = 0; i < 3; ++i)
+        if (fx[i])
+            clReleaseMemObject(fx[i]);
     if (b->queue)
         clReleaseCommandQueue(b->queue);
     if (b->context)
@@ -356,6 +360,92 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
     return VIS_OK;
 }
 
+/* The effects program for one method and effect set (-DVIS_TRACE_EFFECTS -DVIS_TRAVERSAL_ONLY
+ * -DVIS_EFFECTS_ONLY: only that code is compiled). Once VIS_CL_MAX_EFFECT_PROGRAMS of those
+ * are built, the generic effects program (switching on both at run time) serves every
+ * further set, so the plain programs always keep their slots. */
+static int effects_program(vis_cl_backend *b, uint32_t traversal, uint32_t effects, vis_cl_program **p, char *err,
+                           size_t err_size)
+{
+    char opts[96];
+    snprintf(opts, sizeof opts, "-DVIS_TRACE_EFFECTS -DVIS_TRAVERSAL_ONLY=%uu -DVIS_EFFECTS_ONLY=%uu", traversal,
+             effects);
+    int cached = 0;
+    for (uint32_t i = 0; i < b->program_count && !cached; ++i)
+        cached = strcmp(b->programs[i].options, opts) == 0;
+    if (!cached && (b->effect_programs >= VIS_CL_MAX_EFFECT_PROGRAMS || traversal > VIS_TRAVERSAL_ID_ROPES_SHORTSTACK))
+        snprintf(opts, sizeof opts, "-DVIS_TRACE_EFFECTS");
+    else if (!cached)
+        ++b->effect_programs; /* counted once tried: a set that fails to build fails again */
+    int st = vis_cl_program_get(b, opts, p, err, err_size);
+    if (st == VIS_OK && !(*p)->effects) {
+        snprintf(err, err_size, "no effects kernel in program \"%s\"", opts);
+        return VIS_ERROR_BACKEND;
+    }
+    return st;
+}
+
+static vis_status cl_trace_effects(void *impl, void *scene_data, const vis_scene_view *view,
+                                   const vis_ray_setup *setup, const vis_effect_setup *effects,
+                                   const vis_effect_outputs *out, char *err, size_t err_size)
+{
+    (void)view;
+    vis_cl_backend *b = impl;
+    const vis_cl_scene *sc = scene_data;
+    b->last_kernel_ms = 0.0;
+    vis_cl_program *p = NULL;
+    int st = effects_program(b, setup->traversal, effects->effects, &p, err, err_size);
+    if (st != VIS_OK)
+        return st;
+    size_t pixels = (size_t)setup->width * setup->height;
+    if ((st = prepare_outputs(b, pixels, out->depth != NULL, err, err_size)) != VIS_OK)
+        return st;
+    if (out->see_through && (st = vis_cl_ensure_buffer(b, &b->fx_layers, &b->fx_layers_cap, pixels * effects->layers,
+                                                sizeof(uint32_t), CL_MEM_WRITE_ONLY, "see-through buffer", err,
+                                                err_size)) != VIS_OK)
+        return st;
+    if (out->reflection && (st = vis_cl_ensure_buffer(b, &b->fx_reflection, &b->fx_reflection_cap, pixels, sizeof(uint32_t),
+                                               CL_MEM_WRITE_ONLY, "reflection buffer", err, err_size)) != VIS_OK)
+        return st;
+    if (out->shadow && (st = vis_cl_ensure_buffer(b, &b->fx_shadow, &b->fx_shadow_cap, pixels, sizeof(uint32_t),
+                                           CL_MEM_WRITE_ONLY, "shadow buffer", err, err_size)) != VIS_OK)
+        return st;
+    cl_uint write_depth = out->depth != NULL;
+    cl_mem mems[4] = {out->depth ? b->depth : b->dummy, out->see_through ? b->fx_layers : b->dummy,
+                      out->reflection ? b->fx_reflection : b->dummy, out->shadow ? b->fx_shadow : b->dummy};
+    cl_kernel k = p->effects;
+    cl_int e = clSetKernelArg(k, 0, sizeof *setup, setup);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 1, sizeof *effects, effects);
+    if (e == CL_SUCCESS)
+        e = vis_cl_set_scene_args(k, sc, 2);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 11, sizeof(cl_mem), &b->ids);
+    for (cl_uint i = 0; i < 4 && e == CL_SUCCESS; ++i)
+        e = clSetKernelArg(k, 12 + i, sizeof(cl_mem), &mems[i]);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 16, sizeof write_depth, &write_depth);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clSetKernelArg", err, err_size);
+    if ((st = launch(b, k, setup->width, setup->height, 1, out->ids, out->depth, err, err_size)) != VIS_OK)
+        return st;
+    /* launch has finished the queue: the effect buffers are complete. */
+    if (out->see_through)
+        e = clEnqueueReadBuffer(b->queue, b->fx_layers, CL_TRUE, 0, pixels * effects->layers * sizeof(uint32_t),
+                                out->see_through, 0, NULL, NULL);
+    if (e == CL_SUCCESS && out->reflection)
+        e = clEnqueueReadBuffer(b->queue, b->fx_reflection, CL_TRUE, 0, pixels * sizeof(uint32_t), out->reflection, 0,
+                                NULL, NULL);
+    if (e == CL_SUCCESS && out->shadow)
+        e = clEnqueueReadBuffer(b->queue, b->fx_shadow, CL_TRUE, 0, pixels * sizeof(uint32_t), out->shadow, 0, NULL,
+                                NULL);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "reading the effect buffers", err, err_size);
+    if (out->secondary_rays)
+        *out->secondary_rays = 0; /* not counted on the device */
+    return VIS_OK;
+}
+
 static const vis_backend_ops cl_ops = {
     .name = "opencl",
     .destroy = cl_destroy,
@@ -366,6 +456,7 @@ static const vis_backend_ops cl_ops = {
     .trace_batch = cl_trace_batch,
     .last_kernel_ms = cl_last_kernel_ms,
     .trace_drawlist = vis_cl_trace_drawlist,
+    .trace_effects = cl_trace_effects,
 };
 
 vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const vis_allocator *alloc,

@@ -118,7 +118,10 @@ int vis_cl_pocl_cpu_only(const char *library);
 
 /* Kernels built per option set and kept for the backend's life (DESIGN.md: a scene without
  * an effect pays nothing for it, so each effect set gets its own program). */
-#define VIS_CL_MAX_PROGRAMS 16
+#define VIS_CL_MAX_PROGRAMS 32
+/* Of those, the effects programs built for one method and effect set (cl_backend.c): the rest
+ * stays for the plain option sets (methods x ID modes) and the one generic effects program. */
+#define VIS_CL_MAX_EFFECT_PROGRAMS 15
 
 typedef struct vis_cl_program {
     char options[512];
@@ -127,6 +130,7 @@ typedef struct vis_cl_program {
     cl_kernel batch;       /* vis_trace_batch_kernel: many views, setups in a buffer */
     cl_kernel drawlist;    /* vis_trace_drawlist_kernel: the batch kernel counting pixels per key */
     cl_kernel compact;     /* vis_drawlist_compact: counts to per-view lists            */
+    cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -156,6 +160,7 @@ typedef struct vis_cl_backend {
 
     vis_cl_program programs[VIS_CL_MAX_PROGRAMS];
     uint32_t program_count;
+    uint32_t effect_programs; /* built for one method and effect set (at most VIS_CL_MAX_EFFECT_PROGRAMS) */
 
     /* Output buffers (grown on demand, never per frame once large enough). */
     cl_mem ids, depth, setups;
@@ -166,6 +171,8 @@ typedef struct vis_cl_backend {
     size_t out_cap;           /* pixels of `ids` */
     size_t depth_cap;         /* pixels of `depth` */
     size_t setup_cap;         /* setups */
+    cl_mem fx_layers, fx_reflection, fx_shadow; /* effects outputs (vis_trace_effects)    */
+    size_t fx_layers_cap, fx_reflection_cap, fx_shadow_cap;
 
     /* The draw list on the device (cl_drawlist.c): per-key pixel counts with the views' list
      * heads in front, the lists, and pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once

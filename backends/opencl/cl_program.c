@@ -36,9 +36,10 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
     snprintf(opts, sizeof opts,
              "-cl-fp32-correctly-rounded-divide-sqrt -DVIS_CL_SETUP_SIZE=%zu -DVIS_CL_NODE_SIZE=%zu "
              "-DVIS_CL_LEAF_SIZE=%zu -DVIS_CL_QUAD_SIZE=%zu -DVIS_CL_TRI_SIZE=%zu -DVIS_CL_OBJECT_SIZE=%zu "
-             "-DVIS_CL_ROPE_SIZE=%zu %s %s",
+             "-DVIS_CL_ROPE_SIZE=%zu -DVIS_CL_EFFECTS_SIZE=%zu %s %s",
              sizeof(vis_ray_setup), sizeof(vis_kd_node), sizeof(vis_flat_leaf), sizeof(vis_flat_quad),
-             sizeof(vis_flat_tri), sizeof(vis_flat_object), sizeof(vis_rope_node), p->options, b->extra_options);
+             sizeof(vis_flat_tri), sizeof(vis_flat_object), sizeof(vis_rope_node), sizeof(vis_effect_setup),
+             p->options, b->extra_options);
     const char *srcs[2] = {preamble, vis_kernels_source};
     size_t lens[2] = {sizeof preamble - 1, vis_kernels_source_size};
     cl_int e = CL_SUCCESS;
@@ -75,9 +76,11 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
         p->drawlist = clCreateKernel(p->program, "vis_trace_drawlist_kernel", &e);
     if (e == CL_SUCCESS)
         p->compact = clCreateKernel(p->program, "vis_drawlist_compact", &e);
+    if (e == CL_SUCCESS && strstr(p->options, "-DVIS_TRACE_EFFECTS"))
+        p->effects = clCreateKernel(p->program, "vis_trace_effects_kernel", &e);
     if (e != CL_SUCCESS) {
         int st = vis_cl_fail(e, "clCreateKernel", err, err_size);
-        cl_kernel made[] = {p->trace, p->batch, p->drawlist};
+        cl_kernel made[] = {p->trace, p->batch, p->drawlist, p->compact, p->effects};
         for (size_t i = 0; i < sizeof made / sizeof made[0]; ++i)
             if (made[i])
                 clReleaseKernel(made[i]);
@@ -128,6 +131,8 @@ void vis_cl_programs_release(vis_cl_backend *b)
             clReleaseKernel(p->drawlist);
         if (p->compact)
             clReleaseKernel(p->compact);
+        if (p->effects)
+            clReleaseKernel(p->effects);
         if (p->program)
             clReleaseProgram(p->program);
     }

@@ -118,6 +118,7 @@ void vis_trace_desc_defaults(vis_trace_desc *desc)
     desc->ids = VIS_IDS_OBJECT;
     desc->traversal = VIS_TRAVERSAL_AUTO;
     desc->short_stack = 4;
+    desc->see_through_layers = 2;
 }
 
 vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, vis_trace_desc *out)
@@ -133,6 +134,11 @@ vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, 
         d.traversal = desc->traversal;
         if (desc->short_stack)
             d.short_stack = desc->short_stack;
+        d.effects = desc->effects;
+        if (desc->see_through_layers)
+            d.see_through_layers = desc->see_through_layers;
+        memcpy(d.light_dir, desc->light_dir, sizeof d.light_dir);
+        d.fog_dist = desc->fog_dist;
     }
     if (d.width == 0 || d.height == 0 || d.width > VIS_MAX_RESOLUTION || d.height > VIS_MAX_RESOLUTION)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "resolution %ux%u is outside 1..%u per axis", d.width, d.height,
@@ -144,6 +150,20 @@ vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, 
     if (d.short_stack > VIS_MAX_SHORT_STACK)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "short_stack %u exceeds %u", d.short_stack,
                         VIS_MAX_SHORT_STACK);
+    const uint32_t known = VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG;
+    if (d.effects & ~known)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown effect bits 0x%x", d.effects & ~known);
+    if ((d.effects & VIS_EFFECT_SEE_THROUGH) && d.see_through_layers > VIS_MAX_SEE_THROUGH_LAYERS)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "see_through_layers %u is outside 1..%u", d.see_through_layers,
+                        VIS_MAX_SEE_THROUGH_LAYERS);
+    if (d.effects & VIS_EFFECT_SHADOWS) {
+        const double *l = d.light_dir;
+        if (!isfinite(l[0]) || !isfinite(l[1]) || !isfinite(l[2]) || (l[0] == 0.0 && l[1] == 0.0 && l[2] == 0.0))
+            return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "light_dir (%g, %g, %g) must be finite and not zero", l[0],
+                            l[1], l[2]);
+    }
+    if ((d.effects & VIS_EFFECT_FOG) && !(isfinite(d.fog_dist) && d.fog_dist > 0.0))
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "fog_dist %g must be finite and > 0", d.fog_dist);
     *out = d;
     return VIS_OK;
 }

@@ -25,9 +25,9 @@ static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
     return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6, CACHED_STACK 8 */
 }
 
-/* The float ray setup of one view: validated camera, resolved desc. */
+/* The float ray setup of one view: validated camera, resolved desc (fog shortens t_far). */
 vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
-                             const vis_trace_desc *d, vis_ray_setup *setup)
+                                const vis_trace_desc *d, vis_ray_setup *setup)
 {
     vis_camera_frame frame;
     vis_status st = vis_camera_frame_make(ctx, camera, scene->desc.origin, d->width, d->height, &frame);
@@ -40,6 +40,20 @@ vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const 
     setup->short_stack = d->short_stack;
     setup->root = 0;
     setup->leaf_count = scene->leaf_count;
+    if (d->effects & VIS_EFFECT_FOG) {
+        float fog = (float)d->fog_dist;
+        if (fog < setup->t_far)
+            setup->t_far = fog;
+    }
+    return VIS_OK;
+}
+
+/* vis_trace and vis_trace_batch have buffers for the ID pass only: fog is all they take. */
+static vis_status check_plain_effects(vis_context *ctx, const vis_trace_desc *d, const char *fn)
+{
+    if (d->effects & ~VIS_EFFECT_FOG)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
+                        "%s: effects 0x%x need vis_trace_effects (only VIS_EFFECT_FOG is taken here)", fn, d->effects);
     return VIS_OK;
 }
 
@@ -74,6 +88,7 @@ void vis_trace_record_timing(vis_context *ctx, double t0, double pass_ms, uint64
     t->upload_bytes = upload;
     t->rays = rays;
     t->views = views;
+    t->secondary_rays = 0;
     ctx->have_timing = 1;
 }
 
@@ -89,7 +104,7 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
     if (st != VIS_OK)
         return st;
     vis_trace_desc d;
-    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
+    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK || (st = check_plain_effects(ctx, &d, fn)) != VIS_OK)
         return st;
     if ((st = check_capacity(ctx, (uint64_t)d.width * d.height, ids_capacity, out_depth, depth_capacity, fn, 1, &d)) !=
         VIS_OK)
@@ -163,7 +178,8 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
     if (!cameras)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_batch: cameras must not be NULL");
     vis_trace_desc d;
-    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK)
+    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK ||
+        (st = check_plain_effects(ctx, &d, "vis_trace_batch")) != VIS_OK)
         return st;
     size_t pixels = (size_t)d.width * d.height;
     /* W, H <= 2^14 and count < 2^32: the product fits 64 bits, and a capacity that holds it

@@ -9,12 +9,11 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
                                 const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity, float *out_depth,
                                 size_t depth_capacity);
 
-/* Shared with trace_drawlist.c. */
-double vis_trace_now_ms(void);
-/* The float ray setup of one view: validated camera, resolved desc. */
+/* Shared with trace_drawlist.c and trace_effects.c: the float ray setup of a view (camera
+ * checked, fog applied), the clock, and the timing record of a call that began at t0. */
 vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
                                 const vis_trace_desc *d, vis_ray_setup *setup);
-/* Fills the context's timing for a call that began at t0 (vis_trace_now_ms). */
+double vis_trace_now_ms(void);
 void vis_trace_record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t upload, uint64_t rays,
                              uint32_t views);
 

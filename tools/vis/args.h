@@ -44,7 +44,8 @@ enum {
     OPT_LEAF_DEPTH = 1u << 23,
     /* The load budget (vw_budget): every command that takes --scene takes these too. */
     OPT_MAX_BYTES = 1u << 24,
-    OPT_MAX_VOXELS = 1u << 25
+    OPT_MAX_VOXELS = 1u << 25,
+    OPT_EFFECTS = 1u << 26
 };
 
 typedef enum cli_method { CLI_METHOD_RAY = 0, CLI_METHOD_ZBUF } cli_method;
@@ -74,6 +75,9 @@ typedef struct cli_args {
     uint32_t leaf_depth;            /* accuracy: kd depth of the leaf-ID scene (0: auto) */
     uint64_t max_bytes, max_voxels; /* the world's budget (vw_budget); 0: the defaults   */
     const char *dump_ids, *dump_depth, *dump_list, *png, *out;
+    uint32_t effects;               /* --effects: VIS_EFFECT_* bits, default 0           */
+    double light[3];                /* shadows:DX,DY,DZ                                  */
+    double fog;                     /* fog:DIST                                          */
     int compare_embree;
     int json;
 } cli_args;

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "bench.h"
+#include "bench_effects.h"
 #include "bench_traversal.h"
 #include "bench_zbuf.h"
 #include "cli.h"
@@ -323,7 +324,12 @@ static void print_json(const bench *b)
 int cmd_bench(const cli_args *a)
 {
     if (a->method == CLI_METHOD_ZBUF)
-        return bench_zbuf(a);
+        return a->effects ? cli_usage_error(CMD, "--effects needs --method ray") : bench_zbuf(a);
+    if (a->effects) {
+        if (a->compare_embree || a->traversal == CLI_TRAVERSAL_ALL || a->ids == VIS_IDS_LEAF)
+            return cli_usage_error(CMD, "--effects takes neither --compare, --traversal all nor --ids leaf");
+        return bench_effects(a);
+    }
     if (a->compare_embree && !embree_compare_available())
         return cli_usage_error(CMD, "--compare embree is not available in this build (Embree 3 was not found)");
     bench *b = calloc(1, sizeof *b);

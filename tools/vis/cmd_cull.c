@@ -11,6 +11,7 @@
 #include "json.h"
 #include "names.h"
 #include "pass.h"
+#include "timer.h"
 #include "zcull_pass.h"
 
 #define CMD "cull"
@@ -25,13 +26,23 @@ typedef struct cull_result {
     cli_pass_times times;
     double drawlist_ms;
     vis_zcull_stats zstats; /* z-buffer culler */
+    vis_effect_entry *fx_entries; /* --effects: the draw list with reasons */
+    uint32_t reason_objects[VIS_REASON_COUNT]; /* objects with each reason */
+    uint32_t shadow_only;   /* objects in the list only as shadow casters */
+    uint64_t secondary_rays;
 } cull_result;
 
 /* Options that need an ID buffer, which only the ray pass has. */
 static int check_method_options(const cli_args *a)
 {
+    if (a->effects && a->ids == VIS_IDS_LEAF)
+        return cli_usage_error(CMD, "--effects needs --ids object (effects buffers hold object IDs)");
+    if (a->effects && a->dump_depth)
+        return cli_usage_error(CMD, "--dump-depth is not available with --effects");
     if (a->method != CLI_METHOD_ZBUF)
         return CLI_EXIT_OK;
+    if (a->effects)
+        return cli_usage_error(CMD, "--effects needs --method ray");
     static const struct { unsigned bit; const char *name; } ray_only[] = {
         {OPT_DUMP_IDS, "--dump-ids"}, {OPT_PNG, "--png"}, {OPT_IDS, "--ids"}, {OPT_TRAVERSAL, "--traversal"},
     };
@@ -67,6 +78,18 @@ static void print_json(const cli_args *a, const cli_scene *s, const cull_result 
     json_uint(&w, "repeat", r->times.passes);
     json_number(&w, "mrays_per_s", r->times.mrays_per_s);
     json_number(&w, "drawlist_ms", r->drawlist_ms);
+    if (a->effects) {
+        char names[128];
+        cli_effects_format(a->effects, names, sizeof names);
+        json_string(&w, "effects", names);
+        json_object_begin(&w, "reasons");
+        static const char *const keys[VIS_REASON_COUNT] = {"direct", "see_through", "reflection", "shadow"};
+        for (int i = 0; i < VIS_REASON_COUNT; ++i)
+            json_uint(&w, keys[i], r->reason_objects[i]);
+        json_uint(&w, "shadow_only", r->shadow_only);
+        json_object_end(&w);
+        json_uint(&w, "secondary_rays", r->secondary_rays);
+    }
     if (a->method == CLI_METHOD_RAY) {
         json_uint(&w, "hit_pixels", r->hit_pixels);
     } else {
@@ -104,6 +127,14 @@ static void print_human(const cli_args *a, const cli_scene *s, const cull_result
     } else {
         printf("method    ray pass, %ux%u %s IDs, traversal %s\n", a->width, a->height,
                vc_name_of(&vc_id_modes, (int)a->ids), vc_name_of(&vc_traversals, (int)a->traversal));
+    }
+    if (a->effects) {
+        char names[128];
+        cli_effects_format(a->effects, names, sizeof names);
+        printf("effects   %s: %u direct, %u seen through, %u in reflections, %u shadow casters (%u only as casters); "
+               "%llu secondary rays\n",
+               names, r->reason_objects[0], r->reason_objects[1], r->reason_objects[2], r->reason_objects[3],
+               r->shadow_only, (unsigned long long)r->secondary_rays);
     }
     printf("visible   %zu of %u objects", r->count, r->info.objects);
     if (a->method == CLI_METHOD_RAY)
@@ -149,6 +180,65 @@ static int ray_pass(const cli_args *a, cli_scene *s, cull_result *r)
 done:
     free(ids);
     free(depth);
+    return rc;
+}
+
+/* The ray pass with effects: the draw list with reasons (entries and r->count), and the IDs
+ * for --dump-ids / --png. */
+static int effects_pass(const cli_args *a, cli_scene *s, cull_result *r)
+{
+    vis_scene *scene = world_scene_scene(s->ws);
+    size_t n = (size_t)a->width * a->height;
+    cli_effect_buffers fb;
+    int rc = CLI_EXIT_OK;
+    size_t cap = vis_drawlist_bound(scene);
+    r->fx_entries = malloc((cap ? cap : 1) * sizeof *r->fx_entries);
+    r->entries = malloc((cap ? cap : 1) * sizeof *r->entries);
+    if (cli_effect_buffers_alloc(&fb, a->width, a->height) != 0 || !r->fx_entries || !r->entries) {
+        rc = cli_fail(CMD, "out of memory for a %ux%u pass with effects", a->width, a->height);
+        goto done;
+    }
+    vis_trace_desc desc = cli_trace_desc(a);
+    if (cli_effects_run(s->ctx, scene, &r->camera, &desc, a->repeat, &fb.b, &r->times) != VIS_OK) {
+        rc = cli_fail_vis(CMD, s->ctx, "vis_trace_effects");
+        goto done;
+    }
+    vis_timing tm;
+    if (vis_context_last_timing(s->ctx, &tm) == VIS_OK)
+        r->secondary_rays = tm.secondary_rays;
+    vis_effect_buffers lb = fb.b; /* the draw list reads the buffers of the effects that ran */
+    if (!(desc.effects & VIS_EFFECT_SEE_THROUGH))
+        lb.see_through = NULL;
+    if (!(desc.effects & VIS_EFFECT_REFLECT))
+        lb.reflection = NULL;
+    if (!(desc.effects & VIS_EFFECT_SHADOWS))
+        lb.shadow = NULL;
+    double t0 = vc_now_ms();
+    if (vis_drawlist_build_effects(s->ctx, scene, &lb, a->width, a->height, CLI_SEE_THROUGH_LAYERS, r->fx_entries, cap,
+                                   &r->count) != VIS_OK) {
+        rc = cli_fail_vis(CMD, s->ctx, "vis_drawlist_build_effects");
+        goto done;
+    }
+    r->drawlist_ms = vc_now_ms() - t0;
+    for (size_t i = 0; i < r->count; ++i) {
+        const vis_effect_entry *e = &r->fx_entries[i];
+        r->entries[i].id = e->id;
+        r->entries[i].pixels = e->pixels[0];
+        for (int k = 0; k < VIS_REASON_COUNT; ++k)
+            r->reason_objects[k] += (e->reasons >> k) & 1u;
+        r->shadow_only += e->reasons == VIS_REASON_SHADOW;
+    }
+    for (size_t i = 0; i < n; ++i)
+        r->hit_pixels += fb.b.ids[i] != 0;
+    if (a->dump_ids && (rc = cli_dump_ids(CMD, a->dump_ids, fb.b.ids, n)) != CLI_EXIT_OK)
+        goto done;
+    if (a->png) {
+        char err[512];
+        if (cli_png_write_ids(a->png, fb.b.ids, a->width, a->height, err, sizeof err) != 0)
+            rc = cli_fail(CMD, "%s", err);
+    }
+done:
+    cli_effect_buffers_free(&fb);
     return rc;
 }
 
@@ -202,12 +292,15 @@ int cmd_cull(const cli_args *a)
     if (rc == CLI_EXIT_OK) {
         if (a->method == CLI_METHOD_ZBUF) {
             rc = zbuf_pass(a, &s, &r);
+        } else if (a->effects) {
+            rc = effects_pass(a, &s, &r);
         } else {
             rc = ray_pass(a, &s, &r);
         }
     }
     if (rc == CLI_EXIT_OK && a->dump_list)
-        rc = cli_dump_list(CMD, a->dump_list, r.entries, r.count);
+        rc = a->effects ? cli_dump_effect_list(CMD, a->dump_list, r.fx_entries, r.count)
+                        : cli_dump_list(CMD, a->dump_list, r.entries, r.count);
     if (rc == CLI_EXIT_OK) {
         if (a->json)
             print_json(a, &s, &r);
@@ -215,6 +308,7 @@ int cmd_cull(const cli_args *a)
             print_human(a, &s, &r, world.load_ms);
     }
     free(r.entries);
+    free(r.fx_entries);
     cli_scene_close(&s);
     cli_world_free(&world);
     return rc;

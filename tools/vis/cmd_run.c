@@ -13,8 +13,52 @@
 #define CMD "run"
 #define RUN_DEFAULT_REPEAT 5
 
+/* One view with --effects: the pass, its draw list with reasons, one line. */
+static int run_effects_view(const cli_args *a, cli_scene *s, const vc_view *view, uint32_t objects, cli_pass_times *t)
+{
+    vis_scene *scene = world_scene_scene(s->ws);
+    cli_effect_buffers fb;
+    size_t cap = vis_drawlist_bound(scene);
+    vis_effect_entry *e = malloc((cap ? cap : 1) * sizeof *e);
+    int rc = CLI_EXIT_OK;
+    if (cli_effect_buffers_alloc(&fb, a->width, a->height) != 0 || !e) {
+        rc = cli_fail(CMD, "out of memory for a %ux%u pass with effects", a->width, a->height);
+        goto done;
+    }
+    vis_trace_desc desc = cli_trace_desc(a);
+    size_t count = 0;
+    vis_effect_buffers lb = fb.b;
+    if (!(a->effects & VIS_EFFECT_SEE_THROUGH))
+        lb.see_through = NULL;
+    if (!(a->effects & VIS_EFFECT_REFLECT))
+        lb.reflection = NULL;
+    if (!(a->effects & VIS_EFFECT_SHADOWS))
+        lb.shadow = NULL;
+    if (cli_effects_run(s->ctx, scene, &view->camera, &desc, a->repeat, &fb.b, t) != VIS_OK ||
+        vis_drawlist_build_effects(s->ctx, scene, &lb, a->width, a->height, CLI_SEE_THROUGH_LAYERS, e, cap, &count) !=
+            VIS_OK) {
+        rc = cli_fail_vis(CMD, s->ctx, view->name);
+        goto done;
+    }
+    uint32_t per[VIS_REASON_COUNT] = {0};
+    for (size_t i = 0; i < count; ++i)
+        for (int k = 0; k < VIS_REASON_COUNT; ++k)
+            per[k] += (e[i].reasons >> k) & 1u;
+    char visible[48], reasons[64];
+    snprintf(visible, sizeof visible, "%zu / %u", count, objects);
+    snprintf(reasons, sizeof reasons, "%u/%u/%u/%u", per[0], per[1], per[2], per[3]);
+    printf("  %-10s %18s %10.2f %10.1f %24s\n", view->name, visible, t->median_ms, t->mrays_per_s, reasons);
+    fflush(stdout);
+done:
+    cli_effect_buffers_free(&fb);
+    free(e);
+    return rc;
+}
+
 int cmd_run(const cli_args *a)
 {
+    if (a->effects && a->ids == VIS_IDS_LEAF)
+        return cli_usage_error(CMD, "--effects needs --ids object (effects buffers hold object IDs)");
     uint32_t repeat = (a->given & OPT_REPEAT) ? a->repeat : RUN_DEFAULT_REPEAT;
     printf("libvis %s: culling %s along the camera path\n", vis_version(), a->scene);
     fflush(stdout);
@@ -54,13 +98,28 @@ int cmd_run(const cli_args *a)
            s.backend.reason);
     printf("pass      %ux%u %s IDs, traversal %s, median of %u passes per view\n\n", a->width, a->height,
            vc_name_of(&vc_id_modes, (int)a->ids), vc_traversal_run_name((int)a->traversal, s.backend.kind), repeat);
-    printf("  %-10s %18s %10s %10s\n", "view", "visible objects", "ms/pass", "Mrays/s");
+    if (a->effects) {
+        char names[128];
+        cli_effects_format(a->effects, names, sizeof names);
+        printf("effects   %s: objects per reason (direct, see-through, reflection, shadow caster)\n\n", names);
+        printf("  %-10s %18s %10s %10s %24s\n", "view", "visible objects", "ms/pass", "Mrays/s", "direct/seen/refl/cast");
+    } else {
+        printf("  %-10s %18s %10s %10s\n", "view", "visible objects", "ms/pass", "Mrays/s");
+    }
 
     vc_view views[VC_MAX_VIEWS];
     size_t nviews = vc_camera_path(world.world, views, VC_MAX_VIEWS);
     vis_trace_desc desc = cli_trace_desc(a);
     double total_ms = 0.0;
-    for (size_t v = 0; v < nviews; ++v) {
+    for (size_t v = 0; v < nviews && a->effects; ++v) {
+        cli_pass_times t;
+        if (run_effects_view(a, &s, &views[v], si.objects, &t) != CLI_EXIT_OK) {
+            rc = CLI_EXIT_FAILURE;
+            goto done;
+        }
+        total_ms += t.median_ms;
+    }
+    for (size_t v = 0; v < nviews && !a->effects; ++v) {
         cli_pass_times t;
         if (cli_pass_run(s.ctx, scene, &views[v].camera, &desc, repeat, ids, (size_t)a->width * a->height, NULL, 0,
                          &t) != VIS_OK) {

@@ -14,4 +14,8 @@ int cli_dump_depth(const char *cmd, const char *path, const float *depth, size_t
 /* The draw list, one "ID PIXELS" line per entry. */
 int cli_dump_list(const char *cmd, const char *path, const vis_draw_entry *entries, size_t count);
 
+/* The draw list with reasons (--effects), one 'ID DIRECT SEE_THROUGH REFLECTION SHADOW' line
+ * per object (pixels per reason), ascending IDs: the first two columns read as cli_dump_list's. */
+int cli_dump_effect_list(const char *cmd, const char *path, const vis_effect_entry *entries, size_t count);
+
 #endif

@@ -11,12 +11,12 @@
 const cli_command cli_commands[] = {
     {"cull", "Which objects does one camera see? One ray pass (or the z-buffer culler) and its draw list.",
      RAY_PASS_OPTS | OPT_CAMERA | OPT_METHOD | OPT_IDS | OPT_REPEAT | OPT_DUMP_IDS | OPT_DUMP_DEPTH | OPT_DUMP_LIST |
-         OPT_PNG | OPT_JSON,
+         OPT_PNG | OPT_JSON | OPT_EFFECTS,
      0, 0, cmd_cull},
     {"run", "Generate the world (progress on stderr) and cull it along the camera path, view by view.",
-     RAY_PASS_OPTS | OPT_IDS | OPT_REPEAT, 0, 0, cmd_run},
+     RAY_PASS_OPTS | OPT_IDS | OPT_REPEAT | OPT_EFFECTS, 0, 0, cmd_run},
     {"bench", "Time the camera path (N frames per view), single-voxel edits, and optionally Embree.",
-     RAY_PASS_OPTS | OPT_METHOD | OPT_FRAMES | OPT_EDITS | OPT_SEED | OPT_COMPARE | OPT_JSON,
+     RAY_PASS_OPTS | OPT_METHOD | OPT_FRAMES | OPT_EDITS | OPT_SEED | OPT_COMPARE | OPT_JSON | OPT_EFFECTS,
      OPT_THREADS | OPT_BACKEND, 0, cmd_bench},
     {"accuracy", "What does accuracy cost in time? Every method and resolution against the display's truth.",
      OPT_SCENE | OPT_TRAVERSAL | OPT_BACKEND | OPT_THREADS | OPT_KD_DEPTH | OPT_OUT | OPT_FRAMES | OPT_REPEAT |

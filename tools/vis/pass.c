@@ -1,6 +1,7 @@
 /* pass.c — timed ray passes and draw lists. */
 #include "pass.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -16,6 +17,10 @@ vis_trace_desc cli_trace_desc(const cli_args *a)
     d.ids = a->ids;
     d.traversal = vc_traversal_method((int)a->traversal); /* names.h: N rides along */
     d.short_stack = vc_traversal_short_stack((int)a->traversal);
+    d.effects = a->effects;
+    d.see_through_layers = CLI_SEE_THROUGH_LAYERS;
+    memcpy(d.light_dir, a->light, sizeof d.light_dir);
+    d.fog_dist = a->fog;
     return d;
 }
 
@@ -49,6 +54,72 @@ vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *ca
     out->mrays_per_s = vc_mrays_per_s((double)desc->width * desc->height, out->median_ms);
     free(t);
     return VIS_OK;
+}
+
+void cli_effects_format(uint32_t effects, char *out, size_t size)
+{
+    static const struct { uint32_t bit; const char *name; } names[] = {
+        {VIS_EFFECT_SEE_THROUGH, "see-through"}, {VIS_EFFECT_REFLECT, "reflect"}, {VIS_EFFECT_SHADOWS, "shadows"},
+        {VIS_EFFECT_FOG, "fog"}};
+    size_t at = 0;
+    out[0] = '\0';
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; ++i)
+        if ((effects & names[i].bit) && at < size) {
+            int k = snprintf(out + at, size - at, "%s%s", at ? "," : "", names[i].name);
+            at += k > 0 ? (size_t)k : 0;
+        }
+}
+
+/* The buffers of an effects pass for W x H. */
+int cli_effect_buffers_alloc(cli_effect_buffers *e, uint32_t width, uint32_t height)
+{
+    size_t n = (size_t)width * height;
+    memset(e, 0, sizeof *e);
+    e->b.ids = malloc(n * sizeof(uint32_t));
+    e->b.see_through = malloc(n * CLI_SEE_THROUGH_LAYERS * sizeof(uint32_t));
+    e->b.reflection = malloc(n * sizeof(uint32_t));
+    e->b.shadow = malloc(n * sizeof(uint32_t));
+    e->b.ids_capacity = e->b.reflection_capacity = e->b.shadow_capacity = n;
+    e->b.see_through_capacity = n * CLI_SEE_THROUGH_LAYERS;
+    return e->b.ids && e->b.see_through && e->b.reflection && e->b.shadow ? 0 : -1;
+}
+
+void cli_effect_buffers_free(cli_effect_buffers *e)
+{
+    free(e->b.ids);
+    free(e->b.see_through);
+    free(e->b.reflection);
+    free(e->b.shadow);
+    memset(e, 0, sizeof *e);
+}
+
+vis_status cli_effects_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                           uint32_t passes, const vis_effect_buffers *b, cli_pass_times *out)
+{
+    double t0 = vc_now_ms();
+    vis_status s = vis_trace_effects(ctx, scene, camera, desc, b);
+    if (s != VIS_OK)
+        return s;
+    out->first_ms = vc_now_ms() - t0;
+    if (passes == 0)
+        passes = 1;
+    double *t = malloc(passes * sizeof *t);
+    if (!t)
+        return VIS_ERROR_OUT_OF_MEMORY;
+    for (uint32_t i = 0; i < passes && s == VIS_OK; ++i) {
+        t0 = vc_now_ms();
+        s = vis_trace_effects(ctx, scene, camera, desc, b);
+        t[i] = vc_now_ms() - t0;
+    }
+    if (s == VIS_OK) {
+        out->passes = passes;
+        out->min_ms = vc_min(t, passes);
+        out->max_ms = vc_max(t, passes);
+        out->median_ms = vc_median(t, passes);
+        out->mrays_per_s = vc_mrays_per_s((double)desc->width * desc->height, out->median_ms);
+    }
+    free(t);
+    return s;
 }
 
 vis_status cli_drawlist(vis_context *ctx, const vis_scene *scene, const uint32_t *ids, uint32_t width,

@@ -27,6 +27,25 @@ vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *ca
                         uint32_t passes, uint32_t *ids, size_t ids_capacity, float *depth, size_t depth_capacity,
                         cli_pass_times *out);
 
+/* "see-through,reflect,shadows,fog": the names of the effect bits set. */
+void cli_effects_format(uint32_t effects, char *out, size_t size);
+
+/* See-through layers the CLI asks for (docs/effects.md). */
+#define CLI_SEE_THROUGH_LAYERS 2u
+
+/* The buffers of an effects pass (no depth), owned. */
+typedef struct cli_effect_buffers {
+    vis_effect_buffers b;
+} cli_effect_buffers;
+
+/* Allocates every buffer for W x H (0), or -1 when out of memory (free it anyway). */
+int cli_effect_buffers_alloc(cli_effect_buffers *e, uint32_t width, uint32_t height);
+void cli_effect_buffers_free(cli_effect_buffers *e);
+
+/* cli_pass_run for vis_trace_effects. */
+vis_status cli_effects_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                           uint32_t passes, const vis_effect_buffers *b, cli_pass_times *out);
+
 /* A draw list of the scene's capacity (entries freed by the caller), built from ids.
  * *out_ms is the time of vis_drawlist_build alone. */
 vis_status cli_drawlist(vis_context *ctx, const vis_scene *scene, const uint32_t *ids, uint32_t width,

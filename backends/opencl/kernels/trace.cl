@@ -15,6 +15,7 @@ typedef char vis_cl_check_quad[sizeof(vis_flat_quad) == VIS_CL_QUAD_SIZE ? 1 : -
 typedef char vis_cl_check_tri[sizeof(vis_flat_tri) == VIS_CL_TRI_SIZE ? 1 : -1];
 typedef char vis_cl_check_object[sizeof(vis_flat_object) == VIS_CL_OBJECT_SIZE ? 1 : -1];
 typedef char vis_cl_check_rope[sizeof(vis_rope_node) == VIS_CL_ROPE_SIZE ? 1 : -1];
+typedef char vis_cl_check_effects[sizeof(vis_effect_setup) == VIS_CL_EFFECTS_SIZE ? 1 : -1];
 #endif
 
 /* The scene arrays as kernel parameters: VIS_SCENE_PARAMS with `restrict`, which tells the
@@ -146,3 +147,33 @@ __kernel void vis_drawlist_compact(const __global vis_flat_object *restrict obje
     uint k = atomic_inc(&heads[v]);
     list[(size_t)v * slots + k] = (uint2)(objects[o].id, n);
 }
+
+#ifdef VIS_TRACE_EFFECTS
+/* One view with effects (programs built with -DVIS_TRACE_EFFECTS, and for one method and one
+ * effect set with -DVIS_TRAVERSAL_ONLY and -DVIS_EFFECTS_ONLY): vis_trace_pixel_effects, the
+ * CPU's code. A buffer whose effect is off is the host's dummy and never written. */
+__kernel void vis_trace_effects_kernel(const vis_ray_setup setup, const vis_effect_setup effects, VIS_CL_SCENE_PARAMS,
+                                       __global uint *restrict ids, __global float *restrict depth,
+                                       __global uint *restrict see_through, __global uint *restrict reflection,
+                                       __global uint *restrict shadow, const uint write_depth)
+{
+    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1);
+    vis_ray_setup s = setup;
+    vis_effect_setup e = effects;
+    if (x >= s.width || y >= s.height)
+        return;
+    vis_effect_pixel px;
+    vis_trace_pixel_effects(&s, &e, x, y, VIS_SCENE_ARGS, &px);
+    size_t i = (size_t)y * s.width + x;
+    ids[i] = px.id;
+    if (write_depth)
+        depth[i] = px.depth;
+    if (e.effects & VIS_FX_SEE_THROUGH)
+        for (uint k = 0u; k < e.layers; ++k)
+            see_through[i * e.layers + k] = px.see_through[k];
+    if (e.effects & VIS_FX_REFLECT)
+        reflection[i] = px.reflection;
+    if (e.effects & VIS_FX_SHADOWS)
+        shadow[i] = px.shadow;
+}
+#endif

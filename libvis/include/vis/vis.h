@@ -416,7 +416,43 @@ typedef struct vis_trace_desc {
     uint32_t short_stack;      /* N for VIS_TRAVERSAL_SHORTSTACK, _ROPES_SHORTSTACK and the
                                   ring of _CACHED_STACK:
                                   1..VIS_MAX_SHORT_STACK, default (0) 4; ignored otherwise    */
+    /* Effects (docs/effects.md). vis_trace and vis_trace_batch take VIS_EFFECT_FOG only
+     * (anything else is VIS_ERROR_INVALID_ARGUMENT: they have no buffer for it);
+     * vis_trace_effects takes every bit. */
+    uint32_t effects;          /* VIS_EFFECT_* bits; default 0: none, the pass of before       */
+    uint32_t see_through_layers; /* VIS_EFFECT_SEE_THROUGH: see-through objects recorded per
+                                  pixel, 1..VIS_MAX_SEE_THROUGH_LAYERS, default (0) 2         */
+    double light_dir[3];       /* VIS_EFFECT_SHADOWS: toward the light (a directional light);
+                                  finite, not zero; normalised in double, then rounded        */
+    double fog_dist;           /* VIS_EFFECT_FOG: finite, > 0; the rays' far distance becomes
+                                  min(camera far, fog_dist) in float                          */
 } vis_trace_desc;
+
+/* Effects of a pass (vis_trace_desc.effects).
+ *  - SEE_THROUGH: quads and triangles flagged VIS_PRIM_SEE_THROUGH never occlude; each ray
+ *    records the see_through_layers nearest distinct see-through objects it crosses before
+ *    its opaque hit, by (t, ID) (an object crossed twice counts at its nearest crossing;
+ *    "before" is vis_trace's tie rule: t < t_hit, or t == t_hit and a lower ID). Without the
+ *    effect they occlude as any quad does.
+ *  - REFLECT: one reflected ray per pixel from the nearest reflective (VIS_PRIM_REFLECTIVE)
+ *    quad the ray meets: a reflective see-through crossing recorded as above (SEE_THROUGH on,
+ *    before the opaque hit, whether or not it is among the recorded layers), else the opaque
+ *    hit. Mirror-exact: d[axis] negated, origin on the quad's plane, quads of that plane
+ *    ignored, over [0, camera far / fog]; with SEE_THROUGH on, see-through quads do not
+ *    stop it. One bounce. Triangles do not reflect.
+ *  - SHADOWS: from the opaque hit, when it is a quad whose seen side faces the light
+ *    (light_dir[axis] on the side the camera sees it from), a ray toward the light to the
+ *    scene bounds (quads of the receiver's plane ignored); the first quad or triangle it
+ *    meets is the shadow caster, in the frustum or not (Bittner et al. 2011). See-through
+ *    quads cast no shadow. A side facing away from the light (or edge-on) is its own shadow:
+ *    no ray, 0. Triangle receivers cast no ray.
+ *  - FOG: objects beyond fog_dist are culled (a face at exactly fog_dist, as rounded to
+ *    float, is kept, as at the camera's far distance). */
+#define VIS_EFFECT_SEE_THROUGH 0x1u
+#define VIS_EFFECT_REFLECT     0x2u
+#define VIS_EFFECT_SHADOWS     0x4u
+#define VIS_EFFECT_FOG         0x8u
+#define VIS_MAX_SEE_THROUGH_LAYERS 4u
 
 #define VIS_MAX_RESOLUTION 16384u
 
@@ -480,6 +516,35 @@ VIS_API vis_status vis_trace_cost(vis_context *context, vis_scene *scene, const 
                                   const vis_trace_desc *desc, uint32_t *out_ids, size_t ids_capacity,
                                   uint32_t *out_cost, size_t cost_capacity);
 
+/* The buffers of vis_trace_effects, each with its capacity in elements (VIS_ERROR_CAPACITY,
+ * nothing written, when one is short). ID 0 means nothing in every buffer. A buffer whose
+ * effect is off is neither read nor written (may be NULL); one whose effect is on must not
+ * be NULL (VIS_ERROR_INVALID_ARGUMENT). */
+typedef struct vis_effect_buffers {
+    uint32_t *ids;           size_t ids_capacity;         /* W*H: the opaque hit (as vis_trace) */
+    float *depth;            size_t depth_capacity;       /* W*H, may be NULL (then capacity 0) */
+    uint32_t *see_through;   size_t see_through_capacity; /* W*H*layers, pixel-major: a pixel's
+                                                             layers nearest first, 0 past the
+                                                             last (SEE_THROUGH)             */
+    uint32_t *reflection;    size_t reflection_capacity;  /* W*H: what the reflected ray hits
+                                                             (REFLECT)                      */
+    uint32_t *shadow;        size_t shadow_capacity;      /* W*H: the shadow caster (SHADOWS) */
+} vis_effect_buffers;
+
+/* The ray pass with desc->effects (docs/effects.md): writes the buffers above. Object IDs
+ * only (desc->ids VIS_IDS_LEAF is VIS_ERROR_INVALID_ARGUMENT). Every method gives the brute
+ * force's buffers bit for bit; the CPU backend traces every method's pass per ray here
+ * (VIS_TRAVERSAL_PACKET and AUTO run the stack method), secondary rays by the stack method
+ * (by the brute force when that is the pass's method). Bad effect parameters (a zero or
+ * non-finite light, fog <= 0 or non-finite, layers above VIS_MAX_SEE_THROUGH_LAYERS) are
+ * VIS_ERROR_INVALID_ARGUMENT with nothing written. desc->effects == 0 gives vis_trace's
+ * buffers. Allocates nothing once the scene's backend copy is up to date (the OpenCL backend
+ * grows its device buffers on first use); vis_context_last_timing's `rays` counts primary rays,
+ * `secondary_rays` the reflected and shadow rays (CPU backend). A backend without effects:
+ * VIS_ERROR_UNSUPPORTED. */
+VIS_API vis_status vis_trace_effects(vis_context *context, vis_scene *scene, const vis_camera *camera,
+                                     const vis_trace_desc *desc, const vis_effect_buffers *buffers);
+
 /* ------------------------------------------------------------------------------------ */
 /* Draw list                                                                            */
 /* ------------------------------------------------------------------------------------ */
@@ -530,6 +595,34 @@ VIS_API vis_status vis_trace_batch_drawlist(vis_context *context, vis_scene *sce
                                             uint32_t count, const vis_trace_desc *desc, vis_draw_entry *out_entries,
                                             size_t capacity, size_t *out_counts, size_t counts_capacity,
                                             size_t *out_total);
+
+/* Why an object is in an effects draw list (vis_effect_entry.reasons); pixels[i] counts
+ * reason 1 << i. */
+#define VIS_REASON_DIRECT      0x1u /* it is the opaque hit                                 */
+#define VIS_REASON_SEE_THROUGH 0x2u /* seen through: a recorded see-through layer          */
+#define VIS_REASON_REFLECTION  0x4u /* hit by a reflected ray                              */
+#define VIS_REASON_SHADOW      0x8u /* casts a shadow onto a visible point                 */
+#define VIS_REASON_COUNT 4
+
+typedef struct vis_effect_entry {
+    uint32_t id;
+    uint32_t reasons;                  /* VIS_REASON_* bits, never 0                        */
+    uint32_t pixels[VIS_REASON_COUNT]; /* pixels per reason (see-through: pixels whose
+                                          layers hold it)                                   */
+} vis_effect_entry;
+
+/* The draw list of a vis_trace_effects pass: every object ID in the buffers, sorted
+ * ascending, with why and on how many pixels. buffers->ids is required; see_through,
+ * reflection and shadow are counted when not NULL (see_through with see_through_layers per
+ * pixel, 1..VIS_MAX_SEE_THROUGH_LAYERS); depth is not read. Capacities are checked against
+ * width*height (times the layers) as vis_trace_effects checks them. An ID that is no object
+ * of the scene is VIS_ERROR_INVALID_ARGUMENT. Scratch from the context (16 bytes per object
+ * slot; a warm call allocates nothing); vis_drawlist_bound entries always suffice;
+ * VIS_ERROR_CAPACITY (nothing written) when capacity is below the entry count. */
+VIS_API vis_status vis_drawlist_build_effects(vis_context *context, const vis_scene *scene,
+                                              const vis_effect_buffers *buffers, uint32_t width, uint32_t height,
+                                              uint32_t see_through_layers, vis_effect_entry *out_entries,
+                                              size_t capacity, size_t *out_count);
 
 /* ------------------------------------------------------------------------------------ */
 /* Software z-buffer occlusion culler (the comparison to the ray pass)                 */
@@ -656,6 +749,8 @@ typedef struct vis_timing {
                               host arrays directly                                           */
     uint64_t rays;         /* rays traced: width * height * views                           */
     uint32_t views;        /* 1 for vis_trace()                                              */
+    uint64_t secondary_rays; /* vis_trace_effects on the CPU backend: reflected and shadow
+                              rays cast (0 elsewhere: the OpenCL kernel does not count them) */
 } vis_timing;
 
 /* VIS_ERROR_NOT_FOUND before the first successful trace on the context. */
