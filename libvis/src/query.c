@@ -37,7 +37,6 @@
 #define PAIR_NONE 0u      /* nothing cached: prove it                                           */
 #define PAIR_SEEN 1u
 #define PAIR_HIDDEN 2u
-#define PAIR_UNKNOWN 3u   /* its proof ran out of pair_ray_limit: reported, not retried yet */
 
 static double now_ms(void)
 {
@@ -467,7 +466,6 @@ static int cache_holds(const vis_query *q, size_t p, const vis_occ_box *eye, con
     case PAIR_SEEN:
         return point_in(q->pair_eye[p].lo, eye) && point_in(q->pair_box[p].lo, box);
     case PAIR_HIDDEN:
-    case PAIR_UNKNOWN:
         return box_in(eye, &q->pair_eye[p]) && box_in(box, &q->pair_box[p]);
     default:
         return 0;
@@ -492,12 +490,13 @@ static void grow_ahead(const vis_query *q, const vis_occ_box *b, const double ve
     }
 }
 
-/* Proves pair p with at most lim rays and caches the result with the regions it covers;
+/* Proves pair p within `left` rays and caches the result with the regions it covers;
  * returns the rays spent. A pair whose last proof was HIDDEN has moved out of it: the
  * regions grown ahead (grow_ahead) are tried first, so that one proof lasts many ticks;
- * when that fails, the exact regions get what is left. A proof that runs out of rays is
- * cached (UNKNOWN, reported) over the grown regions only when it had the whole pair limit
- * (`full`): a pair cut short by the budget is tried again next tick. */
+ * when that fails, the exact regions get a pair limit of their own (so such a pair may
+ * spend up to twice pair_ray_limit). A proof that runs out of rays is not cached: the pair
+ * is reported and tried again next tick (caching it over the grown regions saved rays but
+ * sent a fifth more pairs on gen:default, where such pairs are often proven a tick later). */
 static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box,
                            const double eye_vel[3], const double box_vel[3], uint64_t left)
 {
@@ -523,7 +522,6 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
     }
     /* The exact regions get a whole pair limit of their own, within what is left. */
     uint32_t lim2 = left - spent < q->desc.pair_ray_limit ? (uint32_t)(left - spent) : q->desc.pair_ray_limit;
-    int full = lim2 == q->desc.pair_ray_limit;
     vis_occ_result res = lim2 ? vis_occ_test(&q->view, eye, box, lim2, &spent, w) : VIS_OCC_UNKNOWN;
     if (res == VIS_OCC_SEEN) {
         q->pair_state[p] = PAIR_SEEN;
@@ -533,12 +531,8 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
         q->pair_state[p] = PAIR_HIDDEN;
         q->pair_eye[p] = *eye;
         q->pair_box[p] = *box;
-    } else if (full) {
-        q->pair_state[p] = PAIR_UNKNOWN;
-        q->pair_eye[p] = ge;
-        q->pair_box[p] = gb;
     } else {
-        q->pair_state[p] = PAIR_NONE;
+        q->pair_state[p] = PAIR_NONE; /* reported; tried again next tick */
     }
     return spent;
 }
@@ -583,7 +577,7 @@ static void viewer_job(vis_query *q, uint32_t i)
             reason = VIS_QUERY_SEEN;
             q->pair_seen[p] = (uint32_t)q->tick + 1u;
             ++r->seen;
-        } else if (q->pair_state[p] == PAIR_NONE || q->pair_state[p] == PAIR_UNKNOWN) {
+        } else if (q->pair_state[p] == PAIR_NONE) {
             reason = VIS_QUERY_UNCHECKED;
             ++r->unchecked;
         } else {

@@ -54,8 +54,7 @@ struct vis_query {
     uint8_t *pair_state;      /* [viewer slot * max_entities + entity slot]: cached result  */
     vis_occ_box *pair_eye;    /* and the regions it covers (same index): HIDDEN, every
                                  segment from pair_eye to pair_box is blocked; SEEN, the
-                                 segment from pair_eye.lo to pair_box.lo is unblocked;
-                                 UNKNOWN, the regions whose proof ran out of rays             */
+                                 segment from pair_eye.lo to pair_box.lo is unblocked      */
     vis_occ_box *pair_box;
     uint32_t *pair_seen;      /* tick seen + 1 (0: never), for the hold                      */
 
