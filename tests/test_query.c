@@ -343,7 +343,7 @@ static void test_slack_cache(void **state)
     e.box_max[2] = 31.0;
     vis_query_desc d;
     vis_query_desc_defaults(&d);
-    d.proof_slack = 0.0;
+    d.proof_slack = -1.0; /* none */
     vis_query *q0 = NULL, *q1 = NULL;
     assert_int_equal(vis_query_create(ctx, scene, &d, &q0), VIS_OK);
     d.proof_slack = 2.0;
@@ -406,6 +406,14 @@ static void test_slack_cache(void **state)
     assert_int_equal(reason, VIS_QUERY_SEEN);
     vis_query_destroy(q0);
     vis_query_destroy(q1);
+    /* Bad slack or range: refused at creation. */
+    vis_query *bad = NULL;
+    d.proof_slack = NAN;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &bad), VIS_ERROR_INVALID_ARGUMENT);
+    d.proof_slack = 0.0;
+    d.chunk_range = 0.5; /* inside the pass's near plane */
+    assert_int_equal(vis_query_create(ctx, scene, &d, &bad), VIS_ERROR_INVALID_ARGUMENT);
+    assert_null(bad);
     vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);

@@ -191,6 +191,10 @@ static int parse_args(int argc, char **argv, qopts *o)
             rc = parse_dbl(a, v, 0.0, 100.0, &o->margin);
         } else if (!strcmp(a, "--chunk-range")) {
             rc = parse_dbl(a, v, 0.0, 1e9, &o->chunk_range);
+            if (!rc && o->chunk_range != 0.0 && o->chunk_range < 1.0) {
+                fprintf(stderr, "vis query: --chunk-range '%s': 0 (unlimited) or at least 1 voxel\n", v);
+                rc = -1;
+            }
         } else if (!strcmp(a, "--slack")) {
             rc = parse_dbl(a, v, 0.0, 100.0, &o->slack);
         } else if (!strcmp(a, "--peek")) {
@@ -482,7 +486,7 @@ static int run_replay(const qopts *o)
     qd.ray_budget = o->budget;
     qd.viewer_ray_budget = o->viewer_budget;
     qd.pair_ray_limit = o->pair_limit;
-    qd.proof_slack = o->slack;
+    qd.proof_slack = o->slack > 0.0 ? o->slack : -1.0; /* the library's 0 means its default */
     qd.chunk_range = o->chunk_range;
     qd.threads = o->threads;
     if (vis_query_create(s.ctx, scene, &qd, &q) != VIS_OK) {

@@ -669,7 +669,8 @@ typedef struct vis_query_desc {
                                   scene edit); default 1: every tick                          */
     double chunk_range;        /* the chunk pass's far plane, in voxels from the eye (Luanti
                                   sends blocks within a range, 192 voxels by default); chunks
-                                  seen only beyond it are not listed. 0 (default): unlimited */
+                                  seen only beyond it are not listed. 0 (default): unlimited;
+                                  otherwise at least 1                                        */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
@@ -681,9 +682,9 @@ typedef struct vis_query_desc {
                                   unchecked; default 16, at most 4096                        */
     double proof_slack;        /* voxels a proof reaches ahead along each velocity, so that it
                                   stays valid while viewer and entity move on: a pair is not
-                                  retraced while its eye region and swept box stay inside the
-                                  regions last proven; [0, 1e5], default 0.5 (0: the exact
-                                  regions only, re-proven whenever anything moves)           */
+                                  proven again while its eye region and swept box stay inside
+                                  the regions last proven; at most 1e5; 0 = default (0.5),
+                                  negative = none (exact regions, re-proven on any move)     */
     uint32_t threads;          /* viewers run in parallel on this many threads (the caller
                                   included); 0 = the context's CPU thread count (its
                                   parallel_for when it has one), 1 = the calling thread      */
