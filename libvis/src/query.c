@@ -11,8 +11,10 @@
  *    peek) to the swept box (every place the entity can be within it) blocked.
  *  - A ray budget spent by priority (in view, then near), split evenly and deterministically
  *    among viewers; pairs it cannot prove are reported (VIS_QUERY_UNCHECKED), never hidden.
- *  - A reveal hold in ticks, and per-pair caching: a pair's last proof is reused while the
- *    viewer's eye region, the entity's swept box and the scene are all unchanged.
+ *  - A reveal hold in ticks, and per-pair caching: a pair's last proof is kept with the
+ *    regions it covers and reused while the scene is unchanged and this tick's eye region
+ *    and swept box lie inside them; a hidden pair is proven for regions grown proof_slack
+ *    voxels ahead along the velocities, so that one proof lasts while players walk on.
  *  - Every buffer is sized at creation: a tick allocates nothing. Viewers are independent
  *    jobs (each writes only its own row of results), so any thread count gives the same
  *    output. */
@@ -130,7 +132,7 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
         d->proof_slack > QUERY_MAX_BOX || !isfinite(d->chunk_range) ||
         !(d->chunk_range == 0.0 || (d->chunk_range >= 1.0 && d->chunk_range <= QUERY_MAX_COORD)))
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
-                        "vis_query_create: margin %g must be in [0, %g], peek_speed %g in [0, %g], proof_slack %g in "
+                        "vis_query_create: margin %g must be in [0, %g], peek_speed %g in [0, %g], proof_slack %g "
                         "at most %g, chunk_range %g 0 or in [1, %g]",
                         d->margin, QUERY_MAX_BOX, d->peek_speed, VIS_QUERY_MAX_SPEED, d->proof_slack, QUERY_MAX_BOX,
                         d->chunk_range, QUERY_MAX_COORD);
@@ -148,8 +150,8 @@ static void query_free(vis_query *q)
     vis_context *ctx = q->ctx;
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
-                      q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys, q->hits, q->results,
-                      q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals};
+                      q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys,
+                      q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);
