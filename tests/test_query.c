@@ -322,6 +322,103 @@ static void test_edit_opens_wall(void **state)
     vis_context_destroy(ctx);
 }
 
+/* Proof slack: a proof over regions grown ahead along the velocities answers the next ticks
+ * while viewer and entity stay inside them. An entity walking along behind the wall and out
+ * past its end: the slack query spends fewer rays, answers ticks from the cache, lists the
+ * entity whenever the exact query (slack 0) sees it, and whenever the truth does; a window
+ * cut into the wall is seen by the next tick although the cached proof still covered it. */
+static void test_slack_cache(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    v.velocity[2] = 1.0; /* both move: the viewer slowly, the entity at 10 voxels/s */
+    v.latency_ms = 50.0;
+    e.box_min[2] = 30.0;
+    e.box_max[2] = 31.0;
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.proof_slack = -1.0; /* none */
+    vis_query *q0 = NULL, *q1 = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q0), VIS_OK);
+    d.proof_slack = 2.0;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q1), VIS_OK);
+    uint64_t rays0 = 0, rays1 = 0, cached = 0;
+    int hidden_ticks = 0, truth_seen = 0;
+    for (int t = 0; t < 160; ++t) {
+        vis_query_stats s0, s1;
+        assert_int_equal(vis_query_run(q0, &v, 1, &e, 1, &s0), VIS_OK);
+        assert_int_equal(vis_query_run(q1, &v, 1, &e, 1, &s1), VIS_OK);
+        rays0 += s0.entity_rays;
+        rays1 += s1.entity_rays;
+        cached += s1.pairs_cached;
+        uint32_t r0 = 0;
+        int l0 = listed(q0, 0, 2, &r0), l1 = listed(q1, 0, 2, NULL);
+        if (l0 && r0 == VIS_QUERY_SEEN)
+            assert_true(l1);
+        hidden_ticks += !l1;
+        if (t % 16 == 0) {
+            vis_scene *truth = truth_scene(ctx, &w, &e, 1);
+            int seen[1] = {0};
+            truth_pass(ctx, truth, v.eye, 128, 1, seen);
+            if (seen[0]) {
+                assert_true(l1);
+                ++truth_seen;
+            }
+            vis_scene_destroy(truth);
+        }
+        for (int k = 0; k < 3; ++k) {
+            v.eye[k] += v.velocity[k] / 128.0;
+            e.box_min[k] += e.velocity[k] / 128.0;
+            e.box_max[k] += e.velocity[k] / 128.0;
+        }
+    }
+    assert_true(hidden_ticks > 40); /* it was behind the wall for the first ~100 ticks */
+    assert_true(truth_seen > 0);    /* and came out */
+    assert_true(cached > 80);
+    assert_true(rays1 * 2 < rays0);
+    /* Behind the wall again, moving: a cached proof; then a window in front of it. */
+    e.box_min[2] = 20.0;
+    e.box_max[2] = 21.0;
+    v.eye[2] = 20.5;
+    vis_query_stats st;
+    for (int t = 0; t < 3; ++t)
+        assert_int_equal(vis_query_run(q1, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 1);
+    assert_false(listed(q1, 0, 2, NULL));
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 2;
+    float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 23, 21, 10, 40}, {20, 1, 18, 21, 2, 23}, {20, 4, 18, 21, 10, 23}};
+    for (int i = 0; i < 4; ++i)
+        obj_box(&o, parts[i], parts[i] + 3);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    assert_int_equal(vis_query_run(q1, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 0);
+    uint32_t reason = 0;
+    assert_true(listed(q1, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_SEEN);
+    vis_query_destroy(q0);
+    vis_query_destroy(q1);
+    /* Bad slack or range: refused at creation. */
+    vis_query *bad = NULL;
+    d.proof_slack = NAN;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &bad), VIS_ERROR_INVALID_ARGUMENT);
+    d.proof_slack = 0.0;
+    d.chunk_range = 0.5; /* inside the pass's near plane */
+    assert_int_equal(vis_query_create(ctx, scene, &d, &bad), VIS_ERROR_INVALID_ARGUMENT);
+    assert_null(bad);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Hold: seen at tick 1, hidden from tick 2: reported (HELD) for hold_ticks more ticks. */
 static void test_hold(void **state)
 {
@@ -860,6 +957,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_never_hides_visible), cmocka_unit_test(test_latency_peek),
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
+        cmocka_unit_test(test_slack_cache),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),

@@ -357,7 +357,7 @@ static double extent(const vis_occ_box *x)
 }
 
 vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
-                            uint32_t limit, uint32_t *rays)
+                            uint32_t limit, uint32_t *rays, double witness[6])
 {
     vis_occ_box st_e[OCC_STACK], st_b[OCC_STACK];
     int sp = 0;
@@ -379,6 +379,10 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
         ++spent;
         if (vis_occ_segment_clear(view, ce, cb, x)) {
             result = VIS_OCC_SEEN;
+            if (witness) {
+                memcpy(witness, ce, sizeof ce);
+                memcpy(witness + 3, cb, sizeof cb);
+            }
             break;
         }
         /* The planes of the first hits along the segment (a voxel quad lies in an integer

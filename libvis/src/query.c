@@ -11,8 +11,10 @@
  *    peek) to the swept box (every place the entity can be within it) blocked.
  *  - A ray budget spent by priority (in view, then near), split evenly and deterministically
  *    among viewers; pairs it cannot prove are reported (VIS_QUERY_UNCHECKED), never hidden.
- *  - A reveal hold in ticks, and per-pair caching: a pair's last proof is reused while the
- *    viewer's eye region, the entity's swept box and the scene are all unchanged.
+ *  - A reveal hold in ticks, and per-pair caching: a pair's last proof is kept with the
+ *    regions it covers and reused while the scene is unchanged and this tick's eye region
+ *    and swept box lie inside them; a hidden pair is proven for regions grown proof_slack
+ *    voxels ahead along the velocities, so that one proof lasts while players walk on.
  *  - Every buffer is sized at creation: a tick allocates nothing. Viewers are independent
  *    jobs (each writes only its own row of results), so any thread count gives the same
  *    output. */
@@ -33,7 +35,8 @@
 #define QUERY_MAX_COORD 1e9      /* world coordinates beyond this are rejected             */
 #define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */
 #define QUERY_MAX_BYTES ((uint64_t)1 << 31)
-#define PAIR_NONE 0u
+#define QUERY_DEFAULT_SLACK 0.5  /* voxels: about 15 ticks of a walk at 128 ticks/s          */
+#define PAIR_NONE 0u      /* nothing cached: prove it                                           */
 #define PAIR_SEEN 1u
 #define PAIR_HIDDEN 2u
 
@@ -94,6 +97,7 @@ void vis_query_desc_defaults(vis_query_desc *d)
     d->chunk_res = QUERY_DEFAULT_CHUNK_RES;
     d->chunk_every = 1;
     d->pair_ray_limit = QUERY_DEFAULT_PAIR_RAYS;
+    d->proof_slack = QUERY_DEFAULT_SLACK;
 }
 
 static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_query_desc *d)
@@ -112,6 +116,10 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
         d->chunk_every = 1;
     if (!d->pair_ray_limit)
         d->pair_ray_limit = QUERY_DEFAULT_PAIR_RAYS;
+    if (d->proof_slack == 0.0)
+        d->proof_slack = QUERY_DEFAULT_SLACK;
+    else if (d->proof_slack < 0.0)
+        d->proof_slack = 0.0; /* none (NaN and +inf are refused below)                       */
     if (d->max_viewers > VIS_QUERY_MAX_VIEWERS || d->max_entities > VIS_QUERY_MAX_ENTITIES ||
         d->chunk_res > VIS_QUERY_MAX_CHUNK_RES || d->pair_ray_limit > QUERY_MAX_PAIR_RAYS)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
@@ -120,10 +128,14 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
                         d->max_viewers, VIS_QUERY_MAX_VIEWERS, d->max_entities, VIS_QUERY_MAX_ENTITIES, d->chunk_res,
                         VIS_QUERY_MAX_CHUNK_RES, d->pair_ray_limit, QUERY_MAX_PAIR_RAYS);
     if (!isfinite(d->margin) || d->margin < 0.0 || d->margin > QUERY_MAX_BOX || !isfinite(d->peek_speed) ||
-        d->peek_speed < 0.0 || d->peek_speed > VIS_QUERY_MAX_SPEED)
+        d->peek_speed < 0.0 || d->peek_speed > VIS_QUERY_MAX_SPEED || !isfinite(d->proof_slack) ||
+        d->proof_slack > QUERY_MAX_BOX || !isfinite(d->chunk_range) ||
+        !(d->chunk_range == 0.0 || (d->chunk_range >= 1.0 && d->chunk_range <= QUERY_MAX_COORD)))
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
-                        "vis_query_create: margin %g must be in [0, %g], peek_speed %g in [0, %g]", d->margin,
-                        QUERY_MAX_BOX, d->peek_speed, VIS_QUERY_MAX_SPEED);
+                        "vis_query_create: margin %g must be in [0, %g], peek_speed %g in [0, %g], proof_slack %g "
+                        "at most %g, chunk_range %g 0 or in [1, %g]",
+                        d->margin, QUERY_MAX_BOX, d->peek_speed, VIS_QUERY_MAX_SPEED, d->proof_slack, QUERY_MAX_BOX,
+                        d->chunk_range, QUERY_MAX_COORD);
     return VIS_OK;
 }
 
@@ -138,8 +150,8 @@ static void query_free(vis_query *q)
     vis_context *ctx = q->ctx;
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
-                      q->pair_state, q->pair_seen, q->eye_now, q->box_now, q->keys, q->hits, q->results,
-                      q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals};
+                      q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys,
+                      q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);
@@ -179,6 +191,8 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->vslot, V * 4},
         {(void **)&q->eslot, E * 4},
         {(void **)&q->pair_state, V * E},
+        {(void **)&q->pair_eye, V * E * sizeof(vis_occ_box)},
+        {(void **)&q->pair_box, V * E * sizeof(vis_occ_box)},
         {(void **)&q->pair_seen, V * E * 4},
         {(void **)&q->eye_now, V * sizeof(vis_occ_box)},
         {(void **)&q->box_now, V * E * sizeof(vis_occ_box)},
@@ -367,7 +381,6 @@ static void assign_slots(vis_query *q)
             s = next;
             memset(&q->viewers[s], 0, sizeof q->viewers[s]);
             q->viewers[s].id = q->in_viewers[i].id;
-            q->viewers[s].changed = 1;
             memset(q->pair_state + (size_t)s * d->max_entities, 0, d->max_entities);
             memset(q->pair_seen + (size_t)s * d->max_entities, 0, (size_t)d->max_entities * 4);
         }
@@ -393,7 +406,6 @@ static void assign_slots(vis_query *q)
             s = next;
             memset(&q->entities[s], 0, sizeof q->entities[s]);
             q->entities[s].id = q->in_entities[i].id;
-            q->entities[s].changed = 1;
             for (uint32_t v = 0; v < d->max_viewers; ++v) {
                 q->pair_state[(size_t)v * d->max_entities + s] = PAIR_NONE;
                 q->pair_seen[(size_t)v * d->max_entities + s] = 0;
@@ -434,6 +446,103 @@ static uint64_t priority_key(const vis_query_viewer *v, const vis_occ_box *eye, 
     return ((uint64_t)(in_view ? 0u : 1u) << 63) | ((uint64_t)(bits & 0x7FFFFFFFu) << 32) | index;
 }
 
+static int point_in(const double x[3], const vis_occ_box *b)
+{
+    for (int k = 0; k < 3; ++k)
+        if (!(x[k] >= b->lo[k] && x[k] <= b->hi[k]))
+            return 0;
+    return 1;
+}
+
+static int box_in(const vis_occ_box *a, const vis_occ_box *b)
+{
+    for (int k = 0; k < 3; ++k)
+        if (!(a->lo[k] >= b->lo[k] && a->hi[k] <= b->hi[k]))
+            return 0;
+    return 1;
+}
+
+/* Does pair p's cached result still answer for this tick's eye region and swept box? A
+ * proof over larger regions holds for any regions inside them (every segment between the
+ * smaller is one between the larger); an unblocked segment stays a witness while its ends
+ * stay inside. The scene's generation is checked by the caller. */
+static int cache_holds(const vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box)
+{
+    switch (q->pair_state[p]) {
+    case PAIR_SEEN:
+        return point_in(q->pair_eye[p].lo, eye) && point_in(q->pair_box[p].lo, box);
+    case PAIR_HIDDEN:
+        return box_in(eye, &q->pair_eye[p]) && box_in(box, &q->pair_box[p]);
+    default:
+        return 0;
+    }
+}
+
+/* The region reached ahead along the velocity: the hull of b and b moved by proof_slack
+ * voxels in the velocity's direction (b itself when still). While the motion keeps its
+ * direction, the next ticks' regions stay inside for proof_slack / speed seconds. */
+static void grow_ahead(const vis_query *q, const vis_occ_box *b, const double vel[3], vis_occ_box *out)
+{
+    *out = *b;
+    double len = sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]);
+    if (!(len > 0.0) || q->desc.proof_slack == 0.0)
+        return;
+    for (int k = 0; k < 3; ++k) {
+        double dv = vel[k] / len * q->desc.proof_slack;
+        if (dv < 0.0)
+            out->lo[k] += dv;
+        else
+            out->hi[k] += dv;
+    }
+}
+
+/* Proves pair p within `left` rays and caches the result with the regions it covers;
+ * returns the rays spent. A pair whose last proof was HIDDEN has moved out of it: the
+ * regions grown ahead (grow_ahead) are tried first, so that one proof lasts many ticks;
+ * when that fails, the exact regions get a pair limit of their own (so such a pair may
+ * spend up to twice pair_ray_limit). A proof that runs out of rays is not cached: the pair
+ * is reported and tried again next tick (caching it over the grown regions saved rays but
+ * sent a fifth more pairs on gen:default, where such pairs are often proven a tick later). */
+static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box,
+                           const double eye_vel[3], const double box_vel[3], uint64_t left)
+{
+    uint32_t lim = left < q->desc.pair_ray_limit ? (uint32_t)left : q->desc.pair_ray_limit;
+    vis_occ_box ge, gb;
+    grow_ahead(q, eye, eye_vel, &ge);
+    grow_ahead(q, box, box_vel, &gb);
+    uint32_t spent = 0;
+    double w[6];
+    if (q->pair_state[p] == PAIR_HIDDEN && (!box_in(&ge, eye) || !box_in(&gb, box))) {
+        vis_occ_result res = vis_occ_test(&q->view, &ge, &gb, lim, &spent, w);
+        if (res == VIS_OCC_HIDDEN) {
+            q->pair_eye[p] = ge;
+            q->pair_box[p] = gb;
+            return spent;
+        }
+        if (res == VIS_OCC_SEEN && point_in(w, eye) && point_in(w + 3, box)) {
+            q->pair_state[p] = PAIR_SEEN;
+            memcpy(q->pair_eye[p].lo, w, sizeof q->pair_eye[p].lo);
+            memcpy(q->pair_box[p].lo, w + 3, sizeof q->pair_box[p].lo);
+            return spent;
+        }
+    }
+    /* The exact regions get a whole pair limit of their own, within what is left. */
+    uint32_t lim2 = left - spent < q->desc.pair_ray_limit ? (uint32_t)(left - spent) : q->desc.pair_ray_limit;
+    vis_occ_result res = lim2 ? vis_occ_test(&q->view, eye, box, lim2, &spent, w) : VIS_OCC_UNKNOWN;
+    if (res == VIS_OCC_SEEN) {
+        q->pair_state[p] = PAIR_SEEN;
+        memcpy(q->pair_eye[p].lo, w, sizeof q->pair_eye[p].lo);
+        memcpy(q->pair_box[p].lo, w + 3, sizeof q->pair_box[p].lo);
+    } else if (res == VIS_OCC_HIDDEN) {
+        q->pair_state[p] = PAIR_HIDDEN;
+        q->pair_eye[p] = *eye;
+        q->pair_box[p] = *box;
+    } else {
+        q->pair_state[p] = PAIR_NONE; /* reported; tried again next tick */
+    }
+    return spent;
+}
+
 static void viewer_job(vis_query *q, uint32_t i)
 {
     const vis_query_desc *d = &q->desc;
@@ -461,17 +570,14 @@ static void viewer_job(vis_query *q, uint32_t i)
         size_t p = (size_t)vs * d->max_entities + es;
         uint32_t reason = 0;
         ++r->pairs;
-        int cache_ok = !q->regenerated && !q->viewers[vs].changed && !q->entities[es].changed;
-        if (cache_ok && q->pair_state[p] != PAIR_NONE) {
+        if (!q->regenerated && cache_holds(q, p, eye, &boxes[j])) {
             ++r->cached;
         } else if (left == 0) {
             q->pair_state[p] = PAIR_NONE;
         } else {
-            uint32_t lim = left < d->pair_ray_limit ? (uint32_t)left : d->pair_ray_limit, spent = 0;
-            vis_occ_result res = vis_occ_test(&q->view, eye, &boxes[j], lim, &spent);
+            uint32_t spent = prove_pair(q, p, eye, &boxes[j], v->velocity, q->in_entities[j].velocity, left);
             left -= spent;
             r->rays += spent;
-            q->pair_state[p] = res == VIS_OCC_SEEN ? PAIR_SEEN : res == VIS_OCC_HIDDEN ? PAIR_HIDDEN : PAIR_NONE;
         }
         if (q->pair_state[p] == PAIR_SEEN) {
             reason = VIS_QUERY_SEEN;
@@ -517,11 +623,6 @@ static void viewer_item_pf(uint32_t index, void *arg)
 
 /* ---- one tick ------------------------------------------------------------------------------- */
 
-static int box_same(const vis_occ_box *a, const vis_occ_box *b)
-{
-    return memcmp(a, b, sizeof *a) == 0;
-}
-
 static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t nv, const vis_query_entity *en,
                             uint32_t ne, vis_query_stats *out_stats)
 {
@@ -542,26 +643,9 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
     q->regenerated = q->tick > 1 && gen != q->generation;
     q->generation = gen;
 
-    /* Regions, and what moved since the last tick. */
-    for (uint32_t i = 0; i < nv; ++i) {
-        vis_qviewer *s = &q->viewers[q->vslot[i]];
+    /* Eye regions (the swept boxes depend on each viewer's latency: its job makes them). */
+    for (uint32_t i = 0; i < nv; ++i)
         eye_region(q, &vw[i], &q->eye_now[i]);
-        if (!box_same(&s->eye, &q->eye_now[i]) || s->latency_ms != vw[i].latency_ms)
-            s->changed = 1;
-        s->eye = q->eye_now[i];
-        s->latency_ms = vw[i].latency_ms;
-    }
-    /* An entity's cache key is its box and velocity (its swept box depends on each viewer's
-     * latency, which is part of the viewer's key). */
-    for (uint32_t j = 0; j < ne; ++j) {
-        vis_qentity *s = &q->entities[q->eslot[j]];
-        vis_occ_box b;
-        swept_box(q, &en[j], 0.0, &b);
-        if (!box_same(&s->box, &b) || memcmp(s->velocity, en[j].velocity, sizeof s->velocity) != 0)
-            s->changed = 1;
-        s->box = b;
-        memcpy(s->velocity, en[j].velocity, sizeof s->velocity);
-    }
 
     /* Chunks: one batch for every viewer due. */
     st = vis_query_chunks_run(q);
@@ -592,10 +676,6 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
             viewer_job(q, i);
     vis_scene_end_read(q->scene);
 
-    for (uint32_t i = 0; i < nv; ++i)
-        q->viewers[q->vslot[i]].changed = 0;
-    for (uint32_t j = 0; j < ne; ++j)
-        q->entities[q->eslot[j]].changed = 0;
     q->last_viewers = nv;
     if (out_stats) {
         vis_query_stats s;

@@ -18,18 +18,12 @@ typedef struct vis_idmap {
 /* One viewer's slot: kept across ticks while its ID comes back. */
 typedef struct vis_qviewer {
     uint32_t id;              /* 0: free                                                   */
-    vis_occ_box eye;          /* last tick's eye region (scene-local)                       */
-    double latency_ms;        /* last tick's latency                                        */
-    int changed;              /* this tick: new, or its eye region moved                    */
     uint64_t chunk_tick;      /* tick of its last chunk pass (0: none)                      */
     uint32_t chunk_count;     /* entries of its chunk list                                  */
 } vis_qviewer;
 
 typedef struct vis_qentity {
     uint32_t id;
-    vis_occ_box box;          /* last tick's box (scene-local)                              */
-    double velocity[3];       /* and velocity: the cache key                                */
-    int changed;
 } vis_qentity;
 
 /* What one viewer's job produced this tick. */
@@ -58,6 +52,10 @@ struct vis_query {
     uint32_t *vslot, *eslot;  /* this tick: input index -> slot                             */
     uint32_t last_viewers;    /* viewers of the last successful run                         */
     uint8_t *pair_state;      /* [viewer slot * max_entities + entity slot]: cached result  */
+    vis_occ_box *pair_eye;    /* and the regions it covers (same index): HIDDEN, every
+                                 segment from pair_eye to pair_box is blocked; SEEN, the
+                                 segment from pair_eye.lo to pair_box.lo is unblocked      */
+    vis_occ_box *pair_box;
     uint32_t *pair_seen;      /* tick seen + 1 (0: never), for the hold                      */
 
     /* This tick's inputs, converted (input order). */

@@ -22,12 +22,12 @@ static int due(const vis_query *q, uint32_t s)
     return v->chunk_tick == 0 || q->regenerated || (q->tick + s) % q->desc.chunk_every == 0;
 }
 
-static void face_camera(const vis_query_viewer *in, int face, vis_camera *c)
+static void face_camera(const vis_query_viewer *in, double range, int face, vis_camera *c)
 {
     memset(c, 0, sizeof *c);
     memcpy(c->eye, in->eye, sizeof c->eye);
     c->near_dist = 0.05;
-    c->far_dist = 0.0;
+    c->far_dist = range; /* 0: unlimited */
     if (face < 0) {
         for (int k = 0; k < 3; ++k)
             c->target[k] = in->eye[k] + in->dir[k];
@@ -54,11 +54,11 @@ vis_status vis_query_chunks_run(vis_query *q)
             continue;
         if (all_around(in)) {
             for (int f = 0; f < 6; ++f) {
-                face_camera(in, f, &q->cameras[ncam]);
+                face_camera(in, q->desc.chunk_range, f, &q->cameras[ncam]);
                 q->camera_viewer[ncam++] = s;
             }
         } else {
-            face_camera(in, -1, &q->cameras[ncam]);
+            face_camera(in, q->desc.chunk_range, -1, &q->cameras[ncam]);
             q->camera_viewer[ncam++] = s;
         }
     }

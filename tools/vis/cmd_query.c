@@ -35,8 +35,11 @@ static void usage(FILE *f)
             "  --margin X           voxels around eye regions and swept boxes (default 0)\n"
             "  --peek X             voxels per second a viewer may move beyond its velocity (default 0)\n"
             "  --hold N             ticks an entity stays sent after it was seen (default 0)\n"
+            "  --slack X            voxels a proof reaches ahead along each velocity, kept while\n"
+            "                       both stay inside (default 0.5; 0: re-prove on any move)\n"
             "  --chunk-res N        chunk pass resolution per face (default 32)\n"
             "  --chunk-every N      re-trace a viewer's chunks every N ticks (default 32)\n"
+            "  --chunk-range X      the chunk pass's far plane in voxels (default 0: unlimited)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"
             "  --compare            also run the SMAC-style and Luanti-style checks and a dense truth\n"
             "  --truth-res N        truth: N x N per cube face (default 256)\n"
@@ -63,7 +66,7 @@ typedef struct qopts {
     uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, hold, chunk_res, chunk_every;
     uint32_t truth_res, truth_every, edit_every, viewer_budget;
     uint64_t budget, seed;
-    double margin, peek, luanti_range, tick_ms;
+    double margin, peek, slack, chunk_range, luanti_range, tick_ms;
     int have_simulate;
 } qopts;
 
@@ -123,6 +126,7 @@ static int parse_args(int argc, char **argv, qopts *o)
     o->max_entities = 1024;
     o->chunk_res = 32;
     o->chunk_every = 32;
+    o->slack = 0.5;
     o->around = 1;
     o->truth_res = 256;
     o->truth_every = 16;
@@ -185,6 +189,14 @@ static int parse_args(int argc, char **argv, qopts *o)
             rc = parse_u32(a, v, 1, 1000000, &o->truth_every);
         } else if (!strcmp(a, "--margin")) {
             rc = parse_dbl(a, v, 0.0, 100.0, &o->margin);
+        } else if (!strcmp(a, "--chunk-range")) {
+            rc = parse_dbl(a, v, 0.0, 1e9, &o->chunk_range);
+            if (!rc && o->chunk_range != 0.0 && o->chunk_range < 1.0) {
+                fprintf(stderr, "vis query: --chunk-range '%s': 0 (unlimited) or at least 1 voxel\n", v);
+                rc = -1;
+            }
+        } else if (!strcmp(a, "--slack")) {
+            rc = parse_dbl(a, v, 0.0, 100.0, &o->slack);
         } else if (!strcmp(a, "--peek")) {
             rc = parse_dbl(a, v, 0.0, VIS_QUERY_MAX_SPEED, &o->peek);
         } else if (!strcmp(a, "--luanti-range")) {
@@ -474,6 +486,8 @@ static int run_replay(const qopts *o)
     qd.ray_budget = o->budget;
     qd.viewer_ray_budget = o->viewer_budget;
     qd.pair_ray_limit = o->pair_limit;
+    qd.proof_slack = o->slack > 0.0 ? o->slack : -1.0; /* the library's 0 means its default */
+    qd.chunk_range = o->chunk_range;
     qd.threads = o->threads;
     if (vis_query_create(s.ctx, scene, &qd, &q) != VIS_OK) {
         rc = cli_fail_vis(CMD, s.ctx, "vis_query_create");

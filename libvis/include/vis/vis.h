@@ -798,6 +798,10 @@ typedef struct vis_query_desc {
     uint32_t chunk_every;      /* re-trace a viewer's chunks every N ticks, each viewer slot
                                   on its own phase (and at once for a new viewer or after a
                                   scene edit); default 1: every tick                          */
+    double chunk_range;        /* the chunk pass's far plane, in voxels from the eye (Luanti
+                                  sends blocks within a range, 192 voxels by default); chunks
+                                  seen only beyond it are not listed. 0 (default): unlimited;
+                                  otherwise at least 1                                        */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
@@ -807,6 +811,11 @@ typedef struct vis_query_desc {
     uint32_t viewer_ray_budget;/* entity rays per viewer per call; 0 = no limit              */
     uint32_t pair_ray_limit;   /* rays spent proving one pair hidden before it is reported
                                   unchecked; default 16, at most 4096                        */
+    double proof_slack;        /* voxels a proof reaches ahead along each velocity, so that it
+                                  stays valid while viewer and entity move on: a pair is not
+                                  proven again while its eye region and swept box stay inside
+                                  the regions last proven; at most 1e5; 0 = default (0.5),
+                                  negative = none (exact regions, re-proven on any move)     */
     uint32_t threads;          /* viewers run in parallel on this many threads (the caller
                                   included); 0 = the context's CPU thread count (its
                                   parallel_for when it has one), 1 = the calling thread      */
@@ -852,7 +861,8 @@ typedef struct vis_query_stats {
     uint64_t entity_rays;      /* segments cast and plane tests (each counts one ray)         */
     uint64_t chunk_rays;       /* pixels of the chunk passes traced this tick                  */
     uint32_t pairs;            /* viewer-entity pairs (the viewer's own entity excluded)      */
-    uint32_t pairs_cached;     /* answered from the last tick: nothing relevant changed       */
+    uint32_t pairs_cached;     /* answered from an earlier tick's proof: its eye region and
+                                  swept box still lie inside the regions it covered          */
     uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
     uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
     double ms;                 /* the call, wall clock                                         */
