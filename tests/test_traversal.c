@@ -690,6 +690,50 @@ static void test_aimed_at_chunk_edges(void **state)
     vis_context_destroy(ctx);
 }
 
+/* Lone quads inside chunks, one to three voxels wide, their edges on even and odd offsets from
+ * the chunk's corner, on every axis, with nothing next to them: a ray aimed at such an edge
+ * takes the quad only through the quad test's slack. With VIS_LEAF_MASK the leaf walk skips
+ * a plane where the mask has no marked cell near the crossing (trace_core.h,
+ * vis_mask_may_hit): these rays hold it to widening past that slack and the rounding of the
+ * crossing -- a crossing just short of an even offset lies in the cell before the quad's. */
+static void lone_quad_world(tworld *w, uint64_t *rng)
+{
+    chunk_world_init(w, 2, 2, 2);
+    for (uint32_t c = 0; c < 8u; ++c) {
+        float base[3] = {16.0f * (float)(c & 1u), 16.0f * (float)((c >> 1) & 1u), 16.0f * (float)(c >> 2)};
+        uint32_t n = 2u + (uint32_t)(vt_rand(rng) % 4u);
+        tobj *o = add_obj(w, 1u + c);
+        for (uint32_t i = 0; i < n; ++i) {
+            uint32_t a = (uint32_t)(vt_rand(rng) % 3u), u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+            float lo[3];
+            int ext[3];
+            for (int b = 0; b < 3; ++b) {
+                ext[b] = 1 + (int)(vt_rand(rng) % 3u);
+                lo[b] = base[b] + (float)(vt_rand(rng) % (uint64_t)(17 - ext[b]));
+            }
+            obj_quad(o, a, lo[a], lo[u], lo[v], lo[u] + (float)ext[u], lo[v] + (float)ext[v]);
+        }
+    }
+}
+
+static void test_aimed_at_lone_quad_edges(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 4099;
+    int rays = vt_small() ? 4000 : 20000;
+    for (int wi = 0; wi < 3; ++wi) {
+        tworld w;
+        lone_quad_world(&w, &rng);
+        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+        check_ray_stream(scene, &w, &rng, rays, aimed_ray, 0, "lone quads");
+        check_ray_stream(scene, &w, &rng, rays / 4, grid_ray, 0, "lone quads, grid rays");
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
 /* ---- the ropes against their definition --------------------------------------------------- */
 
 typedef struct node_box {
@@ -867,6 +911,7 @@ int main(void)
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_degenerate_rays),
         cmocka_unit_test(test_aimed_at_chunk_edges),
+        cmocka_unit_test(test_aimed_at_lone_quad_edges),
         cmocka_unit_test(test_checkerboard_views),
         cmocka_unit_test(test_closed_room_ties_inside_solid),
         cmocka_unit_test(test_random_worlds),
