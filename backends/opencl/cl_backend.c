@@ -297,6 +297,17 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     return launch(b, p->trace, setup->width, setup->height, 1, ids, depth, err, err_size);
 }
 
+/* The program of a batch: its cameras' method when they share one, else the generic one. */
+int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_t count, vis_cl_program **p,
+                         char *err, size_t err_size)
+{
+    uint32_t traversal = setups[0].traversal;
+    for (uint32_t i = 1; i < count; ++i)
+        if (setups[i].traversal != traversal)
+            traversal = UINT32_MAX;
+    return vis_cl_program_get(b, vis_cl_traversal_options(traversal), p, err, err_size);
+}
+
 static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
                           uint32_t count, uint32_t *ids, float *depth, char *err, size_t err_size)
 {
@@ -306,12 +317,8 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
     b->last_kernel_ms = 0.0;
     if (count == 0)
         return VIS_OK;
-    uint32_t traversal = setups[0].traversal; /* one program when every camera shares it */
-    for (uint32_t i = 1; i < count; ++i)
-        if (setups[i].traversal != traversal)
-            traversal = UINT32_MAX;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, vis_cl_traversal_options(traversal), &p, err, err_size);
+    int st = vis_cl_batch_program(b, setups, count, &p, err, err_size);
     if (st != VIS_OK)
         return st;
     uint32_t W = setups[0].width, H = setups[0].height;

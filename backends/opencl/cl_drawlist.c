@@ -204,12 +204,8 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     *total = 0;
     if (count == 0)
         return VIS_OK;
-    uint32_t traversal = setups[0].traversal; /* one program when every camera shares it */
-    for (uint32_t i = 1; i < count; ++i)
-        if (setups[i].traversal != traversal)
-            traversal = UINT32_MAX;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, vis_cl_traversal_options(traversal), &p, err, err_size);
+    int st = vis_cl_batch_program(b, setups, count, &p, err, err_size);
     if (st != VIS_OK)
         return st;
     uint32_t W = setups[0].width, H = setups[0].height;

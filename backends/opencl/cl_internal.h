@@ -246,6 +246,9 @@ int vis_cl_ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t nee
                          const char *what, char *err, size_t err_size);
 /* Sets the scene arrays as kernel arguments first, first + 1, ... (VIS_SCENE_ARGS order). */
 int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first);
+/* The program for a batch of `count` >= 1 setups (cl_backend.c). */
+int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_t count, vis_cl_program **p,
+                         char *err, size_t err_size);
 /* Global and local sizes of a pass over width x height x views in the backend's tiles
  * (local = 1x1 where the device cannot run a whole tile); returns whether it is tiled. */
 int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, size_t global[3],

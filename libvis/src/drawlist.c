@@ -5,32 +5,45 @@
 #include "drawlist.h"
 #include "scene.h"
 
-static void sift_down(vis_draw_entry *e, size_t root, size_t n)
+/* Entry i's ID: the first field of every entry type sorted here. */
+static uint32_t id_at(const unsigned char *e, size_t i, size_t size)
+{
+    uint32_t id;
+    memcpy(&id, e + i * size, sizeof id);
+    return id;
+}
+
+static void swap_entries(unsigned char *e, size_t i, size_t j, size_t size)
+{
+    unsigned char t[VIS_SORT_MAX_ENTRY];
+    memcpy(t, e + i * size, size);
+    memcpy(e + i * size, e + j * size, size);
+    memcpy(e + j * size, t, size);
+}
+
+static void sift_down(unsigned char *e, size_t root, size_t n, size_t size)
 {
     for (;;) {
         size_t c = 2 * root + 1;
         if (c >= n)
             return;
-        if (c + 1 < n && e[c + 1].id > e[c].id)
+        if (c + 1 < n && id_at(e, c + 1, size) > id_at(e, c, size))
             ++c;
-        if (e[root].id >= e[c].id)
+        if (id_at(e, root, size) >= id_at(e, c, size))
             return;
-        vis_draw_entry t = e[root];
-        e[root] = e[c];
-        e[c] = t;
+        swap_entries(e, root, c, size);
         root = c;
     }
 }
 
-static void sort_entries(vis_draw_entry *e, size_t n)
+void vis_sort_by_id(void *entries, size_t n, size_t size)
 {
+    unsigned char *e = entries;
     for (size_t i = n / 2; i-- > 0;)
-        sift_down(e, i, n);
+        sift_down(e, i, n, size);
     for (size_t end = n; end-- > 1;) {
-        vis_draw_entry t = e[0];
-        e[0] = e[end];
-        e[end] = t;
-        sift_down(e, 0, end);
+        swap_entries(e, 0, end, size);
+        sift_down(e, 0, end, size);
     }
 }
 
@@ -117,7 +130,7 @@ vis_status vis_drawlist_from_ids(vis_context *ctx, const vis_scene *s, const uin
             ++k;
         }
     /* Slots are not in ID order: sort by ID in place (heap sort: no allocation, n log n). */
-    sort_entries(out, k);
+    vis_sort_by_id(out, k, sizeof *out);
     *out_count = k;
     return VIS_OK;
 }

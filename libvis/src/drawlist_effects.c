@@ -3,37 +3,8 @@
  * Counts are kept per object slot (dense, bounded by the scene) in the context's scratch. */
 #include <string.h>
 
+#include "drawlist.h"
 #include "scene.h"
-
-static void sift_down(vis_effect_entry *e, size_t root, size_t n)
-{
-    for (;;) {
-        size_t c = 2 * root + 1;
-        if (c >= n)
-            return;
-        if (c + 1 < n && e[c + 1].id > e[c].id)
-            ++c;
-        if (e[root].id >= e[c].id)
-            return;
-        vis_effect_entry t = e[root];
-        e[root] = e[c];
-        e[c] = t;
-        root = c;
-    }
-}
-
-/* Heap sort by ID: in place, no allocation. */
-static void sort_entries(vis_effect_entry *e, size_t n)
-{
-    for (size_t i = n / 2; i-- > 0;)
-        sift_down(e, i, n);
-    for (size_t end = n; end-- > 1;) {
-        vis_effect_entry t = e[0];
-        e[0] = e[end];
-        e[end] = t;
-        sift_down(e, 0, end);
-    }
-}
 
 /* Adds one pixel of reason r for every ID in ids[i * stride + k], k < per_pixel. */
 static vis_status count_buffer(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint64_t pixels,
@@ -116,7 +87,7 @@ static vis_status build(vis_context *ctx, const vis_scene *s, const vis_effect_b
             out[k].pixels[r] = c[r];
         ++k;
     }
-    sort_entries(out, k);
+    vis_sort_by_id(out, k, sizeof *out);
     *out_count = k;
     return VIS_OK;
 }

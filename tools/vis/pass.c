@@ -24,12 +24,13 @@ vis_trace_desc cli_trace_desc(const cli_args *a)
     return d;
 }
 
-vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
-                        uint32_t passes, uint32_t *ids, size_t ids_capacity, float *depth, size_t depth_capacity,
-                        cli_pass_times *out)
+/* One untimed warm-up call, then `passes` (0 counts as 1) timed calls of pass(arg); stops at
+ * the first failure and returns its status. */
+static vis_status timed_passes(vis_status (*pass)(const void *arg), const void *arg, uint32_t passes, double rays,
+                               cli_pass_times *out)
 {
     double t0 = vc_now_ms();
-    vis_status s = vis_trace(ctx, scene, camera, desc, ids, ids_capacity, depth, depth_capacity);
+    vis_status s = pass(arg);
     if (s != VIS_OK)
         return s;
     out->first_ms = vc_now_ms() - t0;
@@ -38,22 +39,48 @@ vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *ca
     double *t = malloc(passes * sizeof *t);
     if (!t)
         return VIS_ERROR_OUT_OF_MEMORY;
-    for (uint32_t i = 0; i < passes; ++i) {
+    for (uint32_t i = 0; i < passes && s == VIS_OK; ++i) {
         t0 = vc_now_ms();
-        s = vis_trace(ctx, scene, camera, desc, ids, ids_capacity, depth, depth_capacity);
+        s = pass(arg);
         t[i] = vc_now_ms() - t0;
-        if (s != VIS_OK) {
-            free(t);
-            return s;
-        }
     }
-    out->passes = passes;
-    out->min_ms = vc_min(t, passes);
-    out->max_ms = vc_max(t, passes);
-    out->median_ms = vc_median(t, passes);
-    out->mrays_per_s = vc_mrays_per_s((double)desc->width * desc->height, out->median_ms);
+    if (s == VIS_OK) {
+        out->passes = passes;
+        out->min_ms = vc_min(t, passes);
+        out->max_ms = vc_max(t, passes);
+        out->median_ms = vc_median(t, passes);
+        out->mrays_per_s = vc_mrays_per_s(rays, out->median_ms);
+    }
     free(t);
-    return VIS_OK;
+    return s;
+}
+
+typedef struct trace_call {
+    vis_context *ctx;
+    vis_scene *scene;
+    const vis_camera *camera;
+    const vis_trace_desc *desc;
+    uint32_t *ids;
+    size_t ids_capacity;
+    float *depth;
+    size_t depth_capacity;
+    const vis_effect_buffers *buffers; /* vis_trace_effects when set, else vis_trace */
+} trace_call;
+
+static vis_status trace_once(const void *arg)
+{
+    const trace_call *c = arg;
+    if (c->buffers)
+        return vis_trace_effects(c->ctx, c->scene, c->camera, c->desc, c->buffers);
+    return vis_trace(c->ctx, c->scene, c->camera, c->desc, c->ids, c->ids_capacity, c->depth, c->depth_capacity);
+}
+
+vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
+                        uint32_t passes, uint32_t *ids, size_t ids_capacity, float *depth, size_t depth_capacity,
+                        cli_pass_times *out)
+{
+    trace_call c = {ctx, scene, camera, desc, ids, ids_capacity, depth, depth_capacity, NULL};
+    return timed_passes(trace_once, &c, passes, (double)desc->width * desc->height, out);
 }
 
 void cli_effects_format(uint32_t effects, char *out, size_t size)
@@ -96,30 +123,8 @@ void cli_effect_buffers_free(cli_effect_buffers *e)
 vis_status cli_effects_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
                            uint32_t passes, const vis_effect_buffers *b, cli_pass_times *out)
 {
-    double t0 = vc_now_ms();
-    vis_status s = vis_trace_effects(ctx, scene, camera, desc, b);
-    if (s != VIS_OK)
-        return s;
-    out->first_ms = vc_now_ms() - t0;
-    if (passes == 0)
-        passes = 1;
-    double *t = malloc(passes * sizeof *t);
-    if (!t)
-        return VIS_ERROR_OUT_OF_MEMORY;
-    for (uint32_t i = 0; i < passes && s == VIS_OK; ++i) {
-        t0 = vc_now_ms();
-        s = vis_trace_effects(ctx, scene, camera, desc, b);
-        t[i] = vc_now_ms() - t0;
-    }
-    if (s == VIS_OK) {
-        out->passes = passes;
-        out->min_ms = vc_min(t, passes);
-        out->max_ms = vc_max(t, passes);
-        out->median_ms = vc_median(t, passes);
-        out->mrays_per_s = vc_mrays_per_s((double)desc->width * desc->height, out->median_ms);
-    }
-    free(t);
-    return s;
+    trace_call c = {ctx, scene, camera, desc, NULL, 0, NULL, 0, b};
+    return timed_passes(trace_once, &c, passes, (double)desc->width * desc->height, out);
 }
 
 vis_status cli_drawlist(vis_context *ctx, const vis_scene *scene, const uint32_t *ids, uint32_t width,
