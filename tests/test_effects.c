@@ -400,6 +400,57 @@ static void test_no_effects_is_plain_trace(void **state)
     vis_context_destroy(ctx);
 }
 
+/* The draw-list calls (vis_trace_drawlist, vis_trace_batch_drawlist) take fog, as vis_trace
+ * does, and refuse every other effect with a message, writing nothing. */
+static void test_drawlist_calls_take_fog_only(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    room_world(&w, 8, 40);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_camera cam = {{24, 24, 24}, {10, 12, 30}, 80, 0.05, 0};
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = d.height = 32;
+    d.effects = VIS_EFFECT_FOG;
+    d.fog_dist = 12.0;
+    uint32_t ids[32 * 32];
+    assert_int_equal(vis_trace(ctx, scene, &cam, &d, ids, 1024, NULL, 0), VIS_OK);
+    size_t bound = vis_drawlist_bound(scene), want_n = 0, got_n = 0, per_view = 0;
+    vis_draw_entry *want = calloc(bound, sizeof *want), *got = calloc(bound, sizeof *got);
+    assert_non_null(want);
+    assert_non_null(got);
+    assert_int_equal(vis_drawlist_build(ctx, scene, ids, 32, 32, VIS_IDS_OBJECT, want, bound, &want_n), VIS_OK);
+    assert_int_equal(vis_trace_drawlist(ctx, scene, &cam, &d, got, bound, &got_n, NULL, 0, NULL, 0), VIS_OK);
+    assert_int_equal(got_n, want_n);
+    assert_memory_equal(got, want, want_n * sizeof *want);
+    d.fog_dist = 0; /* the fog must have culled something for the check to bite */
+    d.effects = 0;
+    size_t all_n = 0;
+    assert_int_equal(vis_trace_drawlist(ctx, scene, &cam, &d, got, bound, &all_n, NULL, 0, NULL, 0), VIS_OK);
+    assert_true(all_n > want_n);
+    const uint32_t others[] = {VIS_EFFECT_SEE_THROUGH, VIS_EFFECT_REFLECT, VIS_EFFECT_SHADOWS};
+    for (size_t i = 0; i < sizeof others / sizeof others[0]; ++i) {
+        d.effects = others[i] | VIS_EFFECT_FOG;
+        d.fog_dist = 12.0;
+        d.light_dir[1] = 1.0;
+        size_t n = 12345;
+        memset(got, 0xAB, bound * sizeof *got);
+        assert_int_equal(vis_trace_drawlist(ctx, scene, &cam, &d, got, bound, &n, NULL, 0, NULL, 0),
+                         VIS_ERROR_INVALID_ARGUMENT);
+        assert_true(strstr(vis_context_last_error(ctx), "vis_trace_effects") != NULL);
+        assert_int_equal(vis_trace_batch_drawlist(ctx, scene, &cam, 1, &d, got, bound, &per_view, 1, &n),
+                         VIS_ERROR_INVALID_ARGUMENT);
+        assert_int_equal(((const unsigned char *)got)[0], 0xAB);
+    }
+    free(want);
+    free(got);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 static void expect_refused(vis_context *ctx, vis_scene *scene, const vis_camera *cam, const vis_trace_desc *d,
                            const vis_effect_buffers *b, vis_status want, const char *what)
 {
@@ -560,6 +611,7 @@ int main(void)
         cmocka_unit_test(test_no_effects_is_plain_trace),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_drawlist_reasons),
+        cmocka_unit_test(test_drawlist_calls_take_fog_only),
         cmocka_unit_test(test_worlds_match_bruteforce),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -48,8 +48,9 @@ vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const 
     return VIS_OK;
 }
 
-/* vis_trace and vis_trace_batch have buffers for the ID pass only: fog is all they take. */
-static vis_status check_plain_effects(vis_context *ctx, const vis_trace_desc *d, const char *fn)
+/* vis_trace, vis_trace_batch and the draw-list calls have buffers for the ID pass only: fog is
+ * all they take. */
+vis_status vis_trace_check_plain_effects(vis_context *ctx, const vis_trace_desc *d, const char *fn)
 {
     if (d->effects & ~VIS_EFFECT_FOG)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
@@ -104,7 +105,8 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
     if (st != VIS_OK)
         return st;
     vis_trace_desc d;
-    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK || (st = check_plain_effects(ctx, &d, fn)) != VIS_OK)
+    if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK ||
+        (st = vis_trace_check_plain_effects(ctx, &d, fn)) != VIS_OK)
         return st;
     if ((st = check_capacity(ctx, (uint64_t)d.width * d.height, ids_capacity, out_depth, depth_capacity, fn, 1, &d)) !=
         VIS_OK)
@@ -179,7 +181,7 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_batch: cameras must not be NULL");
     vis_trace_desc d;
     if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK ||
-        (st = check_plain_effects(ctx, &d, "vis_trace_batch")) != VIS_OK)
+        (st = vis_trace_check_plain_effects(ctx, &d, "vis_trace_batch")) != VIS_OK)
         return st;
     size_t pixels = (size_t)d.width * d.height;
     /* W, H <= 2^14 and count < 2^32: the product fits 64 bits, and a capacity that holds it

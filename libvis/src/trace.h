@@ -14,6 +14,8 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
 vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
                                 const vis_trace_desc *d, vis_ray_setup *setup);
 double vis_trace_now_ms(void);
+/* VIS_ERROR_INVALID_ARGUMENT, naming fn, for any effect but fog (d resolved). */
+vis_status vis_trace_check_plain_effects(vis_context *ctx, const vis_trace_desc *d, const char *fn);
 void vis_trace_record_timing(vis_context *ctx, double t0, double pass_ms, uint64_t upload, uint64_t rays,
                              uint32_t views);
 

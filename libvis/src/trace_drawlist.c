@@ -68,6 +68,8 @@ static vis_status run(vis_context *ctx, vis_scene *scene, const vis_trace_desc *
         return VIS_OK;
     vis_trace_desc d;
     vis_status st = vis_trace_desc_resolve(ctx, desc, &d);
+    if (st == VIS_OK)
+        st = vis_trace_check_plain_effects(ctx, &d, c->fn);
     if (st != VIS_OK)
         return st;
     uint64_t pixels = (uint64_t)d.width * d.height;
@@ -142,7 +144,8 @@ vis_status vis_trace_drawlist(vis_context *ctx, vis_scene *scene, const vis_came
         st = vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_drawlist: camera and out_count must not be NULL");
     else if ((!out_ids && ids_capacity) || (!out_depth && depth_capacity))
         st = vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_trace_drawlist: a NULL buffer with a capacity");
-    else if ((st = vis_trace_desc_resolve(ctx, desc, &d)) == VIS_OK) {
+    else if ((st = vis_trace_desc_resolve(ctx, desc, &d)) == VIS_OK &&
+             (st = vis_trace_check_plain_effects(ctx, &d, "vis_trace_drawlist")) == VIS_OK) {
         uint64_t pixels = (uint64_t)d.width * d.height;
         if ((out_ids && (uint64_t)ids_capacity < pixels) || (out_depth && (uint64_t)depth_capacity < pixels))
             st = vis_fail(ctx, VIS_ERROR_CAPACITY, "vis_trace_drawlist: a %ux%u view needs %llu elements, %s is %zu",

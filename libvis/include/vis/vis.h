@@ -416,8 +416,9 @@ typedef struct vis_trace_desc {
     uint32_t short_stack;      /* N for VIS_TRAVERSAL_SHORTSTACK, _ROPES_SHORTSTACK and the
                                   ring of _CACHED_STACK:
                                   1..VIS_MAX_SHORT_STACK, default (0) 4; ignored otherwise    */
-    /* Effects (docs/effects.md). vis_trace and vis_trace_batch take VIS_EFFECT_FOG only
-     * (anything else is VIS_ERROR_INVALID_ARGUMENT: they have no buffer for it);
+    /* Effects (docs/effects.md). vis_trace, vis_trace_batch, vis_trace_drawlist and
+     * vis_trace_batch_drawlist take VIS_EFFECT_FOG only (anything else is
+     * VIS_ERROR_INVALID_ARGUMENT: they have no buffer for it);
      * vis_trace_effects takes every bit. */
     uint32_t effects;          /* VIS_EFFECT_* bits; default 0: none, the pass of before       */
     uint32_t see_through_layers; /* VIS_EFFECT_SEE_THROUGH: see-through objects recorded per
