@@ -23,8 +23,13 @@
  * equals the brute force's, which tests/test_opencl.c checks.
  *
  * What the CPU packets also do and this does not (yet): occupancy flags of whole subtrees
- * (only an empty leaf is skipped without a barrier), interval bounds of the tile's
- * directions, per-quad frustum culls. docs/opencl.md has the measurements. */
+ * (only empty leaves are skipped: never entered nor pushed), interval bounds of the tile's
+ * directions, per-quad frustum culls. docs/opencl.md has the measurements: on the H200 this
+ * is slower than the per-ray stack method, so it is not the default.
+ *
+ * The loop has its one barrier at the same place in every iteration, with no `continue`
+ * around it: a first version that `continue`d past it after a descent gave wrong pixels on
+ * PoCL with 8x8 groups (right ones with 1x1); the cause was not found. */
 #include "../../common/trace_core.h"
 
 #define VIS_TILE_BOX_SLACK 3.0517578125e-05f /* 2^-15 */
@@ -136,7 +141,7 @@ VIS_INLINE int vis_trace_tile_slot(const vis_ray_setup *s, uint x, uint y, VIS_S
             int far_full = !vis_tile_empty_leaf(nodes, leaves, far_child);
             /* The far child goes on the stack, written by item 0; the next node's barrier
              * comes before any item pops it. Empty leaves are never entered nor pushed. */
-            if (near_full && far_full) {
+            if (near_full && far_full && sp < VIS_STACK_SIZE) { /* capacity > depth, as vis_descend */
                 if (lid == 0u) {
                     __local vis_tile_entry *e = &stack[sp];
                     e->node = far_child;
