@@ -231,6 +231,8 @@ int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32
 
 size_t vis_cl_ring_bytes(const vis_cl_backend *b, const vis_ray_setup *setup, int tiled)
 {
+    if (setup->traversal == VIS_TRAVERSAL_ID_PACKET)
+        return VIS_CL_TILE_LOCAL_BYTES; /* the group's flags and stack, once (kernels/tile.cl) */
     size_t items = tiled ? b->tile[0] * b->tile[1] : 1u;
     uint32_t n = setup->traversal == VIS_TRAVERSAL_ID_CACHED_STACK ? setup->short_stack : 1u;
     if (n < 1u)
@@ -250,17 +252,16 @@ static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, cha
 
 /* The program for one traversal method: built with -DVIS_TRAVERSAL_ONLY=<id>u, so the kernel
  * holds that method alone (trace_core.h, vis_trace_pixel_slot) and none of the others'
- * private stacks. Eight methods (libvis hands packets over as the stack method) and at most
- * VIS_CL_MAX_PROGRAMS option sets; ids above the table get the generic program that switches
- * on setup->traversal. */
+ * private stacks. Nine methods, packets being the work-group's walk of kernels/tile.cl, and at
+ * most VIS_CL_MAX_PROGRAMS option sets; ids above the table get the generic program that
+ * switches on setup->traversal (which has no tile walk: a batch mixing methods traces its
+ * packet views with kd-restart, exact like every method). */
 const char *vis_cl_traversal_options(uint32_t traversal)
 {
     static const char *const opts[] = {"-DVIS_TRAVERSAL_ONLY=0u", "-DVIS_TRAVERSAL_ONLY=1u", "-DVIS_TRAVERSAL_ONLY=2u",
                                         "-DVIS_TRAVERSAL_ONLY=3u", "-DVIS_TRAVERSAL_ONLY=4u", "-DVIS_TRAVERSAL_ONLY=5u",
-                                        "-DVIS_TRAVERSAL_ONLY=6u", "",
+                                        "-DVIS_TRAVERSAL_ONLY=6u", "-DVIS_TRAVERSAL_ONLY=7u",
                                         "-DVIS_TRAVERSAL_ONLY=8u"};
-    if (traversal == VIS_TRAVERSAL_ID_PACKET)
-        return ""; /* never asked for: libvis hands packets over as the stack method */
     return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
 }
 

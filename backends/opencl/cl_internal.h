@@ -123,6 +123,11 @@ int vis_cl_pocl_cpu_only(const char *library);
  * stays for the plain option sets (methods x ID modes) and the one generic effects program. */
 #define VIS_CL_MAX_EFFECT_PROGRAMS 15
 
+/* Local memory of a work-group walking the tree as one packet (kernels/tile.cl): 16 bytes of
+ * flags, then VIS_STACK_SIZE entries of node, box lo and box hi (28 bytes; tile.cl checks). */
+#define VIS_CL_TILE_ENTRY_BYTES 28u
+#define VIS_CL_TILE_LOCAL_BYTES (16u + VIS_STACK_SIZE * VIS_CL_TILE_ENTRY_BYTES)
+
 typedef struct vis_cl_program {
     char options[512];
     cl_program program;

@@ -16,11 +16,14 @@ double vis_trace_now_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
-/* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*). AUTO and PACKET are
- * resolved here, once: the CPU traces packets, a device runs the stack method per ray. */
+/* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*). AUTO is resolved here,
+ * once: the CPU traces packets, a device runs the stack method per ray. PACKET is the CPU's
+ * tile packets or a device's work-group tile walk (backends/opencl/kernels/tile.cl). */
 static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
 {
-    if (t == VIS_TRAVERSAL_AUTO || t == VIS_TRAVERSAL_PACKET)
+    if (t == VIS_TRAVERSAL_PACKET)
+        return VIS_TRAVERSAL_ID_PACKET;
+    if (t == VIS_TRAVERSAL_AUTO)
         return ctx->info.kind == VIS_BACKEND_CPU ? VIS_TRAVERSAL_ID_PACKET : VIS_TRAVERSAL_ID_STACK;
     return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6, CACHED_STACK 8 */
 }

@@ -112,8 +112,9 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
     size_t n = (size_t)W * H;
     for (uint32_t mode = 0; mode < 2; ++mode)
         for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
-            if (t == VIS_TRAVERSAL_PACKET || (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12))
-                continue; /* packets: the CPU's own; brute force: every quad per ray, tiny buffers only */
+            if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
+                continue; /* brute force: every quad per ray, tiny buffers only (packets: the CPU's
+                           * tiles against the device's work-group walk, both exact) */
             vis_trace_desc td;
             vis_trace_desc_defaults(&td);
             td.width = W;
@@ -210,7 +211,8 @@ static void methods_table(vis_context *cl, vis_scene *B, const vis_camera *def, 
                           int reps, bufs *b)
 {
     static const struct { vis_traversal t; uint32_t n; const char *name; } m[] = {
-        {VIS_TRAVERSAL_STACK, 0, "stack (local)"},     {VIS_TRAVERSAL_RESTART, 0, "restart"},
+        {VIS_TRAVERSAL_STACK, 0, "stack (local)"},     {VIS_TRAVERSAL_PACKET, 0, "tile walk (group)"},
+        {VIS_TRAVERSAL_RESTART, 0, "restart"},
         {VIS_TRAVERSAL_PUSHDOWN, 0, "pushdown"},       {VIS_TRAVERSAL_SHORTSTACK, 1, "restart stack 1"},
         {VIS_TRAVERSAL_SHORTSTACK, 2, "restart stack 2"}, {VIS_TRAVERSAL_SHORTSTACK, 3, "restart stack 3"},
         {VIS_TRAVERSAL_SHORTSTACK, 7, "restart stack 7"}, {VIS_TRAVERSAL_CACHED_STACK, 1, "cached stack 1"},

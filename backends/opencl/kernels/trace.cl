@@ -36,6 +36,25 @@ typedef char vis_cl_check_effects[sizeof(vis_effect_setup) == VIS_CL_EFFECTS_SIZ
 #define VIS_CL_RING(ring) (ring + (get_local_id(1) * get_local_size(0) + get_local_id(0)))
 #define VIS_CL_RING_STRIDE ((uint)(get_local_size(0) * get_local_size(1)))
 
+/* One work-item's pixel by the program's method; 0 for an item outside the image. Every item
+ * of the group calls it: the tile walk (VIS_TRAVERSAL_ID_PACKET, tile.cl) synchronises the
+ * group, its flags and stack taking the local buffer that the other methods use as the cached
+ * stack's ring (vis_cl_ring_bytes sizes it for either). */
+VIS_INLINE int vis_cl_pixel(const vis_ray_setup *s, uint x, uint y, VIS_SCENE_PARAMS, __local vis_stack_entry *ring,
+                            uint *id, float *t, uint *slot)
+{
+#if defined(VIS_TRAVERSAL_ONLY) && VIS_TRAVERSAL_ONLY == 7u
+    __local uint *flags = (__local uint *)ring;
+    __local vis_tile_entry *stack = (__local vis_tile_entry *)(ring + 2); /* past 16 bytes of flags */
+    return vis_trace_tile_slot(s, x, y, VIS_SCENE_ARGS, flags, stack, id, t, slot);
+#else
+    if (x >= s->width || y >= s->height)
+        return 0;
+    vis_trace_pixel_slot(s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, id, t, slot);
+    return 1;
+#endif
+}
+
 /* One view. The setup comes by value (the host's struct, byte for byte). write_depth = 0
  * when the caller asked for no depth buffer. */
 __kernel void vis_trace_kernel(const vis_ray_setup setup, VIS_CL_SCENE_PARAMS, __global uint *restrict ids,
@@ -44,11 +63,10 @@ __kernel void vis_trace_kernel(const vis_ray_setup setup, VIS_CL_SCENE_PARAMS, _
 {
     uint x = (uint)get_global_id(0), y = (uint)get_global_id(1);
     vis_ray_setup s = setup;
-    if (x >= s.width || y >= s.height)
-        return;
     uint id, slot;
     float t;
-    vis_trace_pixel_slot(&s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, &id, &t, &slot);
+    if (!vis_cl_pixel(&s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot))
+        return;
     size_t i = (size_t)y * s.width + x;
     ids[i] = id;
     if (write_depth)
@@ -63,11 +81,10 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
 {
     uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
     vis_ray_setup s = setups[v];
-    if (x >= s.width || y >= s.height)
-        return;
     uint id, slot;
     float t;
-    vis_trace_pixel_slot(&s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, &id, &t, &slot);
+    if (!vis_cl_pixel(&s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot))
+        return;
     size_t i = ((size_t)v * s.height + y) * s.width + x;
     ids[i] = id;
     if (write_depth)
@@ -99,10 +116,9 @@ __kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict s
     uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
     vis_ray_setup s = setups[v];
     uint key = VIS_CL_NO_KEY;
-    if (x < s.width && y < s.height) { /* no early return: every item reaches the barrier */
-        uint id, slot;
-        float t;
-        vis_trace_pixel_slot(&s, x, y, VIS_SCENE_ARGS, VIS_CL_RING(ring), VIS_CL_RING_STRIDE, &id, &t, &slot);
+    uint id, slot;
+    float t;
+    if (vis_cl_pixel(&s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot)) { /* no early return: every item reaches the barrier */
         size_t i = ((size_t)v * s.height + y) * s.width + x;
         if (write_ids)
             ids[i] = id;

@@ -401,8 +401,10 @@ typedef enum vis_traversal {
                                      leaves, a short stack below them (Chang & Ihm 2010)     */
     VIS_TRAVERSAL_PACKET = 8,     /* CPU: each 16x16 tile walks the tree once as a packet, with
                                      interval culling and exact per-ray tests (Wald et al.
-                                     2001; Reshetov et al. 2005; Boulos et al. 2007); other
-                                     backends run STACK                                      */
+                                     2001; Reshetov et al. 2005; Boulos et al. 2007); OpenCL:
+                                     each work-group walks the tree once for its tile, with
+                                     exact per-ray tests (docs/opencl.md; slower than STACK
+                                     on the GPUs measured)                                   */
     VIS_TRAVERSAL_CACHED_STACK = 9 /* the full stack with its top short_stack entries in a ring
                                      in the GPU's local (shared) memory, the rest in private
                                      memory (Chang & Ihm 2010, section 3.1); on the CPU the
