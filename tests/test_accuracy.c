@@ -107,6 +107,53 @@ static void test_compare_by_hand(void **state)
     assert_memory_equal(&r, &before, sizeof r);
 }
 
+/* Misses per reason: an object counts under each reason the truth gives it, and only when
+ * the drawn list lacks it altogether. */
+static void test_reasons_by_hand(void **state)
+{
+    (void)state;
+    vis_effect_entry truth[] = {
+        {1, VIS_REASON_DIRECT, {5, 0, 0, 0}},
+        {2, VIS_REASON_DIRECT | VIS_REASON_SHADOW, {3, 0, 0, 2}},
+        {4, VIS_REASON_SEE_THROUGH, {0, 4, 0, 0}},
+        {6, VIS_REASON_REFLECTION | VIS_REASON_SEE_THROUGH, {0, 1, 2, 0}},
+        {8, VIS_REASON_SHADOW, {0, 0, 0, 7}},
+    };
+    /* Drawn: 1, 4 and 9; 2, 6 and 8 are missed. */
+    vis_draw_entry drawn[] = {{1, 1}, {4, 1}, {9, 1}};
+    uint32_t t[VIS_REASON_COUNT], m[VIS_REASON_COUNT];
+    assert_int_equal(vc_accuracy_reasons(truth, 5, drawn, 3, t, m), 0);
+    assert_int_equal(t[0], 2); /* direct: 1, 2          */
+    assert_int_equal(m[0], 1); /*   missed: 2           */
+    assert_int_equal(t[1], 2); /* see-through: 4, 6     */
+    assert_int_equal(m[1], 1); /*   missed: 6           */
+    assert_int_equal(t[2], 1); /* reflection: 6         */
+    assert_int_equal(m[2], 1);
+    assert_int_equal(t[3], 2); /* shadow: 2, 8          */
+    assert_int_equal(m[3], 2);
+    /* Nothing drawn: every reason's objects are missed. */
+    assert_int_equal(vc_accuracy_reasons(truth, 5, NULL, 0, t, m), 0);
+    for (int k = 0; k < VIS_REASON_COUNT; ++k)
+        assert_int_equal(m[k], t[k]);
+    /* Unsorted lists are refused and the outputs left alone. */
+    vis_effect_entry unsorted[] = {{3, VIS_REASON_DIRECT, {1, 0, 0, 0}}, {2, VIS_REASON_DIRECT, {1, 0, 0, 0}}};
+    vis_draw_entry repeated[] = {{2, 1}, {2, 1}};
+    memset(t, 0xAB, sizeof t);
+    assert_int_equal(vc_accuracy_reasons(unsorted, 2, drawn, 3, t, m), -1);
+    assert_int_equal(vc_accuracy_reasons(truth, 5, repeated, 2, t, m), -1);
+    assert_int_equal(t[0], 0xABABABABu);
+    /* The summary averages them. */
+    vc_accuracy f[2];
+    memset(f, 0, sizeof f);
+    f[0].reason_missed[3] = 2;
+    f[1].reason_missed[3] = 4;
+    f[1].reason_truth[2] = 3;
+    vc_accuracy_summary s;
+    vc_accuracy_summarize(f, 2, &s);
+    assert_true(s.reason_missed[3] == 3.0);
+    assert_true(s.reason_truth[2] == 1.5);
+}
+
 /* Random lists against the obvious per-ID count. */
 static void test_compare_random(void **state)
 {
@@ -171,9 +218,9 @@ static void test_summarize(void **state)
     (void)state;
     vc_accuracy f[3];
     memset(f, 0, sizeof f);
-    f[0] = (vc_accuracy){10, 12, 1, 0.01, 3, 30, 4, 1};
-    f[1] = (vc_accuracy){20, 18, 3, 0.04, 1, 10, 6, 6};
-    f[2] = (vc_accuracy){30, 30, 2, 0.01, 2, 20, 0, 0};
+    f[0] = (vc_accuracy){10, 12, 1, 0.01, 3, 30, 4, 1, {0}, {0}};
+    f[1] = (vc_accuracy){20, 18, 3, 0.04, 1, 10, 6, 6, {0}, {0}};
+    f[2] = (vc_accuracy){30, 30, 2, 0.01, 2, 20, 0, 0, {0}, {0}};
     vc_accuracy_summary s;
     vc_accuracy_summarize(f, 3, &s);
     assert_int_equal(s.frames, 3);
@@ -571,6 +618,96 @@ static void test_binary_run(void **state)
     vt_run_free(&r);
 }
 
+/* The JSON number after "key": at or after p (asserted present). */
+static double json_after(const char *p, const char *key)
+{
+    char pat[64];
+    snprintf(pat, sizeof pat, "\"%s\": ", key);
+    const char *q = strstr(p, pat);
+    assert_non_null(q);
+    return atof(q + strlen(pat));
+}
+
+/* `vis accuracy --effects`: the small city has glass windows (see-through and reflective)
+ * and the sun casts shadows, so the truth lists objects for every reason; each row counts
+ * its misses per reason, never more than the truth's, and the leaf rows are left out. */
+static void test_binary_effects(void **state)
+{
+    (void)state;
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/fx", tmp_dir);
+    vt_run_result r = run_vis("VIS_GNUPLOT=/nonexistent/gnuplot",
+                              "accuracy --scene %s --effects see-through,reflect,shadows:1,0.7,0.4 "
+                              "--truth-res 192x108 --max-res 128 --frames 3 --repeat 1 --backend cpu --threads 2 "
+                              "--out '%s' --json",
+                              CITY, dir);
+    vt_assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "\"effects\": \"see-through,reflect,shadows\""));
+    assert_null(strstr(r.out, "ray-leaf"));
+    static const char *const reasons[] = {"direct", "see_through", "reflection", "shadow"};
+    static const char *const methods[] = {"ray-object", "ray-object", "zbuf"};
+    const char *row = strstr(r.out, "\"rows\"");
+    assert_non_null(row);
+    double truth[VIS_REASON_COUNT] = {0};
+    for (int i = 0; i < 3; ++i) {
+        char pat[64];
+        snprintf(pat, sizeof pat, "\"method\": \"%s\"", methods[i]);
+        row = strstr(row, pat);
+        assert_non_null(row);
+        const char *rs = strstr(row, "\"reasons\"");
+        assert_non_null(rs);
+        for (int k = 0; k < VIS_REASON_COUNT; ++k) {
+            const char *at = strstr(rs, reasons[k]);
+            assert_non_null(at);
+            double t = json_after(at, "truth"), m = json_after(at, "missed");
+            assert_true(m >= 0.0 && m <= t);
+            if (i == 0)
+                truth[k] = t;
+            else
+                assert_true(t == truth[k]); /* one truth for every row */
+        }
+        ++row;
+    }
+    for (int k = 0; k < VIS_REASON_COUNT; ++k) {
+        if (!(truth[k] > 0.0))
+            print_message("no truth objects for reason %s: %s\n", reasons[k], r.out);
+        assert_true(truth[k] > 0.0);
+    }
+    vt_run_free(&r);
+
+    char path[600];
+    snprintf(path, sizeof path, "%s/accuracy.csv", dir);
+    char *csv = vt_slurp(path);
+    static const char *const cols[] = {"missed_direct", "missed_see_through", "missed_reflection", "missed_shadow"};
+    for (int k = 0; k < 4; ++k)
+        assert_true(column(csv, cols[k]) >= 0);
+    int lines = 0;
+    for (const char *p = csv; *p; ++p)
+        lines += *p == '\n';
+    assert_int_equal(lines, 1 + 3);
+    free(csv);
+
+    /* The text report has the per-reason table. */
+    snprintf(dir, sizeof dir, "%s/fx2", tmp_dir);
+    r = run_vis("VIS_GNUPLOT=/nonexistent/gnuplot",
+                "accuracy --scene %s --effects reflect,fog:60 --truth-res 96x54 --max-res 64 --frames 1 "
+                "--repeat 1 --backend cpu --out '%s'",
+                CITY, dir);
+    vt_assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "misses per reason (reflect,fog"));
+    vt_run_free(&r);
+
+    /* A bad --effects value: exit 2 and a message naming the problem. */
+    r = run_vis(NULL, "accuracy --scene %s --effects glitter", CITY);
+    vt_assert_exit(r, 2);
+    assert_non_null(strstr(r.err, "glitter"));
+    vt_run_free(&r);
+    r = run_vis(NULL, "accuracy --scene %s --effects shadows:0,0,0", CITY);
+    vt_assert_exit(r, 2);
+    assert_non_null(strstr(r.err, "zero"));
+    vt_run_free(&r);
+}
+
 /* `vis bench --method zbuf`: the culler along the camera path, at 512x512 and 256x128. */
 static void test_bench_zbuf(void **state)
 {
@@ -703,6 +840,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_compare_by_hand),
+        cmocka_unit_test(test_reasons_by_hand),
         cmocka_unit_test(test_compare_random),
         cmocka_unit_test(test_summarize),
         cmocka_unit_test(test_buffer_size),
@@ -711,6 +849,7 @@ int main(void)
         cmocka_unit_test(test_leaf_never_misses_more),
         cmocka_unit_test(test_zbuf_conservative),
         cmocka_unit_test(test_binary_run),
+        cmocka_unit_test(test_binary_effects),
         cmocka_unit_test(test_bench_zbuf),
         cmocka_unit_test(test_hostile_names),
         cmocka_unit_test(test_report_keeps_outputs),

@@ -92,6 +92,33 @@ int vc_accuracy_compare(const vis_draw_entry *truth, size_t truth_count, uint64_
     return 0;
 }
 
+int vc_accuracy_reasons(const vis_effect_entry *truth, size_t truth_count, const vis_draw_entry *drawn,
+                        size_t drawn_count, uint32_t truth_objects[VIS_REASON_COUNT],
+                        uint32_t missed[VIS_REASON_COUNT])
+{
+    for (size_t i = 1; i < truth_count; ++i)
+        if (truth[i].id <= truth[i - 1].id)
+            return -1;
+    if (!sorted_unique(drawn, drawn_count))
+        return -1;
+    uint32_t t[VIS_REASON_COUNT] = {0}, m[VIS_REASON_COUNT] = {0};
+    size_t k = 0;
+    for (size_t i = 0; i < truth_count; ++i) {
+        while (k < drawn_count && drawn[k].id < truth[i].id)
+            ++k;
+        int in_drawn = k < drawn_count && drawn[k].id == truth[i].id;
+        for (int r = 0; r < VIS_REASON_COUNT; ++r) {
+            if (!((truth[i].reasons >> r) & 1u))
+                continue;
+            ++t[r];
+            m[r] += !in_drawn;
+        }
+    }
+    memcpy(truth_objects, t, sizeof t);
+    memcpy(missed, m, sizeof m);
+    return 0;
+}
+
 void vc_accuracy_summarize(const vc_accuracy *f, size_t n, vc_accuracy_summary *out)
 {
     memset(out, 0, sizeof *out);
@@ -109,6 +136,10 @@ void vc_accuracy_summarize(const vc_accuracy *f, size_t n, vc_accuracy_summary *
         out->hidden += f[i].hidden;
         hidden += f[i].hidden;
         culled += f[i].hidden_culled;
+        for (int r = 0; r < VIS_REASON_COUNT; ++r) {
+            out->reason_truth[r] += f[i].reason_truth[r];
+            out->reason_missed[r] += f[i].reason_missed[r];
+        }
     }
     if (n) {
         double inv = 1.0 / (double)n;
@@ -119,6 +150,10 @@ void vc_accuracy_summarize(const vc_accuracy *f, size_t n, vc_accuracy_summary *
         out->overdraw *= inv;
         out->overdraw_triangles *= inv;
         out->hidden *= inv;
+        for (int r = 0; r < VIS_REASON_COUNT; ++r) {
+            out->reason_truth[r] *= inv;
+            out->reason_missed[r] *= inv;
+        }
     }
     out->occluded_culled = hidden > 0.0 ? culled / hidden : 1.0;
 }

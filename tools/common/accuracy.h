@@ -31,6 +31,9 @@ typedef struct vc_accuracy {
     uint32_t hidden;             /* in the view frustum but not visible (occluded, or between
                                     the truth's samples); 0 without an in-view table          */
     uint32_t hidden_culled;      /* of those, the ones left out of the draw list              */
+    /* With effects (vc_accuracy_reasons; zeros otherwise), per VIS_REASON_* bit i: */
+    uint32_t reason_truth[VIS_REASON_COUNT];  /* truth objects listed with reason i            */
+    uint32_t reason_missed[VIS_REASON_COUNT]; /* of those, the ones absent from the draw list  */
 } vc_accuracy;
 
 /* Per-object facts the comparison may use, indexed by object ID (0..id_count-1); each
@@ -51,6 +54,17 @@ int vc_accuracy_compare(const vis_draw_entry *truth, size_t truth_count, uint64_
                         const vis_draw_entry *drawn, size_t drawn_count, const vc_accuracy_objects *objects,
                         vc_accuracy *out);
 
+/* The misses per reason of an effects truth (vis_drawlist_build_effects's list, sorted by
+ * ascending ID): for each reason bit i, how many truth objects carry it (truth_objects[i]) and
+ * how many of those the drawn list lacks altogether (missed[i]). An object with several
+ * reasons counts under each, so the reasons may sum to more than vc_accuracy.missed. A drawn
+ * object that lacks only one of its reasons is not a miss: the renderer draws it, and the
+ * drawn list of a pass without effects (the z-buffer culler) has no reasons to compare.
+ * Returns 0, or -1 (outputs untouched) when a list is not sorted without repeats. */
+int vc_accuracy_reasons(const vis_effect_entry *truth, size_t truth_count, const vis_draw_entry *drawn,
+                        size_t drawn_count, uint32_t truth_objects[VIS_REASON_COUNT],
+                        uint32_t missed[VIS_REASON_COUNT]);
+
 /* The average of one method over the frames of a camera path. */
 typedef struct vc_accuracy_summary {
     uint32_t frames;
@@ -64,6 +78,8 @@ typedef struct vc_accuracy_summary {
     double hidden;
     double occluded_culled;      /* sum of hidden_culled / sum of hidden over the frames (pooled,
                                     not a mean of ratios); 1 when nothing was hidden          */
+    double reason_truth[VIS_REASON_COUNT];  /* means of vc_accuracy's per-reason counts       */
+    double reason_missed[VIS_REASON_COUNT];
 } vc_accuracy_summary;
 
 /* Averages n >= 0 frames (n = 0 gives zeros and occluded_culled = 1). */

@@ -43,18 +43,19 @@ int acc_write_csv(const char *path, const acc_row *rows, size_t n, char *err, si
         return -1;
     vc_out_printf(&f, "method,width,height,time_ms,drawn,missed,missed_area,overdraw,overdraw_triangles,"
                       "occluded_culled,budget,rays,frames,truth_visible,missed_area_max,hidden,trace_ms,list_ms,"
-                      "raster_ms,test_ms\n");
+                      "raster_ms,test_ms,missed_direct,missed_see_through,missed_reflection,missed_shadow\n");
     for (size_t i = 0; i < n; ++i) {
         const acc_row *r = &rows[i];
         int zbuf = strcmp(r->method, "zbuf") == 0;
         char a[32] = "", b[32] = "", c[32] = "", d[32] = "";
         snprintf(zbuf ? c : a, sizeof a, "%.4f", r->part_a_ms);
         snprintf(zbuf ? d : b, sizeof b, "%.4f", r->part_b_ms);
-        vc_out_printf(&f, "%s,%u,%u,%.4f,%.2f,%.2f,%.6g,%.2f,%.1f,%.4f,%ux%u,%llu,%u,%.2f,%.6g,%.2f,%s,%s,%s,%s\n",
+        vc_out_printf(&f, "%s,%u,%u,%.4f,%.2f,%.2f,%.6g,%.2f,%.1f,%.4f,%ux%u,%llu,%u,%.2f,%.6g,%.2f,%s,%s,%s,%s,%.2f,%.2f,%.2f,%.2f\n",
                       r->method, r->width, r->height, r->time_ms, r->s.drawn, r->s.missed, r->s.missed_area,
                       r->s.overdraw, r->s.overdraw_triangles, r->s.occluded_culled, r->budget_w, r->budget_h,
                       (unsigned long long)r->width * r->height, r->s.frames, r->s.truth_visible,
-                      r->s.missed_area_max, r->s.hidden, a, b, c, d);
+                      r->s.missed_area_max, r->s.hidden, a, b, c, d, r->s.reason_missed[0],
+                      r->s.reason_missed[1], r->s.reason_missed[2], r->s.reason_missed[3]);
     }
     return vc_out_close(&f, 1, err, err_size);
 }
@@ -315,5 +316,27 @@ void acc_print_table(FILE *f, const acc_row *rows, size_t n, uint32_t dw, uint32
                 7 + extra, label, buf, r->time_ms, r->s.drawn, r->s.missed, 100.0 * r->s.missed_area,
                 r->s.missed_area * (double)dw * (double)dh, 100.0 * r->s.missed_area_max, r->s.overdraw,
                 r->s.overdraw_triangles, 100.0 * r->s.occluded_culled);
+    }
+}
+
+void acc_print_reasons(FILE *f, const acc_row *rows, size_t n)
+{
+    static const char *const names[VIS_REASON_COUNT] = {"direct", "see-through", "reflection", "shadow"};
+    fprintf(f, "%-10s %7s %9s", "method", "budget", "buffer");
+    for (int k = 0; k < VIS_REASON_COUNT; ++k)
+        fprintf(f, " %18s", names[k]);
+    fprintf(f, "\n");
+    for (size_t i = 0; i < n; ++i) {
+        const acc_row *r = &rows[i];
+        char label[32], buf[32];
+        budget_label(r, label, sizeof label);
+        snprintf(buf, sizeof buf, "%ux%u", r->width, r->height);
+        fprintf(f, "%-10s %8s %9s", r->method, label, buf); /* 8: the label's two-byte mark */
+        for (int k = 0; k < VIS_REASON_COUNT; ++k) {
+            char cell[40];
+            snprintf(cell, sizeof cell, "%.1f of %.1f", r->s.reason_missed[k], r->s.reason_truth[k]);
+            fprintf(f, " %18s", cell);
+        }
+        fprintf(f, "\n");
     }
 }

@@ -32,4 +32,8 @@ int acc_plot(const char *dir, const char *title, const acc_row *rows, size_t n, 
 /* The summary table, one line per row. */
 void acc_print_table(FILE *f, const acc_row *rows, size_t n, uint32_t display_w, uint32_t display_h);
 
+/* With --effects: per row, the truth objects of each reason that the row misses, "M of T"
+ * (means per view; an object with several reasons counts under each). */
+void acc_print_reasons(FILE *f, const acc_row *rows, size_t n);
+
 #endif

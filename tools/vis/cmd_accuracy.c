@@ -8,6 +8,13 @@
  * objects and their screen area, overdraw and its triangles, hidden objects culled.
  * Buffers keep the display's aspect ratio (vc_accuracy_buffer_size): "512²" is 683x384 for
  * a 16:9 display, the same rays over the same view.
+ *
+ * With --effects (docs/effects.md) the truth and the object-ID passes are vis_trace_effects
+ * with the same effects, and their draw lists hold every object seen directly, through
+ * see-through layers, in reflections or as a shadow caster; each truth object's misses are
+ * also counted per reason (vc_accuracy_reasons). Leaf IDs have no effects pass, so their
+ * rows are left out; the z-buffer culler knows no effects, and its rows show what a culler
+ * without them misses.
  */
 #define _POSIX_C_SOURCE 200809L
 
@@ -74,6 +81,11 @@ typedef struct study {
     vis_zcull *zc;
     double truth_ms[VC_MAX_VIEWS];
     uint32_t truth_visible[VC_MAX_VIEWS];
+    /* --effects: the buffers of every effects pass (the largest size), and the draw lists
+     * with reasons of the truth and of the last pass */
+    cli_effect_buffers fx;
+    vis_effect_entry *fx_truth, *fx_list;
+    size_t fx_truth_count;
 } study;
 
 /* ---- setup ------------------------------------------------------------------------------ */
@@ -132,7 +144,8 @@ static int add_row(study *st, int method, uint32_t bw, uint32_t bh)
 static int plan(study *st)
 {
     const cli_args *a = st->a;
-    for (int m = M_OBJECT; m <= M_LEAF; ++m)
+    int last_ray = a->effects ? M_OBJECT : M_LEAF; /* leaf IDs have no effects pass */
+    for (int m = M_OBJECT; m <= last_ray; ++m)
         for (uint32_t e = ACC_MIN_RES; e <= a->max_res; e *= 2)
             if (add_row(st, m, e, e) != CLI_EXIT_OK)
                 return CLI_EXIT_FAILURE;
@@ -171,7 +184,7 @@ static int setup(study *st, cli_progress *progress)
     st->kd_depth = st->info.kd_depth;
     st->leaf_depth = a->leaf_depth ? a->leaf_depth
                                    : (st->kd_depth > ACC_LEAF_LEVELS ? st->kd_depth - ACC_LEAF_LEVELS : 1);
-    if (st->leaf_depth == st->kd_depth) {
+    if (st->leaf_depth == st->kd_depth || a->effects) {
         st->leaf = st->obj;
     } else {
         rc = cli_scene_open(CMD, &st->world, a->backends[0], a->threads[0], st->leaf_depth, progress, &st->leaf);
@@ -212,6 +225,13 @@ static int setup(study *st, cli_progress *progress)
     st->reps_b = malloc(st->repeat * sizeof *st->reps_b);
     if (!st->ids || !st->truth || !st->list || !st->reps || !st->reps_a || !st->reps_b)
         return cli_fail(CMD, "out of memory for a %zu-pixel buffer", n);
+    if (a->effects) {
+        st->fx_truth = malloc(st->cap * sizeof *st->fx_truth);
+        st->fx_list = malloc(st->cap * sizeof *st->fx_list);
+        if (n > UINT32_MAX || cli_effect_buffers_alloc(&st->fx, (uint32_t)n, 1) != 0 || !st->fx_truth ||
+            !st->fx_list)
+            return cli_fail(CMD, "out of memory for a %zu-pixel pass with effects", n);
+    }
     if (vis_zcull_create(st->obj.ctx, &st->zc) != VIS_OK)
         return cli_fail_vis(CMD, st->obj.ctx, "vis_zcull_create");
     return CLI_EXIT_OK;
@@ -236,6 +256,9 @@ static void teardown(study *st)
     free(st->reps);
     free(st->reps_a);
     free(st->reps_b);
+    cli_effect_buffers_free(&st->fx);
+    free(st->fx_truth);
+    free(st->fx_list);
     if (st->own_leaf)
         cli_scene_close(&st->leaf);
     if (st->obj.ctx)
@@ -246,6 +269,40 @@ static void teardown(study *st)
 
 /* ---- one frame --------------------------------------------------------------------------- */
 
+/* One vis_trace_effects pass of desc on st->fx, then its draw list with reasons in fx (cap
+ * st->cap) and, for vc_accuracy_compare, the same objects in plain with pixels = the sum of
+ * their pixels over the reasons (an object seen only in a reflection is visible too).
+ * *trace_ms and *list_ms get the parts' times. */
+static int effects_pass(study *st, const cli_scene *s, const vis_camera *cam, const vis_trace_desc *d,
+                        vis_effect_entry *fx, vis_draw_entry *plain, size_t *count, double *trace_ms, double *list_ms)
+{
+    vis_scene *scene = world_scene_scene(s->ws);
+    double t0 = vc_now_ms();
+    if (vis_trace_effects(s->ctx, scene, cam, d, &st->fx.b) != VIS_OK)
+        return cli_fail_vis(CMD, s->ctx, "vis_trace_effects");
+    double t1 = vc_now_ms();
+    vis_effect_buffers lb = st->fx.b; /* the list reads the buffers of the effects that ran */
+    if (!(d->effects & VIS_EFFECT_SEE_THROUGH))
+        lb.see_through = NULL;
+    if (!(d->effects & VIS_EFFECT_REFLECT))
+        lb.reflection = NULL;
+    if (!(d->effects & VIS_EFFECT_SHADOWS))
+        lb.shadow = NULL;
+    if (vis_drawlist_build_effects(s->ctx, scene, &lb, d->width, d->height, CLI_SEE_THROUGH_LAYERS, fx, st->cap,
+                                   count) != VIS_OK)
+        return cli_fail_vis(CMD, s->ctx, "vis_drawlist_build_effects");
+    for (size_t i = 0; i < *count; ++i) {
+        uint32_t px = 0;
+        for (int k = 0; k < VIS_REASON_COUNT; ++k)
+            px += fx[i].pixels[k];
+        plain[i].id = fx[i].id;
+        plain[i].pixels = px ? px : 1; /* never 0: a listed object is visible */
+    }
+    *trace_ms = t1 - t0;
+    *list_ms = vc_now_ms() - t1;
+    return CLI_EXIT_OK;
+}
+
 static int truth_pass(study *st, size_t f, const vis_camera *cam)
 {
     const cli_args *a = st->a;
@@ -255,11 +312,20 @@ static int truth_pass(study *st, size_t f, const vis_camera *cam)
     d.ids = VIS_IDS_OBJECT;
     vis_context *ctx = st->obj.ctx;
     vis_scene *scene = world_scene_scene(st->obj.ws);
-    double t0 = vc_now_ms();
-    if (vis_trace(ctx, scene, cam, &d, st->ids, st->ids_cap, NULL, 0) != VIS_OK)
-        return cli_fail_vis(CMD, ctx, "vis_trace (truth)");
-    st->truth_ms[f] = vc_now_ms() - t0;
-    if (vis_drawlist_build(ctx, scene, st->ids, d.width, d.height, VIS_IDS_OBJECT, st->truth, st->cap,
+    if (a->effects) {
+        double tt, tl;
+        int rc = effects_pass(st, &st->obj, cam, &d, st->fx_truth, st->truth, &st->fx_truth_count, &tt, &tl);
+        if (rc != CLI_EXIT_OK)
+            return rc;
+        st->truth_count = st->fx_truth_count;
+        st->truth_ms[f] = tt;
+    } else {
+        double t0 = vc_now_ms();
+        if (vis_trace(ctx, scene, cam, &d, st->ids, st->ids_cap, NULL, 0) != VIS_OK)
+            return cli_fail_vis(CMD, ctx, "vis_trace (truth)");
+        st->truth_ms[f] = vc_now_ms() - t0;
+    }
+    if (!a->effects && vis_drawlist_build(ctx, scene, st->ids, d.width, d.height, VIS_IDS_OBJECT, st->truth, st->cap,
                            &st->truth_count) != VIS_OK)
         return cli_fail_vis(CMD, ctx, "vis_drawlist_build (truth)");
     st->truth_visible[f] = (uint32_t)st->truth_count;
@@ -299,7 +365,13 @@ static int row_pass(study *st, plan_row *r, size_t f, const vis_camera *cam, siz
         d.ids = r->method == M_LEAF ? VIS_IDS_LEAF : VIS_IDS_OBJECT;
         vis_scene *scene = world_scene_scene(s->ws);
         /* The game's cost of a draw list: the pass and turning its IDs into the list. */
-        for (uint32_t i = 0; i < n; ++i) {
+        for (uint32_t i = 0; i < n && st->a->effects; ++i) {
+            int rc = effects_pass(st, s, cam, &d, st->fx_list, st->list, count, &st->reps_a[i], &st->reps_b[i]);
+            if (rc != CLI_EXIT_OK)
+                return rc;
+            st->reps[i] = st->reps_a[i] + st->reps_b[i];
+        }
+        for (uint32_t i = 0; i < n && !st->a->effects; ++i) {
             double t0 = vc_now_ms();
             if (vis_trace(s->ctx, scene, cam, &d, st->ids, st->ids_cap, NULL, 0) != VIS_OK)
                 return cli_fail_vis(CMD, s->ctx, "vis_trace");
@@ -345,6 +417,9 @@ static int run_frames(study *st)
             if ((rc = row_pass(st, r, f, &v->camera, &count)) != CLI_EXIT_OK)
                 return rc;
             if (vc_accuracy_compare(st->truth, st->truth_count, samples, st->list, count, &objects, &r->acc[f]) != 0)
+                return cli_fail(CMD, "%s: a draw list is not sorted by ID", v->name);
+            if (a->effects && vc_accuracy_reasons(st->fx_truth, st->fx_truth_count, st->list, count,
+                                                  r->acc[f].reason_truth, r->acc[f].reason_missed) != 0)
                 return cli_fail(CMD, "%s: a draw list is not sorted by ID", v->name);
         }
         fprintf(stderr, "vis accuracy: view %zu/%zu %-9s truth %u objects (%.0f ms), %zu rows x %u passes in %.1f s\n",
@@ -397,6 +472,13 @@ static void print_json(const study *st, const acc_row *rows, const char *csv, co
     json_uint(&w, "kd_depth", st->kd_depth);
     json_uint(&w, "leaf_kd_depth", st->leaf_depth);
     json_uint(&w, "repeat", st->repeat);
+    if (a->effects) {
+        char names[128];
+        cli_effects_format(a->effects, names, sizeof names);
+        json_string(&w, "effects", names);
+    } else {
+        json_string(&w, "effects", NULL);
+    }
     json_object_begin(&w, "truth");
     json_uint(&w, "width", a->truth_width);
     json_uint(&w, "height", a->truth_height);
@@ -433,6 +515,17 @@ static void print_json(const study *st, const acc_row *rows, const char *csv, co
         json_number(&w, "overdraw_triangles", r->s.overdraw_triangles);
         json_number(&w, "hidden", r->s.hidden);
         json_number(&w, "occluded_culled", r->s.occluded_culled);
+        if (a->effects) {
+            static const char *const names[VIS_REASON_COUNT] = {"direct", "see_through", "reflection", "shadow"};
+            json_object_begin(&w, "reasons");
+            for (int k = 0; k < VIS_REASON_COUNT; ++k) {
+                json_object_begin(&w, names[k]);
+                json_number(&w, "truth", r->s.reason_truth[k]);
+                json_number(&w, "missed", r->s.reason_missed[k]);
+                json_object_end(&w);
+            }
+            json_object_end(&w);
+        }
         json_object_end(&w);
     }
     json_array_end(&w);
@@ -494,6 +587,12 @@ static int report(study *st)
         printf("%s%s", f ? ", " : "", st->views[st->frame[f]].name);
     printf("\n\n");
     acc_print_table(stdout, rows, st->nrows, a->truth_width, a->truth_height);
+    if (a->effects) {
+        char names[128];
+        cli_effects_format(a->effects, names, sizeof names);
+        printf("\nmisses per reason (%s; truth and ray passes traced with them; zbuf knows no effects):\n", names);
+        acc_print_reasons(stdout, rows, st->nrows);
+    }
     printf("\nms/frame: median over the views of each view's median of %u passes (ray: pass + draw list; zbuf: "
            "vis_zcull_run).\nOther columns: means per view. missed %%/px: the truth's screen area of the missed "
            "objects; worst %%: the worst view;\novd tris: triangles of the overdrawn objects; occl cull: hidden "
@@ -530,6 +629,11 @@ int cmd_accuracy(const cli_args *a)
         printf("scene     %u objects, %llu quads; kd depth %u (leaf IDs: depth %u); backend %s (%s)\n",
                st->info.objects, (unsigned long long)st->info.quads, st->kd_depth, st->leaf_depth,
                st->obj.backend.name, st->obj.backend.device);
+        if (a->effects) {
+            char names[128];
+            cli_effects_format(a->effects, names, sizeof names);
+            printf("effects   %s (the truth and the ray-object rows; no ray-leaf rows)\n", names);
+        }
         fflush(stdout);
     }
     if (rc == CLI_EXIT_OK)

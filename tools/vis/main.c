@@ -20,7 +20,7 @@ const cli_command cli_commands[] = {
      OPT_THREADS | OPT_BACKEND, 0, cmd_bench},
     {"accuracy", "What does accuracy cost in time? Every method and resolution against the display's truth.",
      OPT_SCENE | OPT_TRAVERSAL | OPT_BACKEND | OPT_THREADS | OPT_KD_DEPTH | OPT_OUT | OPT_FRAMES | OPT_REPEAT |
-         OPT_TRUTH_RES | OPT_SUPERSAMPLE | OPT_MAX_RES | OPT_LEAF_DEPTH | OPT_JSON,
+         OPT_TRUTH_RES | OPT_SUPERSAMPLE | OPT_MAX_RES | OPT_LEAF_DEPTH | OPT_JSON | OPT_EFFECTS,
      0, 0, cmd_accuracy},
     {"info", "Describe a scene: bounds, chunks, voxels, quads, kd-tree, memory (and .vdb grids).",
      OPT_SCENE | OPT_KD_DEPTH | OPT_JSON, 0, 0, cmd_info},
