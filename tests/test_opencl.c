@@ -741,6 +741,52 @@ static void test_errors_and_timing(void **state)
     vis_context_destroy(cl);
 }
 
+/* $VIS_OPENCL_BUILD_OPTIONS: a tuning option is taken and changes nothing; options that would
+ * change results (relaxed math, macro definitions) fail the context's creation. */
+static void test_build_options(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(plain);
+    uint64_t rng = 7;
+    tworld w;
+    random_chunk_world(&w, &rng, 2, 2, 2);
+    vis_camera c = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
+    vis_trace_desc td = desc_make(16, 16, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+    uint32_t want[256], got[256];
+    vis_scene *s = make_scene(plain, &w, NULL, 0);
+    assert_int_equal(vis_trace(plain, s, &c, &td, want, 256, NULL, 0), VIS_OK);
+    vis_scene_destroy(s);
+    vis_context_destroy(plain);
+    const char *saved = getenv("VIS_OPENCL_BUILD_OPTIONS");
+    char keep[512];
+    snprintf(keep, sizeof keep, "%s", saved ? saved : "");
+    const char *refused[] = {"-cl-fast-relaxed-math", "-cl-mad-enable", "-DVIS_TRAVERSAL_ONLY=1u",
+                             "-w -UVIS_CL_LEAF_SIZE"};
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; ++i) {
+        setenv("VIS_OPENCL_BUILD_OPTIONS", refused[i], 1);
+        vis_status st = VIS_OK;
+        vis_context *bad = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+        if (bad)
+            vis_context_destroy(bad);
+        if (st != VIS_ERROR_INVALID_ARGUMENT)
+            fail_msg("VIS_OPENCL_BUILD_OPTIONS=%s: status %d, want invalid argument", refused[i], (int)st);
+    }
+    setenv("VIS_OPENCL_BUILD_OPTIONS", "-w", 1); /* no warnings: changes nothing */
+    vis_status st = VIS_OK;
+    vis_context *tuned = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+    if (saved)
+        setenv("VIS_OPENCL_BUILD_OPTIONS", keep, 1);
+    else
+        unsetenv("VIS_OPENCL_BUILD_OPTIONS");
+    assert_int_equal(st, VIS_OK);
+    s = make_scene(tuned, &w, NULL, 0);
+    assert_int_equal(vis_trace(tuned, s, &c, &td, got, 256, NULL, 0), VIS_OK);
+    assert_memory_equal(got, want, sizeof want);
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(tuned);
+}
+
 /* A generated terrain (greedy chunk meshes, the real workload) with voxel edits: two copies
  * of the same world, one scene per backend, the same edits applied to both. */
 /* The same world loaded twice, one scene on the CPU and one on OpenCL, edited in lockstep. */
@@ -1035,6 +1081,7 @@ int main(void)
         cmocka_unit_test(test_auto_reports_reason),
         cmocka_unit_test(test_bad_selector_not_found),
         cmocka_unit_test(test_errors_and_timing),
+        cmocka_unit_test(test_build_options),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_drawlist_on_device),

@@ -517,11 +517,14 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         b->tile[1] = th;
     }
     /* Extra build options (a tuning knob like the tile shape): register limits and the like.
-     * Options that change results are refused, as cl_program.c never uses them. */
+     * Options that change results are refused, as cl_program.c never uses them: relaxed or
+     * flushing math, and macro definitions (-D, -U), which could redefine the kernels' own
+     * (VIS_TRAVERSAL_ONLY, the layout sizes). */
     const char *extra = getenv("VIS_OPENCL_BUILD_OPTIONS");
     if (extra && *extra) {
         if (strstr(extra, "fast-relaxed") || strstr(extra, "mad-enable") || strstr(extra, "unsafe-math") ||
-            strstr(extra, "denorms-are-zero") || strstr(extra, "finite-math") || strlen(extra) >= sizeof b->extra_options) {
+            strstr(extra, "denorms-are-zero") || strstr(extra, "finite-math") || strstr(extra, "-D") || strstr(extra, "-U") ||
+            strlen(extra) >= sizeof b->extra_options) {
             snprintf(err, err_size, "$VIS_OPENCL_BUILD_OPTIONS \"%s\" is refused: too long, or an option that changes "
                      "results", extra);
             cl_destroy(b);

@@ -55,9 +55,9 @@
  *    knob that never changes results; malformed values are ignored.
  *  - VIS_OPENCL_BUILD_OPTIONS: options appended to every OpenCL program build (a tuning knob,
  *    e.g. a register limit); one that changes results (-cl-fast-relaxed-math, -cl-mad-enable,
- *    -cl-unsafe-math-optimizations, -cl-denorms-are-zero, -cl-finite-math-only) or a value of
- *    256 characters or more makes the OpenCL backend's creation fail with
- *    VIS_ERROR_INVALID_ARGUMENT.
+ *    -cl-unsafe-math-optimizations, -cl-denorms-are-zero, -cl-finite-math-only), a macro
+ *    definition (-D, -U) or a value of 256 characters or more makes the OpenCL backend's
+ *    creation fail with VIS_ERROR_INVALID_ARGUMENT.
  *  - OCL_ICD_FILENAMES, OCL_ICD_VENDORS, OPENCL_VENDOR_PATH, POCL_DEVICES: read, as the ICD
  *    loader and PoCL would read them, only to tell which OpenCL implementations are
  *    CPU-only, so that VIS_BACKEND_AUTO neither opens the loader nor starts PoCL's CPU
