@@ -259,6 +259,30 @@ static void methods_table(vis_context *cl, vis_scene *B, const vis_camera *def, 
     free(km);
 }
 
+/* --batch N,N,...: each 1..MAX_BATCH views. */
+#define MAX_BATCH 4096u
+
+static int batches_valid(const char *p)
+{
+    while (*p) {
+        char *end;
+        unsigned long n = strtoul(p, &end, 10);
+        if (end == p || n < 1 || n > MAX_BATCH || (*end && *end != ','))
+            return 0;
+        p = *end ? end + 1 : end;
+    }
+    return 1;
+}
+
+/* The next count of a --batch list checked by batches_valid; 0 at its end. */
+static uint32_t next_batch(const char **p)
+{
+    char *end;
+    uint32_t n = (uint32_t)strtoul(*p, &end, 10);
+    *p = *end == ',' ? end + 1 : end;
+    return n;
+}
+
 /* 6. The draw list built on the device, per view, in batches, and after single-voxel edits. */
 static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *def, const vc_view *views, size_t nv,
                              int reps, bufs *b, const char *batches, vis_traversal trav, vw_world *wb, world_scene *sb,
@@ -308,17 +332,20 @@ static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *de
     printf("%6s %12s %12s %14s %14s %12s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
            "entries");
     for (const char *p = batches; *p;) {
-        uint32_t n = (uint32_t)strtoul(p, (char **)&p, 10);
-        if (*p == ',')
-            ++p;
+        uint32_t n = next_batch(&p);
         if (n == 0)
             break;
         vis_camera *cams = malloc(n * sizeof *cams);
-        for (uint32_t i = 0; i < n; ++i)
-            cams[i] = views[i % nv].camera;
         size_t bcap = cap * n, total = 0;
         vis_draw_entry *be = malloc(bcap * sizeof *be);
         size_t *counts = malloc(n * sizeof *counts);
+        if (!cams || !be || !counts) {
+            printf("%6u: out of host memory\n", n);
+            free(cams), free(be), free(counts);
+            break;
+        }
+        for (uint32_t i = 0; i < n; ++i)
+            cams[i] = views[i % nv].camera;
         double bk[5], bt[5];
         vis_timing tg;
         for (int r = 0; r < 6; ++r) {
@@ -393,7 +420,7 @@ int main(int argc, char **argv)
             ncams = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--reps"))
             reps = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--batch"))
+        else if (!strcmp(argv[i], "--batch") && batches_valid(argv[i + 1]))
             batches = argv[i + 1];
         else if (!strcmp(argv[i], "--conformance"))
             conformance = atoi(argv[i + 1]);
@@ -574,12 +601,12 @@ int main(int argc, char **argv)
         printf("%6s %12s %12s %14s %14s %16s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
                "e2e+depth Grays/s");
         for (const char *p = batches; *p;) {
-            uint32_t n = (uint32_t)strtoul(p, (char **)&p, 10);
-            if (*p == ',')
-                ++p;
+            uint32_t n = next_batch(&p);
             if (n == 0)
                 break;
             vis_camera *cams_b = malloc(n * sizeof *cams_b);
+            if (!cams_b)
+                break;
             for (uint32_t i = 0; i < n; ++i)
                 random_camera(wa, &rng, &cams_b[i]);
             uint32_t *ids = malloc((size_t)n * big * 4);
