@@ -37,12 +37,15 @@
 static char g_log[2048];
 
 static int g_grew; /* "buffer grew" messages: the reallocation path ran */
+static int g_flushes; /* "staged in N flushes": an upload larger than the staging area */
 
 static void capture_log(vis_log_level level, const char *message, void *user)
 {
     (void)user;
     if (strstr(message, "buffer grew"))
         ++g_grew;
+    if (strstr(message, "flushes"))
+        ++g_flushes;
     if (level >= VIS_LOG_WARNING)
         snprintf(g_log, sizeof g_log, "%s", message);
 }
@@ -495,10 +498,13 @@ static void test_pool_growth_reallocates(void **state)
     set_obj(p.cl_scene, t);
     set_obj(p.cpu_scene, q);
     set_obj(p.cl_scene, q);
-    int grew = g_grew;
+    int grew = g_grew, flushes = g_flushes;
     compare_view(&p, &cam, 12, 10, trav, "after growth"); /* brute force included, small */
     if (g_grew == grew)
         fail_msg("no device buffer grew: the reallocation path was not exercised");
+    /* The new objects' leaves are more than one staging area holds (cl_scene.c). */
+    if (g_flushes == flushes)
+        fail_msg("the upload fitted one staging area: the multi-flush path was not exercised");
     for (int i = 0; i < 6; ++i) {
         vis_camera c;
         const double zero[3] = {0, 0, 0};

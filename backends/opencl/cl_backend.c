@@ -92,6 +92,7 @@ static void cl_destroy(void *impl)
         return;
     if (b->queue)
         clFinish(b->queue);
+    vis_cl_staging_release(b);
     vis_cl_programs_release(b);
     vis_cl_drawlist_release(b);
     if (b->ids)

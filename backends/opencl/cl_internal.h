@@ -61,7 +61,8 @@
     X(cl_int, ReleaseKernel, (cl_kernel))                                                                       \
     X(cl_int, ReleaseMemObject, (cl_mem))                                                                       \
     X(cl_int, ReleaseProgram, (cl_program))                                                                     \
-    X(cl_int, SetKernelArg, (cl_kernel, cl_uint, size_t, const void *))
+    X(cl_int, SetKernelArg, (cl_kernel, cl_uint, size_t, const void *))                                        \
+    X(cl_int, WaitForEvents, (cl_uint, const cl_event *))
 
 typedef struct vis_cl_api {
 #define VIS_CL_MEMBER(ret, fn, params) ret(CL_API_CALL *fn) params;
@@ -112,6 +113,7 @@ int vis_cl_pocl_cpu_only(const char *library);
 #  define clReleaseMemObject (vis_cl_api_table()->ReleaseMemObject)
 #  define clReleaseProgram (vis_cl_api_table()->ReleaseProgram)
 #  define clSetKernelArg (vis_cl_api_table()->SetKernelArg)
+#  define clWaitForEvents (vis_cl_api_table()->WaitForEvents)
 #endif
 
 #include "backend.h"
@@ -136,6 +138,7 @@ typedef struct vis_cl_program {
     cl_kernel drawlist;    /* vis_trace_drawlist_kernel: the batch kernel counting pixels per key */
     cl_kernel compact;     /* vis_drawlist_compact: counts to per-view lists            */
     cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
+    cl_kernel scatter;     /* vis_scatter_words: staged scene uploads (cl_scene.c)       */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -188,6 +191,13 @@ typedef struct vis_cl_backend {
     size_t dl_pinned_cap;     /* bytes of dl_pinned                                       */
     void *dl_host;            /* dl_pinned, mapped                                        */
 
+    /* Staged scene uploads (cl_scene.c): pinned host memory mapped for the backend's life,
+     * its device copy, and the event of the last scatter that read it. The scatter kernel
+     * is the first program's (programs[0], built when the backend is created). */
+    cl_mem stage_pinned, stage_dev;
+    void *stage_host;
+    cl_event stage_done;
+
     double last_kernel_ms;    /* from event profiling, summed over a batch's launches */
 } vis_cl_backend;
 
@@ -232,6 +242,8 @@ void vis_cl_programs_release(vis_cl_backend *b);
 int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_view *view,
                       const vis_scene_changes *changes, char *err, size_t err_size);
 void vis_cl_scene_release(vis_cl_backend *b, vis_cl_scene *scene);
+/* Releases the upload staging memory (unmapping it; the queue must be finished). */
+void vis_cl_staging_release(vis_cl_backend *b);
 
 /* ---- cl_drawlist.c ----------------------------------------------------------------------- */
 

@@ -2,12 +2,18 @@
  *
  * The scene is the flat arrays of trace_core.h, copied once (the first sync writes every
  * array whole). After that, libvis reports what edits touched (backend.h, vis_scene_changes)
- * and only those bytes travel, one clEnqueueWriteBuffer per range:
+ * and only those bytes travel:
  *  - a changed leaf: its 64-byte header, its bucket table (E0+E1+E2+4 entries), its bucketed
  *    and loose quads, and its triangles — only the used part of each slot;
  *  - a changed object: its 16-byte slot;
  *  - the object_leaves range [lo, hi) that edits rewrote.
  * The tree (nodes, ropes) never changes after creation and is sent once.
+ *
+ * Those ranges are staged: copied into pinned host memory, sent with one write and put in
+ * place by one kernel (kernels/upload.cl), instead of one clEnqueueWriteBuffer per range —
+ * a single-voxel edit is 5 to 15 ranges of a few hundred bytes, and each write costs the
+ * driver microseconds whatever its size. The staging area is bounded (STAGE_WORDS); a larger
+ * sync (a compaction re-sends every leaf) flushes it as often as it fills.
  *
  * Pools grow on the host (a leaf that outgrows its slot moves to the end of the quad pool;
  * new objects take new slots). When an array's used count passes its device buffer's
@@ -15,9 +21,11 @@
  * on the device is copied across on the device (clEnqueueCopyBuffer, no host transfer), then
  * the changed ranges are written as usual. Still no tree rebuild, and no full re-upload.
  *
- * Writes are non-blocking and the sync ends with clFinish: the host arrays they read from stay
- * untouched until the sync returns (calls on a context are serialised), and may change right
- * after it. */
+ * Ordering: the queue is in order, so a pass enqueued after a sync sees its data. Writes
+ * straight from the host arrays (the first sync, growth, ropes) are non-blocking and the sync
+ * ends with clFinish when it made any, since the host arrays may change once it returns. A
+ * staged sync does not wait: its data was copied into the staging area, which is refilled
+ * only after the last scatter that read it has completed (its event). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,9 +34,34 @@
 
 #define HEADROOM_MIN 4096u
 
+/* The staging area (kernels/upload.cl): STAGE_RANGES headers of 4 ulongs, then STAGE_WORDS
+ * words. A single-voxel edit takes under 20 ranges and a few thousand bytes. */
+#define STAGE_RANGES 256u
+#define STAGE_WORDS (64u * 1024u)
+#define STAGE_HEADER_WORDS (STAGE_RANGES * 8u)
+#define STAGE_BYTES ((size_t)(STAGE_HEADER_WORDS + STAGE_WORDS) * sizeof(cl_uint))
+
+/* Must match kernels/upload.cl. */
+enum stage_array {
+    STAGE_LEAVES,
+    STAGE_BUCKETS,
+    STAGE_QUADS,
+    STAGE_TRIS,
+    STAGE_OBJECTS,
+    STAGE_OBJECT_LEAVES
+};
+
+_Static_assert(sizeof(vis_flat_leaf) % 4 == 0 && sizeof(vis_flat_tri) % 4 == 0 && sizeof(vis_flat_object) % 4 == 0,
+               "staged uploads copy whole 32-bit words");
+
 typedef struct upload_state {
     vis_cl_backend *b;
+    vis_cl_scene *sc;
     uint64_t bytes;
+    int direct;          /* a write straight from the host arrays was enqueued: finish */
+    uint32_t ranges;     /* staged ranges not yet flushed */
+    uint32_t words;      /* their words */
+    uint32_t flushes;    /* staging areas sent by this sync */
     char *err;
     size_t err_size;
 } upload_state;
@@ -81,6 +114,114 @@ static int write_range(upload_state *u, vis_cl_array *a, const void *host, size_
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clEnqueueWriteBuffer", u->err, u->err_size);
     u->bytes += bytes;
+    u->direct = 1;
+    return VIS_OK;
+}
+
+/* ---- staged uploads ------------------------------------------------------------------- */
+
+/* The pinned staging memory (mapped for the backend's life) and its device copy, made on
+ * the first staged sync. */
+static int stage_ready(upload_state *u)
+{
+    vis_cl_backend *b = u->b;
+    if (b->stage_host)
+        return VIS_OK;
+    cl_int e = CL_SUCCESS;
+    if (!b->stage_pinned)
+        b->stage_pinned = clCreateBuffer(b->context, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, STAGE_BYTES, NULL, &e);
+    if (e == CL_SUCCESS && !b->stage_dev)
+        b->stage_dev = clCreateBuffer(b->context, CL_MEM_READ_ONLY, STAGE_BYTES, NULL, &e);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "clCreateBuffer (upload staging)", u->err, u->err_size);
+    void *host = clEnqueueMapBuffer(b->queue, b->stage_pinned, CL_TRUE, CL_MAP_WRITE, 0, STAGE_BYTES, 0, NULL, NULL, &e);
+    if (e != CL_SUCCESS || !host)
+        return vis_cl_fail(e != CL_SUCCESS ? e : CL_OUT_OF_HOST_MEMORY, "clEnqueueMapBuffer (upload staging)", u->err,
+                           u->err_size);
+    b->stage_host = host;
+    return VIS_OK;
+}
+
+/* Waits until the staging memory may be written again: the last scatter that read it has
+ * run. Its failure (reported only here, as the sync that enqueued it did not wait) fails
+ * this sync, which drops the device copy: the next one sends everything again. */
+static int stage_wait(upload_state *u)
+{
+    vis_cl_backend *b = u->b;
+    if (!b->stage_done)
+        return VIS_OK;
+    cl_int e = clWaitForEvents(1, &b->stage_done);
+    clReleaseEvent(b->stage_done);
+    b->stage_done = NULL;
+    return e == CL_SUCCESS ? VIS_OK : vis_cl_fail(e, "the previous scene upload", u->err, u->err_size);
+}
+
+/* Sends what is staged: one write of the headers and words, one scatter kernel. */
+static int stage_flush(upload_state *u)
+{
+    if (u->ranges == 0)
+        return VIS_OK;
+    vis_cl_backend *b = u->b;
+    vis_cl_scene *sc = u->sc;
+    size_t bytes = (size_t)(STAGE_HEADER_WORDS + u->words) * sizeof(cl_uint);
+    cl_int e = clEnqueueWriteBuffer(b->queue, b->stage_dev, CL_FALSE, 0, bytes, b->stage_host, 0, NULL, NULL);
+    cl_kernel k = b->programs[0].scatter;
+    const cl_mem *args[] = {&b->stage_dev,    &b->stage_dev, &sc->leaves.mem,  &sc->buckets.mem,
+                            &sc->quads.mem,   &sc->tris.mem, &sc->objects.mem, &sc->object_leaves.mem};
+    for (cl_uint i = 0; e == CL_SUCCESS && i < sizeof args / sizeof args[0]; ++i)
+        e = clSetKernelArg(k, i, sizeof(cl_mem), args[i]);
+    size_t local = 64, global = (size_t)u->ranges * local;
+    if (e == CL_SUCCESS)
+        e = clEnqueueNDRangeKernel(b->queue, k, 1, NULL, &global, &local, 0, NULL, &b->stage_done);
+    if (e != CL_SUCCESS)
+        return vis_cl_fail(e, "scene upload (staged)", u->err, u->err_size);
+    u->ranges = 0;
+    u->words = 0;
+    ++u->flushes;
+    return VIS_OK;
+}
+
+/* Stages elements [first, first + count) of a host array for the device array `a`, split
+ * over as many flushes as the staging area needs. */
+static int stage_range(upload_state *u, vis_cl_array *a, enum stage_array which, const void *host, size_t first,
+                       size_t count, const char *what)
+{
+    if (count == 0)
+        return VIS_OK;
+    if (first + count > a->cap) {
+        snprintf(u->err, u->err_size, "internal: %s range [%zu, %zu) beyond the device buffer (%zu)", what, first,
+                 first + count, a->cap);
+        return VIS_ERROR_BACKEND;
+    }
+    const size_t per = a->elem / sizeof(cl_uint);
+    const cl_uint *src = (const cl_uint *)host + first * per;
+    size_t word = first * per, left = count * per;
+    while (left) {
+        if (u->ranges == STAGE_RANGES || u->words == STAGE_WORDS) {
+            int st = stage_flush(u);
+            if (st != VIS_OK)
+                return st;
+        }
+        if (u->ranges == 0 && u->words == 0) {
+            int st = stage_wait(u);
+            if (st != VIS_OK)
+                return st;
+        }
+        size_t n = STAGE_WORDS - u->words < left ? STAGE_WORDS - u->words : left;
+        cl_uint *stage = u->b->stage_host;
+        cl_ulong *hdr = (cl_ulong *)stage + 4u * u->ranges;
+        hdr[0] = (cl_ulong)which;
+        hdr[1] = (cl_ulong)word;
+        hdr[2] = (cl_ulong)n;
+        hdr[3] = (cl_ulong)(STAGE_HEADER_WORDS + u->words);
+        memcpy(stage + STAGE_HEADER_WORDS + u->words, src, n * sizeof(cl_uint));
+        ++u->ranges;
+        u->words += (uint32_t)n;
+        u->bytes += n * sizeof(cl_uint);
+        src += n;
+        word += n;
+        left -= n;
+    }
     return VIS_OK;
 }
 
@@ -147,18 +288,18 @@ static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *
         return VIS_ERROR_BACKEND;
     }
     const vis_flat_leaf *lf = &v->leaves[li];
-    int st = write_range(u, &sc->leaves, v->leaves, li, 1, "leaf");
+    int st = stage_range(u, &sc->leaves, STAGE_LEAVES, v->leaves, li, 1, "leaf");
     uint32_t nb = bucket_entries(lf);
     if (st == VIS_OK && nb && lf->bucket_offset < v->bucket_count && lf->bucket_offset + nb <= v->bucket_count)
-        st = write_range(u, &sc->buckets, v->buckets, lf->bucket_offset, nb, "bucket table");
+        st = stage_range(u, &sc->buckets, STAGE_BUCKETS, v->buckets, lf->bucket_offset, nb, "bucket table");
     if (st != VIS_OK)
         return st;
     /* The slot's object table, packed quads and loose quads lie one after the other. */
     size_t q0 = lf->table_offset, q1 = (size_t)lf->loose_offset + (size_t)lf->loose_count * VIS_LOOSE_WORDS;
     if (q1 > q0)
-        st = write_range(u, &sc->quads, v->quads, q0, q1 - q0, "quads");
+        st = stage_range(u, &sc->quads, STAGE_QUADS, v->quads, q0, q1 - q0, "quads");
     if (st == VIS_OK && lf->tri_count)
-        st = write_range(u, &sc->tris, v->tris, lf->tri_offset, lf->tri_count, "triangles");
+        st = stage_range(u, &sc->tris, STAGE_TRIS, v->tris, lf->tri_offset, lf->tri_count, "triangles");
     return st;
 }
 
@@ -212,6 +353,8 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
         st = ensure(u, &sc->objects, v->object_count, sc, "objects");
     if (st == VIS_OK)
         st = ensure(u, &sc->object_leaves, v->object_leaf_count, sc, "object leaf lists");
+    if (st == VIS_OK && (ch->leaf_count || ch->object_count || ch->object_leaf_hi > ch->object_leaf_lo))
+        st = stage_ready(u);
     for (uint32_t i = 0; i < ch->leaf_count && st == VIS_OK; ++i)
         st = upload_leaf(u, sc, v, ch->leaves[i]);
     for (uint32_t i = 0; i < ch->object_count && st == VIS_OK; ++i) {
@@ -219,14 +362,19 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
             snprintf(u->err, u->err_size, "internal: changed object slot %u of %u", ch->objects[i], v->object_count);
             return VIS_ERROR_BACKEND;
         }
-        st = write_range(u, &sc->objects, v->objects, ch->objects[i], 1, "objects");
+        st = stage_range(u, &sc->objects, STAGE_OBJECTS, v->objects, ch->objects[i], 1, "objects");
     }
     if (st == VIS_OK && ch->object_leaf_hi > ch->object_leaf_lo) {
         uint32_t hi = ch->object_leaf_hi < v->object_leaf_count ? ch->object_leaf_hi : v->object_leaf_count;
         if (hi > ch->object_leaf_lo)
-            st = write_range(u, &sc->object_leaves, v->object_leaves, ch->object_leaf_lo, hi - ch->object_leaf_lo,
-                             "object leaf lists");
+            st = stage_range(u, &sc->object_leaves, STAGE_OBJECT_LEAVES, v->object_leaves, ch->object_leaf_lo,
+                             hi - ch->object_leaf_lo, "object leaf lists");
     }
+    if (st == VIS_OK)
+        st = stage_flush(u);
+    if (st == VIS_OK && u->flushes > 1)
+        vis_cl_log(u->b, 0, "opencl: scene upload staged in %u flushes (%llu bytes)", u->flushes,
+                   (unsigned long long)u->bytes);
     if (st == VIS_OK) {
         /* Everything below the used counts now mirrors the host. */
         sc->buckets.valid = v->bucket_count;
@@ -260,11 +408,13 @@ int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_v
         sc->rope_index.elem = sizeof(uint32_t);
         fresh = 1;
     }
-    upload_state u = {b, 0, err, err_size};
+    upload_state u = {b, sc, 0, 0, 0, 0, 0, err, err_size};
     int st = fresh || changes->full ? sync_full(&u, sc, view) : sync_partial(&u, sc, view, changes);
-    cl_int e = clFinish(b->queue);
-    if (st == VIS_OK && e != CL_SUCCESS)
-        st = vis_cl_fail(e, "clFinish (scene upload)", err, err_size);
+    if (st != VIS_OK || u.direct) {
+        cl_int e = clFinish(b->queue);
+        if (st == VIS_OK && e != CL_SUCCESS)
+            st = vis_cl_fail(e, "clFinish (scene upload)", err, err_size);
+    }
     if (st != VIS_OK) {
         /* A half-updated copy must not be traced: drop it; the next sync starts afresh. */
         vis_cl_scene_release(b, sc);
@@ -286,4 +436,23 @@ void vis_cl_scene_release(vis_cl_backend *b, vis_cl_scene *sc)
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         array_release(arrays[i]);
     vis_host_free(&b->alloc, sc);
+}
+
+void vis_cl_staging_release(vis_cl_backend *b)
+{
+    if (b->stage_done) {
+        clWaitForEvents(1, &b->stage_done);
+        clReleaseEvent(b->stage_done);
+    }
+    if (b->stage_pinned && b->stage_host && b->queue) {
+        clEnqueueUnmapMemObject(b->queue, b->stage_pinned, b->stage_host, 0, NULL, NULL);
+        clFinish(b->queue);
+    }
+    if (b->stage_pinned)
+        clReleaseMemObject(b->stage_pinned);
+    if (b->stage_dev)
+        clReleaseMemObject(b->stage_dev);
+    b->stage_pinned = b->stage_dev = NULL;
+    b->stage_host = NULL;
+    b->stage_done = NULL;
 }
