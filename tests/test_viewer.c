@@ -476,7 +476,7 @@ static void test_live_switches(void **state)
 static void vis_cull_effects_list(const char *effects, const char *out_path)
 {
     vt_run_result r = vt_run(VIS_EXE, tmp_dir, NULL,
-                             "cull --scene " CITY " --camera " CAM_CITY " --res 256x256 --effects %s --dump-list '%s'",
+                             "cull --scene " CITY " --camera " CAM_CITY " --res 256x256 --backend cpu --effects %s --dump-list '%s'",
                              effects, out_path);
     vt_assert_exit(r, 0);
     vt_run_free(&r);
@@ -559,6 +559,25 @@ static void test_effects_keys(void **state)
     vt_assert_exit(c, 0);
     vt_run_free(&c);
     assert_same_file(tmp_path("fx_zbuf.txt"), tmp_path("fx_zbuf_ref.txt"));
+}
+
+/* Key B with effects on: the OpenCL backend's vis_trace_effects traces the last frames, and
+ * the list is the CPU's `vis cull --effects` list byte for byte. Without an OpenCL device
+ * the viewer stays on the CPU (its HUD says why) and only that is checked. */
+static void test_effects_opencl(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    vt_run_result r = run_viewer("--scene " CITY " --camera " CAM_CITY " --res 256x256 --backend cpu --effects "
+                                 CITY_EFFECTS " --frames 3 --keys B --no-hud --drawlist '%s'",
+                                 tmp_path("fx_cl.txt"));
+    vt_assert_exit(r, 0);
+    if (!strstr(r.out, "object IDs, opencl ("))
+        print_message("NOTE: no OpenCL device: key B left the viewer on the CPU; the OpenCL list is not checked\n");
+    vis_cull_effects_list(CITY_EFFECTS, tmp_path("fx_cl_ref.txt"));
+    assert_same_file(tmp_path("fx_cl.txt"), tmp_path("fx_cl_ref.txt"));
+    vt_run_free(&r);
 }
 
 /* Pixels of one tint (docs/viewer.md: cyan 0,255,255 seen through only, magenta 255,0,255
@@ -655,7 +674,7 @@ int main(void)
         cmocka_unit_test(test_vox_scene),  cmocka_unit_test(test_frozen),        cmocka_unit_test(test_edit),
         cmocka_unit_test(test_live_switches),    cmocka_unit_test(test_cost_overlay),
         cmocka_unit_test(test_effects_list),     cmocka_unit_test(test_effects_keys),
-        cmocka_unit_test(test_effects_tint),
+        cmocka_unit_test(test_effects_tint),     cmocka_unit_test(test_effects_opencl),
     };
     return cmocka_run_group_tests(tests, setup, vt_tmp_dir_teardown);
 }
