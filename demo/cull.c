@@ -170,8 +170,8 @@ const char *vv_cull_effects_ignored_by(const vv_cull *c)
     switch (c->method) {
     case VV_METHOD_RAY_OBJECT: return NULL;
     case VV_METHOD_RAY_LEAF: return "leaf IDs (effects buffers hold object IDs)";
-    case VV_METHOD_ZBUF: return "the z-buffer culler";
-    default: return "no culling";
+    case VV_METHOD_ZBUF: return "the z-buffer culler does not trace them";
+    default: return "no culling draws every object";
     }
 }
 

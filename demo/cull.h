@@ -81,8 +81,8 @@ int vv_cull_run(vv_cull *c, const vv_view *view);
 /* After an edit: the draw list may need more room (objects were added). */
 int vv_cull_grow(vv_cull *c);
 
-/* Why the current method ignores effects ("the z-buffer culler", ...), or NULL when it
- * takes them. */
+/* Why the current method ignores effects ("the z-buffer culler does not trace them", ...),
+ * or NULL when it takes them. */
 const char *vv_cull_effects_ignored_by(const vv_cull *c);
 
 /* The backend info of the active context. */

@@ -138,7 +138,7 @@ static int effects_hud(vv_app *a, int x, int y)
     y = vv_hud_line(a->hud, x, y, white, "effects %s%s", names, params);
     const char *by = vv_cull_effects_ignored_by(c);
     if (c->fx_state != VV_FX_RAN && by)
-        return vv_hud_line(a->hud, x, y, yellow, "effects ignored by %s", by);
+        return vv_hud_line(a->hud, x, y, yellow, "effects ignored: %s", by);
     if (c->fx_state != VV_FX_RAN) /* turned on while culling is frozen */
         return vv_hud_line(a->hud, x, y, yellow, "effects not in the frozen list (F culls again)");
     const uint32_t *o = c->fx_objects, *only = c->fx_only;
