@@ -218,6 +218,7 @@ static int effects_pass(vv_cull *c, vis_context *ctx, vis_scene *scene, const vi
         }
     }
     c->fx_state = VV_FX_RAN;
+    c->fx_traced = bits;
     return VV_EXIT_OK;
 }
 

@@ -49,6 +49,8 @@ typedef struct vv_cull {
     size_t capacity, count;
     vc_effects fx;                /* the effects on (bits) and their light and fog        */
     vv_fx_state fx_state;         /* what the last cull did with them                     */
+    uint32_t fx_traced;           /* with VV_FX_RAN: the bits that pass traced (the keys may
+                                     have changed fx.bits since, while culling is frozen)  */
     uint32_t *see_through;        /* VV_MAX_PASS^2 * VC_SEE_THROUGH_LAYERS                */
     uint32_t *reflection, *shadow; /* VV_MAX_PASS^2 each                                  */
     vis_effect_entry *fx_entries; /* with VV_FX_RAN: the list with reasons, parallel to

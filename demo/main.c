@@ -366,7 +366,7 @@ static int frame(vv_app *a, uint32_t index, int scripted, int last)
     double t0 = vc_now_ms();
     int fx = a->cull.fx_state == VV_FX_RAN;
     const vv_draw_desc dd = {a->cull.entries, a->cull.count, a->cull.method == VV_METHOD_NONE,
-                             fx ? a->cull.fx_entries : NULL, fx && (a->cull.fx.bits & VIS_EFFECT_SEE_THROUGH)};
+                             fx ? a->cull.fx_entries : NULL, fx && (a->cull.fx_traced & VIS_EFFECT_SEE_THROUGH)};
     a->tris_drawn = vv_meshes_draw(a->meshes, &dd, mvp);
     glFinish(); /* so that draw ms is the GPU's (llvmpipe's) time, not the call's */
     a->draw_ms = vc_now_ms() - t0;
