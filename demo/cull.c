@@ -59,7 +59,13 @@ int vv_cull_open(vv_cull *c, vw_world *world, vis_backend_kind backend, uint32_t
     c->zdepth = malloc(n * sizeof *c->zdepth);
     c->cost = malloc(n * sizeof *c->cost);
     c->cost_ids = malloc(n * sizeof *c->cost_ids);
-    if (!c->ids || !c->depth || !c->zdepth || !c->cost || !c->cost_ids) {
+    /* The effects' buffers too, whether or not an effect is on yet: a key turns one on in
+     * the middle of a flight, and a frame allocates nothing. */
+    c->see_through = malloc(n * VC_SEE_THROUGH_LAYERS * sizeof *c->see_through);
+    c->reflection = malloc(n * sizeof *c->reflection);
+    c->shadow = malloc(n * sizeof *c->shadow);
+    if (!c->ids || !c->depth || !c->zdepth || !c->cost || !c->cost_ids || !c->see_through || !c->reflection ||
+        !c->shadow) {
         fprintf(stderr, "vis-viewer: out of memory for the pass buffers\n");
         vv_cull_close(c);
         return VV_EXIT_FAILURE;
@@ -97,7 +103,11 @@ void vv_cull_close(vv_cull *c)
     free(c->zdepth);
     free(c->cost);
     free(c->cost_ids);
+    free(c->see_through);
+    free(c->reflection);
+    free(c->shadow);
     free(c->entries);
+    free(c->fx_entries);
     memset(c, 0, sizeof *c);
 }
 
@@ -109,11 +119,14 @@ int vv_cull_grow(vv_cull *c)
     if (need <= c->capacity)
         return 0;
     vis_draw_entry *e = realloc(c->entries, need * sizeof *e);
-    if (!e) {
+    if (e)
+        c->entries = e;
+    vis_effect_entry *fe = e ? realloc(c->fx_entries, need * sizeof *fe) : NULL;
+    if (!fe) {
         fprintf(stderr, "vis-viewer: out of memory for a draw list of %zu entries\n", need);
         return -1;
     }
-    c->entries = e;
+    c->fx_entries = fe;
     c->capacity = need;
     return 0;
 }
@@ -152,6 +165,63 @@ static int fail_vis(const vis_context *ctx, const char *what)
     return VV_EXIT_FAILURE;
 }
 
+const char *vv_cull_effects_ignored_by(const vv_cull *c)
+{
+    switch (c->method) {
+    case VV_METHOD_RAY_OBJECT: return NULL;
+    case VV_METHOD_RAY_LEAF: return "leaf IDs (effects buffers hold object IDs)";
+    case VV_METHOD_ZBUF: return "the z-buffer culler does not trace them";
+    default: return "no culling draws every object";
+    }
+}
+
+/* The ray pass with effects and its draw list with reasons, as `vis cull --effects` makes
+ * them (the buffers of the effects that are off are not handed over, so they add no
+ * reason). entries[] gets the IDs and direct pixels, for what draws and boxes by entries. */
+static int effects_pass(vv_cull *c, vis_context *ctx, vis_scene *scene, const vis_trace_desc *plain)
+{
+    size_t n = (size_t)c->width * c->height;
+    vis_trace_desc td = *plain;
+    td.effects = c->fx.bits;
+    td.see_through_layers = VC_SEE_THROUGH_LAYERS;
+    memcpy(td.light_dir, c->fx.light, sizeof td.light_dir);
+    td.fog_dist = c->fx.fog;
+    uint32_t bits = c->fx.bits;
+    vis_effect_buffers b;
+    memset(&b, 0, sizeof b);
+    b.ids = c->ids, b.ids_capacity = n;
+    b.depth = c->depth, b.depth_capacity = n;
+    if (bits & VIS_EFFECT_SEE_THROUGH)
+        b.see_through = c->see_through, b.see_through_capacity = n * VC_SEE_THROUGH_LAYERS;
+    if (bits & VIS_EFFECT_REFLECT)
+        b.reflection = c->reflection, b.reflection_capacity = n;
+    if (bits & VIS_EFFECT_SHADOWS)
+        b.shadow = c->shadow, b.shadow_capacity = n;
+    if (vis_trace_effects(ctx, scene, &c->camera, &td, &b) != VIS_OK)
+        return fail_vis(ctx, "vis_trace_effects");
+    vis_timing tm;
+    if (vis_context_last_timing(ctx, &tm) == VIS_OK)
+        c->pass_ms = tm.kernel_ms;
+    if (vis_drawlist_build_effects(ctx, scene, &b, c->width, c->height, VC_SEE_THROUGH_LAYERS, c->fx_entries,
+                                   c->capacity, &c->count) != VIS_OK)
+        return fail_vis(ctx, "vis_drawlist_build_effects");
+    memset(c->fx_objects, 0, sizeof c->fx_objects);
+    memset(c->fx_only, 0, sizeof c->fx_only);
+    for (size_t i = 0; i < c->count; ++i) {
+        const vis_effect_entry *e = &c->fx_entries[i];
+        c->entries[i].id = e->id;
+        c->entries[i].pixels = e->pixels[0];
+        for (int k = 0; k < VIS_REASON_COUNT; ++k) {
+            uint32_t has = (e->reasons >> k) & 1u;
+            c->fx_objects[k] += has;
+            c->fx_only[k] += has && !(e->reasons & VIS_REASON_DIRECT);
+        }
+    }
+    c->fx_state = VV_FX_RAN;
+    c->fx_traced = bits;
+    return VV_EXIT_OK;
+}
+
 int vv_cull_run(vv_cull *c, const vv_view *view)
 {
     vis_context *ctx = c->ctx[c->active];
@@ -165,6 +235,7 @@ int vv_cull_run(vv_cull *c, const vv_view *view)
     size_t n = (size_t)c->width * c->height;
     c->pass_ms = 0.0;
     c->ids_valid = c->zdepth_valid = c->cost_valid = 0;
+    c->fx_state = c->fx.bits ? VV_FX_IGNORED : VV_FX_OFF;
     switch (c->method) {
     case VV_METHOD_RAY_OBJECT:
     case VV_METHOD_RAY_LEAF: {
@@ -173,17 +244,23 @@ int vv_cull_run(vv_cull *c, const vv_view *view)
         td.width = c->width;
         td.height = c->height;
         td.ids = c->method == VV_METHOD_RAY_LEAF ? VIS_IDS_LEAF : VIS_IDS_OBJECT;
-        if (vis_trace(ctx, scene, &c->camera, &td, c->ids, n, c->depth, n) != VIS_OK)
-            return fail_vis(ctx, "vis_trace");
-        vis_timing tm;
-        if (vis_context_last_timing(ctx, &tm) == VIS_OK)
-            c->pass_ms = tm.kernel_ms;
-        if (vis_drawlist_build(ctx, scene, c->ids, c->width, c->height, td.ids, c->entries, c->capacity, &c->count) !=
-            VIS_OK)
-            return fail_vis(ctx, "vis_drawlist_build");
+        int rc;
+        if (c->fx.bits && c->method == VV_METHOD_RAY_OBJECT) {
+            if ((rc = effects_pass(c, ctx, scene, &td)) != VV_EXIT_OK)
+                return rc;
+        } else {
+            if (vis_trace(ctx, scene, &c->camera, &td, c->ids, n, c->depth, n) != VIS_OK)
+                return fail_vis(ctx, "vis_trace");
+            vis_timing tm;
+            if (vis_context_last_timing(ctx, &tm) == VIS_OK)
+                c->pass_ms = tm.kernel_ms;
+            if (vis_drawlist_build(ctx, scene, c->ids, c->width, c->height, td.ids, c->entries, c->capacity,
+                                   &c->count) != VIS_OK)
+                return fail_vis(ctx, "vis_drawlist_build");
+        }
         c->ids_valid = 1;
-        /* The heat map: the same pass again, counting (CPU packets only; elsewhere the
-         * overlay says so). Not timed into cull_ms's pass figure. */
+        /* The heat map: the same pass again without effects, counting (CPU packets only;
+         * elsewhere the overlay says so). Not timed into cull_ms's pass figure. */
         c->cost_valid = c->want_cost && vis_trace_cost(ctx, scene, &c->camera, &td, c->cost_ids, n, c->cost, n) == VIS_OK;
         break;
     }

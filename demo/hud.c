@@ -141,19 +141,17 @@ static void quad(vv_hud *h, float x0, float y0, float x1, float y1, float u0, fl
     h->quads++;
 }
 
-int vv_hud_line(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, ...)
+/* The text at (x, y) over its band; returns the x just past it. */
+static int text(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, va_list ap)
 {
-    char text[256];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
-    int s = h->scale, n = (int)strlen(text);
+    char str[256];
+    vsnprintf(str, sizeof str, fmt, ap);
+    int s = h->scale, n = (int)strlen(str);
     const float band[4] = {0.0f, 0.0f, 0.0f, 0.6f}, col[4] = {rgb[0], rgb[1], rgb[2], 1.0f};
     quad(h, (float)(x - s), (float)(y - s), (float)(x + n * CELL_W * s + s), (float)(y + CELL_H * s), -1, -1, -1, -1,
          band);
     for (int i = 0; i < n; ++i) {
-        int g = (unsigned char)text[i] - FIRST;
+        int g = (unsigned char)str[i] - FIRST;
         if (g <= 0 || g >= GLYPHS)
             continue;
         float u0 = (float)(g * CELL_W) / (float)(GLYPHS * CELL_W), u1 = (float)(g * CELL_W + VV_FONT_W) / (float)(GLYPHS * CELL_W);
@@ -161,7 +159,25 @@ int vv_hud_line(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, ..
         quad(h, x0, y0, x0 + (float)(VV_FONT_W * s), y0 + (float)(VV_FONT_H * s), u0, 0.0f, u1,
              (float)VV_FONT_H / (float)CELL_H, col);
     }
-    return y + (CELL_H + 2) * s;
+    return x + n * CELL_W * s;
+}
+
+int vv_hud_line(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    text(h, x, y, rgb, fmt, ap);
+    va_end(ap);
+    return y + (CELL_H + 2) * h->scale;
+}
+
+int vv_hud_span(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int end = text(h, x, y, rgb, fmt, ap);
+    va_end(ap);
+    return end;
 }
 
 void vv_hud_end(vv_hud *h)

@@ -17,6 +17,13 @@ int vv_hud_line(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, ..
     __attribute__((format(printf, 5, 6)))
 #endif
     ;
+/* Text at (x, y) that a line goes on after (several colours on one line); returns the x
+ * just past it. */
+int vv_hud_span(vv_hud *h, int x, int y, const float rgb[3], const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 5, 6)))
+#endif
+    ;
 /* Draws what was added since vv_hud_begin, each line over a translucent dark band. */
 void vv_hud_end(vv_hud *h);
 

@@ -13,6 +13,7 @@
 #include "edit.h"
 #include "gl_util.h"
 #include "hud.h"
+#include "list_file.h"
 #include "meshes.h"
 #include "options.h"
 #include "out_file.h"
@@ -118,6 +119,42 @@ static void culled_boxes(vv_app *a)
     }
 }
 
+/* The effects lines: which are on (and the light and fog), then either why the method
+ * ignores them or the pass's time and its entries per reason, the tinted ones in their tint. */
+static int effects_hud(vv_app *a, int x, int y)
+{
+    const float grey[3] = {0.75f, 0.75f, 0.75f}, yellow[3] = {1, 0.9f, 0.3f}, white[3] = {1, 1, 1};
+    const vv_cull *c = &a->cull;
+    if (!c->fx.bits)
+        return vv_hud_line(a->hud, x, y, grey, "effects off (keys 1-4)");
+    char names[64], params[96] = "";
+    vc_effects_format(c->fx.bits, names, sizeof names);
+    if (c->fx.bits & VIS_EFFECT_SHADOWS)
+        snprintf(params, sizeof params, "  light (%g, %g, %g)", c->fx.light[0], c->fx.light[1], c->fx.light[2]);
+    if (c->fx.bits & VIS_EFFECT_FOG) {
+        size_t at = strlen(params);
+        snprintf(params + at, sizeof params - at, "  fog %g", c->fx.fog);
+    }
+    y = vv_hud_line(a->hud, x, y, white, "effects %s%s", names, params);
+    const char *by = vv_cull_effects_ignored_by(c);
+    if (c->fx_state != VV_FX_RAN && by)
+        return vv_hud_line(a->hud, x, y, yellow, "effects ignored: %s", by);
+    if (c->fx_state != VV_FX_RAN) /* turned on while culling is frozen */
+        return vv_hud_line(a->hud, x, y, yellow, "effects not in the frozen list (F culls again)");
+    const uint32_t *o = c->fx_objects, *only = c->fx_only;
+    y = vv_hud_line(a->hud, x, y, white, "effects pass %.2f ms: direct %u  seen through %u  reflected %u  casters %u",
+                    a->frozen ? 0.0 : c->pass_ms, o[0], o[1], o[2], o[3]);
+    static const char *const what[3] = {"only seen through", "only in reflections", "only casting shadows"};
+    static const uint32_t reason[3] = {VIS_REASON_SEE_THROUGH, VIS_REASON_REFLECTION, VIS_REASON_SHADOW};
+    int xx = x;
+    for (int k = 0; k < 3; ++k) {
+        float rgb[3];
+        vv_tint_of(reason[k], rgb);
+        xx = vv_hud_span(a->hud, xx, y, rgb, "%s %u  ", what[k], only[k + 1]);
+    }
+    return vv_hud_line(a->hud, xx, y, grey, "(tinted)");
+}
+
 static void draw_hud(vv_app *a, int vx, int vw)
 {
     const float white[3] = {1, 1, 1}, yellow[3] = {1, 0.9f, 0.3f}, grey[3] = {0.75f, 0.75f, 0.75f};
@@ -137,6 +174,7 @@ static void draw_hud(vv_app *a, int vx, int vw)
                     a->frozen ? 0.0 : a->cull.cull_ms, a->frozen ? 0.0 : a->cull.pass_ms, a->draw_ms, a->frame_ms);
     if (a->frozen)
         y = vv_hud_line(a->hud, x, y, yellow, "culling FROZEN (F): frustum in yellow%s", a->opt.boxes ? ", culled boxes in red" : "");
+    y = effects_hud(a, x, y);
     y = vv_hud_line(a->hud, x, y, grey, "tool %s r%d material %u%s", vv_tool_name(a->tool), a->radius, a->material,
                     a->orbit ? "  orbit" : "  fly");
     if (a->have_edit) {
@@ -147,34 +185,42 @@ static void draw_hud(vv_app *a, int vx, int vw)
     if (a->message[0])
         y = vv_hud_line(a->hud, x, y, yellow, "%s", a->message);
     if (a->help) {
-        int hy = a->win.fb_h - 4 * 20 - 4;
+        int hy = a->win.fb_h - 5 * 20 - 4;
         hy = vv_hud_line(a->hud, x, hy, grey, "WASD QE move, right-drag look, wheel speed, Tab orbit (left-drag)");
         hy = vv_hud_line(a->hud, x, hy, grey, "M method  B backend  P pass res  F freeze  C boxes  O overlay");
         hy = vv_hud_line(a->hud, x, hy, grey, "click edit  T tool  [ ] brush  , . material  F12 screenshot");
+        hy = vv_hud_line(a->hud, x, hy, grey, "effects: 1 see-through  2 reflect  3 shadows  4 fog");
         vv_hud_line(a->hud, x, hy, grey, "H help  Esc quit");
     }
     (void)vw;
     vv_hud_end(a->hud);
 }
 
+/* The last frame's list as `vis cull --dump-list` writes it (list_file.h): with reasons after
+ * an effects pass, "ID PIXELS" after a plain one, every object with 0 pixels without
+ * culling. */
 static int write_drawlist(const vv_app *a, const char *path)
 {
     char err[1024];
+    int bad = 0;
+    if (a->cull.method != VV_METHOD_NONE) {
+        bad = a->cull.fx_state == VV_FX_RAN
+                  ? vc_effect_list_write(path, a->cull.fx_entries, a->cull.count, err, sizeof err)
+                  : vc_list_write(path, a->cull.entries, a->cull.count, err, sizeof err);
+        if (bad)
+            fprintf(stderr, "vis-viewer: %s\n", err);
+        return bad ? VV_EXIT_FAILURE : VV_EXIT_OK;
+    }
     vc_out_file f;
     if (vc_out_open(&f, path, err, sizeof err) != 0) {
         fprintf(stderr, "vis-viewer: %s\n", err);
         return VV_EXIT_FAILURE;
     }
-    if (a->cull.method == VV_METHOD_NONE) {
-        uint32_t max = vv_meshes_max_id(a->meshes);
-        float lo[3], hi[3];
-        for (uint32_t id = 1; id <= max && !f.error; ++id)
-            if (vv_meshes_box(a->meshes, id, lo, hi))
-                vc_out_printf(&f, "%u 0\n", id);
-    } else {
-        for (size_t i = 0; i < a->cull.count && !f.error; ++i)
-            vc_out_printf(&f, "%u %u\n", a->cull.entries[i].id, a->cull.entries[i].pixels);
-    }
+    uint32_t max = vv_meshes_max_id(a->meshes);
+    float lo[3], hi[3];
+    for (uint32_t id = 1; id <= max && !f.error; ++id)
+        if (vv_meshes_box(a->meshes, id, lo, hi))
+            vc_out_printf(&f, "%u 0\n", id);
     if (vc_out_close(&f, 1, err, sizeof err) != 0) {
         fprintf(stderr, "vis-viewer: %s\n", err);
         return VV_EXIT_FAILURE;
@@ -226,6 +272,10 @@ static void handle_keys(vv_app *a, double dt)
         a->opt.overlay = (vv_overlay)((a->opt.overlay + 1) % VV_OVERLAY_COUNT);
     if (in->pressed[GLFW_KEY_H])
         a->help = !a->help;
+    static const uint32_t fx_keys[4] = {VIS_EFFECT_SEE_THROUGH, VIS_EFFECT_REFLECT, VIS_EFFECT_SHADOWS, VIS_EFFECT_FOG};
+    for (int k = 0; k < 4; ++k)
+        if (in->pressed[GLFW_KEY_1 + k])
+            a->cull.fx.bits ^= fx_keys[k];
     if (in->pressed[GLFW_KEY_TAB])
         a->orbit = !a->orbit;
     if (in->pressed[GLFW_KEY_T])
@@ -314,7 +364,10 @@ static int frame(vv_app *a, uint32_t index, int scripted, int last)
     float mvp[16];
     view_mvp(a, mvp);
     double t0 = vc_now_ms();
-    a->tris_drawn = vv_meshes_draw(a->meshes, a->cull.entries, a->cull.count, a->cull.method == VV_METHOD_NONE, mvp);
+    int fx = a->cull.fx_state == VV_FX_RAN;
+    const vv_draw_desc dd = {a->cull.entries, a->cull.count, a->cull.method == VV_METHOD_NONE,
+                             fx ? a->cull.fx_entries : NULL, fx && (a->cull.fx_traced & VIS_EFFECT_SEE_THROUGH)};
+    a->tris_drawn = vv_meshes_draw(a->meshes, &dd, mvp);
     glFinish(); /* so that draw ms is the GPU's (llvmpipe's) time, not the call's */
     a->draw_ms = vc_now_ms() - t0;
     vv_lines_begin(a->ovl);
@@ -379,7 +432,7 @@ static int run(vv_app *a)
         a->frame_ms = now - a->last_frame_t;
         a->last_frame_t = now;
         if (scripted && a->opt.keys && i >= 1 && i - 1 < strlen(a->opt.keys)) {
-            /* GLFW's key codes of letters and [ ] , . are their (capital) ASCII codes. */
+            /* GLFW's key codes of letters, digits and [ ] , . are their (capital) ASCII codes. */
             char k = a->opt.keys[i - 1];
             a->win.in.pressed[(unsigned char)(k >= 'a' && k <= 'z' ? k - 'a' + 'A' : k)] = 1;
             handle_keys(a, 0.0);
@@ -459,6 +512,7 @@ int main(int argc, char **argv)
         rc = vv_cull_open(&a->cull, a->world, a->opt.backend, a->opt.width, a->opt.height);
     if (rc == VV_EXIT_OK) {
         a->cull.method = a->opt.method;
+        a->cull.fx = a->opt.effects;
         a->meshes = vv_meshes_create(a->cull.ws);
         a->hud = vv_hud_create();
         a->ovl = vv_overlays_create();

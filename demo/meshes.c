@@ -10,7 +10,7 @@
 typedef struct vv_vertex {
     float p[3];
     uint8_t rgba[4];
-    uint8_t face[4]; /* face[0]: 0 top, 1 bottom, 2 x, 3 z                       */
+    uint8_t face[4]; /* face[0]: 0 top, 1 bottom, 2 x, 3 z; face[1]: 1 see-through   */
 } vv_vertex;
 
 typedef struct vv_object {
@@ -28,7 +28,7 @@ struct vv_meshes {
     vv_vertex *staging;   /* grown to the largest mesh                                 */
     size_t staging_cap;
     GLuint prog;
-    GLint u_mvp, u_shade;
+    GLint u_mvp, u_shade, u_tint, u_door;
     uint64_t total_quads;
     uint32_t objects;
     int failed;
@@ -41,19 +41,47 @@ static const char *vs_src =
     "layout(location = 2) in vec4 face;\n"
     "uniform mat4 mvp;\n"
     "uniform vec4 shade;\n"
+    "uniform vec4 tint;\n" /* a > 0: the object's tint replaces the material colour */
     "flat out vec3 colour;\n"
+    "flat out int see_through;\n"
     "void main() {\n"
     "  int f = int(face.x + 0.5);\n"
     "  float s = f == 0 ? shade.x : f == 1 ? shade.y : f == 2 ? shade.z : shade.w;\n"
-    "  colour = rgba.rgb * s;\n"
+    "  colour = (tint.a > 0.0 ? tint.rgb : rgba.rgb) * s;\n"
+    "  see_through = int(face.y + 0.5);\n"
     "  gl_Position = mvp * vec4(pos, 1.0);\n"
     "}\n";
 
+/* The screen door: a see-through quad leaves out every other pixel (Fuchs et al. 1985's
+ * "screen-door transparency"), which needs neither blending nor a back-to-front order. */
 static const char *fs_src =
     "#version 330 core\n"
     "flat in vec3 colour;\n"
+    "flat in int see_through;\n"
+    "uniform int door;\n"
     "out vec4 frag;\n"
-    "void main() { frag = vec4(colour, 1.0); }\n";
+    "void main() {\n"
+    "  if (door != 0 && see_through != 0 && ((int(gl_FragCoord.x) + int(gl_FragCoord.y)) & 1) != 0) discard;\n"
+    "  frag = vec4(colour, 1.0);\n"
+    "}\n";
+
+int vv_tint_of(uint32_t reasons, float rgb[3])
+{
+    static const unsigned char tints[3][3] = {
+        {VV_TINT_SEE_THROUGH_R, VV_TINT_SEE_THROUGH_G, VV_TINT_SEE_THROUGH_B},
+        {VV_TINT_REFLECTION_R, VV_TINT_REFLECTION_G, VV_TINT_REFLECTION_B},
+        {VV_TINT_SHADOW_R, VV_TINT_SHADOW_G, VV_TINT_SHADOW_B}};
+    static const uint32_t bits[3] = {VIS_REASON_SEE_THROUGH, VIS_REASON_REFLECTION, VIS_REASON_SHADOW};
+    if (reasons & VIS_REASON_DIRECT)
+        return 0;
+    for (int k = 0; k < 3; ++k)
+        if (reasons & bits[k]) {
+            for (int c = 0; c < 3; ++c)
+                rgb[c] = (float)tints[k][c] / 255.0f;
+            return k + 1;
+        }
+    return 0;
+}
 
 static int grow_ibo(vv_meshes *m, uint32_t quads)
 {
@@ -122,7 +150,9 @@ static void upload(vv_meshes *m, uint32_t id, const vw_mesh *mesh)
             vx->p[v] = (float)uv[k][1];
             vx->rgba[0] = (uint8_t)c, vx->rgba[1] = (uint8_t)(c >> 8), vx->rgba[2] = (uint8_t)(c >> 16);
             vx->rgba[3] = (uint8_t)(c >> 24);
-            vx->face[0] = face, vx->face[1] = vx->face[2] = vx->face[3] = 0;
+            vx->face[0] = face;
+            vx->face[1] = mat && (mat->flags & VW_MAT_SEE_THROUGH) ? 1 : 0;
+            vx->face[2] = vx->face[3] = 0;
             for (int d = 0; d < 3; ++d) {
                 lo[d] = vx->p[d] < lo[d] ? vx->p[d] : lo[d];
                 hi[d] = vx->p[d] > hi[d] ? vx->p[d] : hi[d];
@@ -177,6 +207,8 @@ vv_meshes *vv_meshes_create(world_scene *ws)
     }
     m->u_mvp = glGetUniformLocation(m->prog, "mvp");
     m->u_shade = glGetUniformLocation(m->prog, "shade");
+    m->u_tint = glGetUniformLocation(m->prog, "tint");
+    m->u_door = glGetUniformLocation(m->prog, "door");
     glGenBuffers(1, &m->ibo);
     vw_error err;
     memset(&err, 0, sizeof err);
@@ -219,18 +251,29 @@ static uint64_t draw_one(vv_meshes *m, uint32_t id)
     return (uint64_t)o->quads * 2;
 }
 
-uint64_t vv_meshes_draw(vv_meshes *m, const vis_draw_entry *entries, size_t count, int all, const float mvp[16])
+uint64_t vv_meshes_draw(vv_meshes *m, const vv_draw_desc *d, const float mvp[16])
 {
     glUseProgram(m->prog);
     glUniformMatrix4fv(m->u_mvp, 1, GL_FALSE, mvp);
     glUniform4f(m->u_shade, VV_SHADE_TOP, VV_SHADE_BOTTOM, VV_SHADE_X, VV_SHADE_Z);
+    glUniform4f(m->u_tint, 0.0f, 0.0f, 0.0f, 0.0f);
+    glUniform1i(m->u_door, d->screen_door ? 1 : 0);
     uint64_t tris = 0;
-    if (all) {
+    if (d->all) {
         for (uint32_t id = 1; id <= m->slots; ++id)
             tris += draw_one(m, id);
     } else {
-        for (size_t i = 0; i < count; ++i)
-            tris += draw_one(m, entries[i].id);
+        int tinted = 0;
+        for (size_t i = 0; i < d->count; ++i) {
+            float rgb[3];
+            int t = d->reasons ? vv_tint_of(d->reasons[i].reasons, rgb) : 0;
+            if (t)
+                glUniform4f(m->u_tint, rgb[0], rgb[1], rgb[2], 1.0f);
+            else if (tinted)
+                glUniform4f(m->u_tint, 0.0f, 0.0f, 0.0f, 0.0f);
+            tinted = t != 0;
+            tris += draw_one(m, d->entries[i].id);
+        }
     }
     glBindVertexArray(0);
     return tris;

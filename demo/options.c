@@ -6,12 +6,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cull.h"
 #include "names.h"
 
 static const char *usage =
     "usage: vis-viewer [--scene SPEC] [--camera EX,EY,EZ,TX,TY,TZ[,FOVY]] [--res WxH] [--window WxH]\n"
     "                  [--backend auto|cpu|opencl] [--method ray|zbuf|none] [--ids object|leaf]\n"
     "                  [--overlay none|ids|depth|cost] [--boxes] [--no-hud] [--material N]\n"
+    "                  [--effects see-through,reflect,shadows:DX,DY,DZ,fog:DIST]\n"
     "  scripted mode:  --frames N [--screenshot FILE.png] [--drawlist FILE] [--freeze]\n"
     "                  [--cull-camera EX,EY,EZ,TX,TY,TZ[,FOVY]] [--edit add|remove|paint:PX,PY[,R]]\n"
     "                  [--keys KEYS]\n"
@@ -21,7 +23,11 @@ static const char *usage =
     "last frame's draw list as `vis cull --dump-list` does (ID PIXELS per line); --cull-camera\n"
     "freezes culling at that camera while the view is --camera; --edit edits at pixel (PX, PY)\n"
     "of the pass with a brush of radius R (default 0) before the second frame; --keys presses\n"
-    "the keys of KEYS (letters and [ ] , .), one per frame from the second frame on.\n";
+    "the keys of KEYS (letters, digits and [ ] , .), one per frame from the second frame on.\n"
+    "--effects (as `vis cull --effects`) starts with those effects on (keys 1-4 toggle them)\n"
+    "and sets the light and fog the keys use (default shadows:1,0.7,0.4 and fog:200); the ray\n"
+    "pass with object IDs traces them, the other methods ignore them. With effects on,\n"
+    "--drawlist writes `vis cull --effects ... --dump-list`'s five columns.\n";
 
 static int usage_error(const char *fmt, const char *arg)
 {
@@ -94,6 +100,10 @@ int vv_options_parse(int argc, char **argv, vv_options *o)
     o->method = VV_METHOD_RAY_OBJECT;
     o->hud = 1;
     o->material = 1;
+    o->effects.light[0] = VV_DEFAULT_LIGHT_X;
+    o->effects.light[1] = VV_DEFAULT_LIGHT_Y;
+    o->effects.light[2] = VV_DEFAULT_LIGHT_Z;
+    o->effects.fog = VV_DEFAULT_FOG;
     int zbuf = 0, none = 0, leaf = 0;
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
@@ -174,10 +184,15 @@ int vv_options_parse(int argc, char **argv, vv_options *o)
             o->material = (uint8_t)n;
         } else if (!strcmp(a, "--screenshot")) {
             o->screenshot = v;
+        } else if (!strcmp(a, "--effects")) {
+            char err[256];
+            if (vc_effects_parse(v, &o->effects, err, sizeof err) != 0)
+                return usage_error("--effects: %s", err);
         } else if (!strcmp(a, "--keys")) {
             for (const char *c = v; *c; ++c)
-                if (!((*c >= 'A' && *c <= 'Z') || (*c >= 'a' && *c <= 'z') || strchr("[],.", *c)))
-                    return usage_error("--keys takes letters and [ ] , . only, not \"%s\"", v);
+                if (!((*c >= 'A' && *c <= 'Z') || (*c >= 'a' && *c <= 'z') || (*c >= '0' && *c <= '9') ||
+                      strchr("[],.", *c)))
+                    return usage_error("--keys takes letters, digits and [ ] , . only, not \"%s\"", v);
             o->keys = v;
         } else if (!strcmp(a, "--drawlist")) {
             o->drawlist = v;

@@ -5,6 +5,7 @@
 #include <stdint.h>
 
 #include "edit.h"
+#include "effects_spec.h"
 #include "viewer.h"
 
 typedef struct vv_options {
@@ -16,6 +17,8 @@ typedef struct vv_options {
     vis_backend_kind backend;    /* --backend                                              */
     vv_method method;            /* --method ray|zbuf|none with --ids object|leaf          */
     vv_overlay overlay;          /* --overlay                                              */
+    vc_effects effects;          /* --effects (bits 0: none), light and fog preset to
+                                    cull.h's defaults for the keys that turn them on       */
     int boxes;                   /* --boxes: the culled objects' boxes                     */
     int hud;                     /* 0 with --no-hud                                        */
     /* The scripted mode: --frames N renders N frames and exits.                           */

@@ -8,7 +8,10 @@
  * drew (--drawlist) must equal `vis cull --dump-list` for the same camera — also with culling
  * frozen at another camera than the one drawn from — and after a scripted edit it must equal
  * a draw list made here from scratch: the world loaded again, the same brush applied with
- * voxelworld, a new scene traced. A missing display must give a message and exit code 1.
+ * voxelworld, a new scene traced. With effects (--effects, keys 1-4) the list must equal `vis
+ * cull --effects ... --dump-list`'s (reasons and pixels per reason), toggling every effect on
+ * and off must end on the plain list, and the objects there for an effect alone must show in
+ * their tint. A missing display must give a message and exit code 1.
  *
  * Skips (with the reason) when xvfb-run is not installed, or the .vox data is absent. */
 #define _POSIX_C_SOURCE 200809L
@@ -463,6 +466,176 @@ static void test_live_switches(void **state)
     vt_run_free(&r);
 }
 
+/* A small city with glass (see-through, reflective) seen from a roof: every effect changes
+ * the list there (fog 60 culls direct objects; two objects are there only in reflections,
+ * two only as shadow casters: tests/test_effects.c checks the effects themselves). */
+#define CITY "gen:city:size=128x48x128:seed=2"
+#define CAM_CITY "12.8,43,12.8,77,10,90"
+#define CITY_EFFECTS "see-through,reflect,shadows:1,0.7,0.4,fog:60"
+
+static void vis_cull_effects_list(const char *effects, const char *out_path)
+{
+    vt_run_result r = vt_run(VIS_EXE, tmp_dir, NULL,
+                             "cull --scene " CITY " --camera " CAM_CITY " --res 256x256 --backend cpu --effects %s --dump-list '%s'",
+                             effects, out_path);
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+}
+
+/* Lines of an effects list ("ID DIRECT SEE_THROUGH REFLECTION SHADOW") with no direct pixel
+ * and a pixel of column `col` (2 see-through, 3 reflection, 4 shadow). */
+static int effect_only_entries(const char *path, int col)
+{
+    char *text = vt_slurp(path);
+    assert_non_null(text);
+    int n = 0;
+    for (const char *p = text; *p;) {
+        unsigned v[5];
+        assert_int_equal(sscanf(p, "%u %u %u %u %u", &v[0], &v[1], &v[2], &v[3], &v[4]), 5);
+        n += v[1] == 0 && v[col] > 0;
+        p = strchr(p, '\n');
+        assert_non_null(p);
+        ++p;
+    }
+    free(text);
+    return n;
+}
+
+/* --effects: the list drawn is `vis cull --effects`'s, byte for byte, with its reasons. */
+static void test_effects_list(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    vt_run_result r = run_viewer("--scene " CITY " --camera " CAM_CITY " --res 256x256 --effects " CITY_EFFECTS
+                                 " --frames 2 --no-hud --drawlist '%s'",
+                                 tmp_path("fx.txt"));
+    vt_assert_exit(r, 0);
+    vis_cull_effects_list(CITY_EFFECTS, tmp_path("fx_ref.txt"));
+    assert_same_file(tmp_path("fx.txt"), tmp_path("fx_ref.txt"));
+    /* The view is one where the effects matter: objects there for a reflection or a shadow
+     * alone, and a list unlike the plain one. */
+    assert_true(effect_only_entries(tmp_path("fx.txt"), 3) > 0);
+    assert_true(effect_only_entries(tmp_path("fx.txt"), 4) > 0);
+    vt_run_free(&r);
+}
+
+/* Keys 1-4 (one press per frame): every effect on, then off again, ends on the plain list;
+ * on alone they give the documented light and fog (1,0.7,0.4 and 200); and the z-buffer
+ * culler ignores --effects. */
+static void test_effects_keys(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    vt_run_result r = run_viewer("--scene " CITY " --camera " CAM_CITY " --res 256x256 --frames 9 --no-hud --keys "
+                                 "12344321 --drawlist '%s'",
+                                 tmp_path("fx_keys_off.txt"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    vt_run_result c = vt_run(VIS_EXE, tmp_dir, NULL,
+                             "cull --scene " CITY " --camera " CAM_CITY " --res 256x256 --dump-list '%s'",
+                             tmp_path("fx_plain_ref.txt"));
+    vt_assert_exit(c, 0);
+    vt_run_free(&c);
+    assert_same_file(tmp_path("fx_keys_off.txt"), tmp_path("fx_plain_ref.txt"));
+
+    r = run_viewer("--scene " CITY " --camera " CAM_CITY " --res 256x256 --frames 5 --no-hud --keys 4321 "
+                   "--drawlist '%s'",
+                   tmp_path("fx_keys_on.txt"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    vis_cull_effects_list("see-through,reflect,shadows:1,0.7,0.4,fog:200", tmp_path("fx_keys_on_ref.txt"));
+    assert_same_file(tmp_path("fx_keys_on.txt"), tmp_path("fx_keys_on_ref.txt"));
+
+    r = run_viewer("--scene " CITY " --camera " CAM_CITY " --res 256x256 --method zbuf --effects " CITY_EFFECTS
+                   " --frames 1 --no-hud --drawlist '%s'",
+                   tmp_path("fx_zbuf.txt"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    c = vt_run(VIS_EXE, tmp_dir, NULL,
+               "cull --scene " CITY " --camera " CAM_CITY " --res 256x256 --method zbuf --dump-list '%s'",
+               tmp_path("fx_zbuf_ref.txt"));
+    vt_assert_exit(c, 0);
+    vt_run_free(&c);
+    assert_same_file(tmp_path("fx_zbuf.txt"), tmp_path("fx_zbuf_ref.txt"));
+}
+
+/* Key B with effects on: the OpenCL backend's vis_trace_effects traces the last frames, and
+ * the list is the CPU's `vis cull --effects` list byte for byte. Without an OpenCL device
+ * the viewer stays on the CPU (its HUD says why) and only that is checked. */
+static void test_effects_opencl(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    vt_run_result r = run_viewer("--scene " CITY " --camera " CAM_CITY " --res 256x256 --backend cpu --effects "
+                                 CITY_EFFECTS " --frames 3 --keys B --no-hud --drawlist '%s'",
+                                 tmp_path("fx_cl.txt"));
+    vt_assert_exit(r, 0);
+    if (!strstr(r.out, "object IDs, opencl ("))
+        print_message("NOTE: no OpenCL device: key B left the viewer on the CPU; the OpenCL list is not checked\n");
+    vis_cull_effects_list(CITY_EFFECTS, tmp_path("fx_cl_ref.txt"));
+    assert_same_file(tmp_path("fx_cl.txt"), tmp_path("fx_cl_ref.txt"));
+    vt_run_free(&r);
+}
+
+/* Pixels of one tint (docs/viewer.md: cyan 0,255,255 seen through only, magenta 255,0,255
+ * in reflections only, orange 255,128,0 shadow casters only) times any face shade, within
+ * 1 per channel (GL's conversion to 8 bits). */
+static size_t count_tint(const char *png_path, const unsigned char tint[3])
+{
+    static const float shades[4] = {1.0f, 0.5f, 0.8f, 0.65f};
+    unsigned char want[4][3];
+    for (int s = 0; s < 4; ++s)
+        for (int k = 0; k < 3; ++k)
+            want[s][k] = (unsigned char)lroundf((float)tint[k] * shades[s]);
+    picture p = read_png(png_path);
+    size_t n = 0;
+    for (size_t i = 0; i < (size_t)p.w * p.h; ++i) {
+        const unsigned char *c = &p.rgb[3 * i];
+        for (int s = 0; s < 4; ++s)
+            if (abs(c[0] - want[s][0]) <= 1 && abs(c[1] - want[s][1]) <= 1 && abs(c[2] - want[s][2]) <= 1) {
+                ++n;
+                break;
+            }
+    }
+    free(p.rgb);
+    return n;
+}
+
+/* Culling frozen on the roof with effects, drawn from above the city: the objects there
+ * only in a reflection (magenta) and only as shadow casters (orange) are in the picture;
+ * without --effects neither colour is. */
+static void test_effects_tint(void **state)
+{
+    (void)state;
+    if (!have_xvfb())
+        skip();
+    static const unsigned char magenta[3] = {255, 0, 255}, orange[3] = {255, 128, 0}, cyan[3] = {0, 255, 255};
+    const char *above = "-60,150,-60,64,0,64";
+    vt_run_result r = run_viewer("--scene " CITY " --camera %s --cull-camera " CAM_CITY " --res 256x256 --effects "
+                                 CITY_EFFECTS " --frames 2 --no-hud --screenshot '%s'",
+                                 above, tmp_path("fx_tint.png"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    r = run_viewer("--scene " CITY " --camera %s --cull-camera " CAM_CITY " --res 256x256 --frames 2 --no-hud "
+                   "--screenshot '%s'",
+                   above, tmp_path("fx_plain.png"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    size_t m = count_tint(tmp_path("fx_tint.png"), magenta), o = count_tint(tmp_path("fx_tint.png"), orange);
+    size_t m0 = count_tint(tmp_path("fx_plain.png"), magenta), o0 = count_tint(tmp_path("fx_plain.png"), orange);
+    size_t c0 = count_tint(tmp_path("fx_plain.png"), cyan);
+    print_message("tints with effects: %zu reflection, %zu shadow-caster pixels; without: %zu, %zu (cyan %zu)\n", m,
+                  o, m0, o0, c0);
+    assert_true(m > 100);
+    assert_true(o > 100);
+    assert_int_equal(m0, 0);
+    assert_int_equal(o0, 0);
+    assert_int_equal(c0, 0);
+}
+
 static void test_bad_arguments(void **state)
 {
     (void)state;
@@ -476,6 +649,20 @@ static void test_bad_arguments(void **state)
     r = vt_run(VIEWER_EXE, tmp_dir, NULL, "--frames 1 --edit explode:1,1");
     vt_assert_exit(r, 2);
     vt_run_free(&r);
+    /* A malformed --effects: exit 2 before any window, the message naming the problem. */
+    static const struct {
+        const char *args, *says;
+    } fx[] = {{"--effects glitter", "glitter"},        {"--effects shadows:1,2", "shadows"},
+              {"--effects shadows:0,0,0", "zero"},     {"--effects fog:-3", "fog"},
+              {"--effects reflect,reflect", "twice"},  {"--effects ''", "effect"}};
+    for (size_t i = 0; i < sizeof fx / sizeof fx[0]; ++i) {
+        r = vt_run(VIEWER_EXE, tmp_dir, "env -u DISPLAY", "%s", fx[i].args);
+        vt_assert_exit(r, 2);
+        assert_non_null(strstr(r.err, "--effects"));
+        if (!strstr(r.err, fx[i].says))
+            fail_msg("%s: the message does not say '%s': %s", fx[i].args, fx[i].says, r.err);
+        vt_run_free(&r);
+    }
 }
 
 static int setup(void **state) { return vt_run_setup(state, tmp_dir, sizeof tmp_dir, "vis_test_viewer", VIEWER_EXE); }
@@ -486,6 +673,8 @@ int main(void)
         cmocka_unit_test(test_no_display), cmocka_unit_test(test_bad_arguments), cmocka_unit_test(test_default_world),
         cmocka_unit_test(test_vox_scene),  cmocka_unit_test(test_frozen),        cmocka_unit_test(test_edit),
         cmocka_unit_test(test_live_switches),    cmocka_unit_test(test_cost_overlay),
+        cmocka_unit_test(test_effects_list),     cmocka_unit_test(test_effects_keys),
+        cmocka_unit_test(test_effects_tint),     cmocka_unit_test(test_effects_opencl),
     };
     return cmocka_run_group_tests(tests, setup, vt_tmp_dir_teardown);
 }

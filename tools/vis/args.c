@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "effects_spec.h"
 #include "names.h"
 #include "bench_traversal.h" /* CLI_TRAVERSAL_ALL */
 
@@ -379,58 +380,18 @@ static int p_json(const char *cmd, const char *opt, const char *value, int list,
     return CLI_EXIT_OK;
 }
 
-/* --effects see-through,reflect,shadows:DX,DY,DZ,fog:DIST (any subset, any order): the
- * light's three numbers follow "shadows:" across the commas. */
+/* --effects: the list parser shared with vis-viewer (effects_spec.h). */
 static int p_effects(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
 {
     (void)list;
-    char buf[256];
-    if (strlen(value) >= sizeof buf)
-        return cli_usage_error(cmd, "%s: value too long", opt);
-    memcpy(buf, value, strlen(value) + 1);
-    a->effects = 0;
-    char *tok[16];
-    int nt = 0;
-    for (char *p = buf;; ++p) { /* split at the commas, in place */
-        if (nt == 16)
-            return cli_usage_error(cmd, "%s: too many items", opt);
-        tok[nt++] = p;
-        p = strchr(p, ',');
-        if (!p)
-            break;
-        *p = '\0';
-    }
-    for (int ti = 0; ti < nt; ++ti) {
-        char *t = tok[ti];
-        uint32_t bit = 0;
-        if (strcmp(t, "see-through") == 0) {
-            bit = VIS_EFFECT_SEE_THROUGH;
-        } else if (strcmp(t, "reflect") == 0) {
-            bit = VIS_EFFECT_REFLECT;
-        } else if (strncmp(t, "shadows:", 8) == 0) {
-            bit = VIS_EFFECT_SHADOWS;
-            const char *num[3] = {t + 8, ti + 1 < nt ? tok[ti + 1] : NULL, ti + 2 < nt ? tok[ti + 2] : NULL};
-            ti += 2;
-            for (int i = 0; i < 3; ++i)
-                if (!num[i] || parse_double(num[i], &a->light[i]) != 0)
-                    return cli_usage_error(cmd, "%s: shadows needs a light direction shadows:DX,DY,DZ (3 finite numbers)",
-                                           opt);
-            if (a->light[0] == 0.0 && a->light[1] == 0.0 && a->light[2] == 0.0)
-                return cli_usage_error(cmd, "%s: the light direction must not be zero", opt);
-        } else if (strncmp(t, "fog:", 4) == 0) {
-            bit = VIS_EFFECT_FOG;
-            if (parse_double(t + 4, &a->fog) != 0 || !(a->fog > 0.0))
-                return cli_usage_error(cmd, "%s: fog:DIST needs a finite distance > 0, got '%s'", opt, t + 4);
-        } else {
-            return cli_usage_error(cmd, "%s: unknown effect '%s' (see-through, reflect, shadows:DX,DY,DZ, fog:DIST)",
-                                   opt, t);
-        }
-        if (a->effects & bit)
-            return cli_usage_error(cmd, "%s: '%s' given twice", opt, t);
-        a->effects |= bit;
-    }
-    if (!a->effects)
-        return cli_usage_error(cmd, "%s: no effect named", opt);
+    vc_effects e;
+    memset(&e, 0, sizeof e);
+    char err[256];
+    if (vc_effects_parse(value, &e, err, sizeof err) != 0)
+        return cli_usage_error(cmd, "%s: %s", opt, err);
+    a->effects = e.bits;
+    memcpy(a->light, e.light, sizeof a->light);
+    a->fog = e.fog;
     return CLI_EXIT_OK;
 }
 

@@ -53,14 +53,14 @@ int bench_effects(const cli_args *a)
     vis_scene *scene = world_scene_scene(s.ws);
     size_t n = (size_t)a->width * a->height;
     char names[128];
-    cli_effects_format(a->effects, names, sizeof names);
+    vc_effects_format(a->effects, names, sizeof names);
     if (!a->json) {
         printf("libvis %s bench --effects %s: %s, %ux%u, %u frames per view, %s (%s)\n", vis_version(), names,
                a->scene, a->width, a->height, a->frames, s.backend.name, s.backend.device);
         printf("  %-10s %22s %22s", "view", vc_traversal_run_name((int)a->traversal, s.backend.kind), "stack");
         for (uint32_t k = 0; k < nsets; ++k) {
             char nm[128];
-            cli_effects_format(sets[k], nm, sizeof nm);
+            vc_effects_format(sets[k], nm, sizeof nm);
             printf(" %30s", k + 1 == nsets && nsets > 1 ? "all listed" : nm);
         }
         printf("\n  %-10s %22s %22s", "", "median (min-max) ms", "median (min-max) ms");
@@ -135,7 +135,7 @@ int bench_effects(const cli_args *a)
             json_array_begin(&w, "sets");
             for (uint32_t k = 0; k < nsets; ++k) {
                 char nm[128];
-                cli_effects_format(sets[k], nm, sizeof nm);
+                vc_effects_format(sets[k], nm, sizeof nm);
                 const fx_cell *x = &c[COL_FIRST_SET + k];
                 json_object_begin(&w, NULL);
                 json_string(&w, "effects", nm);

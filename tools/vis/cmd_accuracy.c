@@ -288,7 +288,7 @@ static int effects_pass(study *st, const cli_scene *s, const vis_camera *cam, co
         lb.reflection = NULL;
     if (!(d->effects & VIS_EFFECT_SHADOWS))
         lb.shadow = NULL;
-    if (vis_drawlist_build_effects(s->ctx, scene, &lb, d->width, d->height, CLI_SEE_THROUGH_LAYERS, fx, st->cap,
+    if (vis_drawlist_build_effects(s->ctx, scene, &lb, d->width, d->height, VC_SEE_THROUGH_LAYERS, fx, st->cap,
                                    count) != VIS_OK)
         return cli_fail_vis(CMD, s->ctx, "vis_drawlist_build_effects");
     for (size_t i = 0; i < *count; ++i) {
@@ -474,7 +474,7 @@ static void print_json(const study *st, const acc_row *rows, const char *csv, co
     json_uint(&w, "repeat", st->repeat);
     if (a->effects) {
         char names[128];
-        cli_effects_format(a->effects, names, sizeof names);
+        vc_effects_format(a->effects, names, sizeof names);
         json_string(&w, "effects", names);
     } else {
         json_string(&w, "effects", NULL);
@@ -589,7 +589,7 @@ static int report(study *st)
     acc_print_table(stdout, rows, st->nrows, a->truth_width, a->truth_height);
     if (a->effects) {
         char names[128];
-        cli_effects_format(a->effects, names, sizeof names);
+        vc_effects_format(a->effects, names, sizeof names);
         printf("\nmisses per reason (%s; truth and ray passes traced with them; zbuf knows no effects):\n", names);
         acc_print_reasons(stdout, rows, st->nrows);
     }
@@ -631,7 +631,7 @@ int cmd_accuracy(const cli_args *a)
                st->obj.backend.name, st->obj.backend.device);
         if (a->effects) {
             char names[128];
-            cli_effects_format(a->effects, names, sizeof names);
+            vc_effects_format(a->effects, names, sizeof names);
             printf("effects   %s (the truth and the ray-object rows; no ray-leaf rows)\n", names);
         }
         fflush(stdout);

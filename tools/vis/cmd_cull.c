@@ -80,7 +80,7 @@ static void print_json(const cli_args *a, const cli_scene *s, const cull_result 
     json_number(&w, "drawlist_ms", r->drawlist_ms);
     if (a->effects) {
         char names[128];
-        cli_effects_format(a->effects, names, sizeof names);
+        vc_effects_format(a->effects, names, sizeof names);
         json_string(&w, "effects", names);
         json_object_begin(&w, "reasons");
         static const char *const keys[VIS_REASON_COUNT] = {"direct", "see_through", "reflection", "shadow"};
@@ -130,7 +130,7 @@ static void print_human(const cli_args *a, const cli_scene *s, const cull_result
     }
     if (a->effects) {
         char names[128];
-        cli_effects_format(a->effects, names, sizeof names);
+        vc_effects_format(a->effects, names, sizeof names);
         printf("effects   %s: %u direct, %u seen through, %u in reflections, %u shadow casters (%u only as casters); "
                "%llu secondary rays\n",
                names, r->reason_objects[0], r->reason_objects[1], r->reason_objects[2], r->reason_objects[3],
@@ -214,7 +214,7 @@ static int effects_pass(const cli_args *a, cli_scene *s, cull_result *r)
     if (!(desc.effects & VIS_EFFECT_SHADOWS))
         lb.shadow = NULL;
     double t0 = vc_now_ms();
-    if (vis_drawlist_build_effects(s->ctx, scene, &lb, a->width, a->height, CLI_SEE_THROUGH_LAYERS, r->fx_entries, cap,
+    if (vis_drawlist_build_effects(s->ctx, scene, &lb, a->width, a->height, VC_SEE_THROUGH_LAYERS, r->fx_entries, cap,
                                    &r->count) != VIS_OK) {
         rc = cli_fail_vis(CMD, s->ctx, "vis_drawlist_build_effects");
         goto done;

@@ -35,7 +35,7 @@ static int run_effects_view(const cli_args *a, cli_scene *s, const vc_view *view
     if (!(a->effects & VIS_EFFECT_SHADOWS))
         lb.shadow = NULL;
     if (cli_effects_run(s->ctx, scene, &view->camera, &desc, a->repeat, &fb.b, t) != VIS_OK ||
-        vis_drawlist_build_effects(s->ctx, scene, &lb, a->width, a->height, CLI_SEE_THROUGH_LAYERS, e, cap, &count) !=
+        vis_drawlist_build_effects(s->ctx, scene, &lb, a->width, a->height, VC_SEE_THROUGH_LAYERS, e, cap, &count) !=
             VIS_OK) {
         rc = cli_fail_vis(CMD, s->ctx, view->name);
         goto done;
@@ -100,7 +100,7 @@ int cmd_run(const cli_args *a)
            vc_name_of(&vc_id_modes, (int)a->ids), vc_traversal_run_name((int)a->traversal, s.backend.kind), repeat);
     if (a->effects) {
         char names[128];
-        cli_effects_format(a->effects, names, sizeof names);
+        vc_effects_format(a->effects, names, sizeof names);
         printf("effects   %s: objects per reason (direct, see-through, reflection, shadow caster)\n\n", names);
         printf("  %-10s %18s %10s %10s %24s\n", "view", "visible objects", "ms/pass", "Mrays/s", "direct/seen/refl/cast");
     } else {

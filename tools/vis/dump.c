@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "list_file.h"
 #include "out_file.h"
 
 static int finish(const char *cmd, vc_out_file *f)
@@ -54,23 +55,15 @@ int cli_dump_depth(const char *cmd, const char *path, const float *depth, size_t
 int cli_dump_effect_list(const char *cmd, const char *path, const vis_effect_entry *entries, size_t count)
 {
     char err[1024];
-    vc_out_file f;
-    if (vc_out_open(&f, path, err, sizeof err) != 0)
+    if (vc_effect_list_write(path, entries, count, err, sizeof err) != 0)
         return cli_fail(cmd, "%s", err);
-    for (size_t i = 0; i < count && !f.error; ++i) {
-        const vis_effect_entry *e = &entries[i];
-        vc_out_printf(&f, "%u %u %u %u %u\n", e->id, e->pixels[0], e->pixels[1], e->pixels[2], e->pixels[3]);
-    }
-    return finish(cmd, &f);
+    return CLI_EXIT_OK;
 }
 
 int cli_dump_list(const char *cmd, const char *path, const vis_draw_entry *entries, size_t count)
 {
     char err[1024];
-    vc_out_file f;
-    if (vc_out_open(&f, path, err, sizeof err) != 0)
+    if (vc_list_write(path, entries, count, err, sizeof err) != 0)
         return cli_fail(cmd, "%s", err);
-    for (size_t i = 0; i < count && !f.error; ++i)
-        vc_out_printf(&f, "%u %u\n", entries[i].id, entries[i].pixels);
-    return finish(cmd, &f);
+    return CLI_EXIT_OK;
 }

@@ -18,7 +18,7 @@ vis_trace_desc cli_trace_desc(const cli_args *a)
     d.traversal = vc_traversal_method((int)a->traversal); /* names.h: N rides along */
     d.short_stack = vc_traversal_short_stack((int)a->traversal);
     d.effects = a->effects;
-    d.see_through_layers = CLI_SEE_THROUGH_LAYERS;
+    d.see_through_layers = VC_SEE_THROUGH_LAYERS;
     memcpy(d.light_dir, a->light, sizeof d.light_dir);
     d.fog_dist = a->fog;
     return d;
@@ -83,31 +83,17 @@ vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *ca
     return timed_passes(trace_once, &c, passes, (double)desc->width * desc->height, out);
 }
 
-void cli_effects_format(uint32_t effects, char *out, size_t size)
-{
-    static const struct { uint32_t bit; const char *name; } names[] = {
-        {VIS_EFFECT_SEE_THROUGH, "see-through"}, {VIS_EFFECT_REFLECT, "reflect"}, {VIS_EFFECT_SHADOWS, "shadows"},
-        {VIS_EFFECT_FOG, "fog"}};
-    size_t at = 0;
-    out[0] = '\0';
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; ++i)
-        if ((effects & names[i].bit) && at < size) {
-            int k = snprintf(out + at, size - at, "%s%s", at ? "," : "", names[i].name);
-            at += k > 0 ? (size_t)k : 0;
-        }
-}
-
 /* The buffers of an effects pass for W x H. */
 int cli_effect_buffers_alloc(cli_effect_buffers *e, uint32_t width, uint32_t height)
 {
     size_t n = (size_t)width * height;
     memset(e, 0, sizeof *e);
     e->b.ids = malloc(n * sizeof(uint32_t));
-    e->b.see_through = malloc(n * CLI_SEE_THROUGH_LAYERS * sizeof(uint32_t));
+    e->b.see_through = malloc(n * VC_SEE_THROUGH_LAYERS * sizeof(uint32_t));
     e->b.reflection = malloc(n * sizeof(uint32_t));
     e->b.shadow = malloc(n * sizeof(uint32_t));
     e->b.ids_capacity = e->b.reflection_capacity = e->b.shadow_capacity = n;
-    e->b.see_through_capacity = n * CLI_SEE_THROUGH_LAYERS;
+    e->b.see_through_capacity = n * VC_SEE_THROUGH_LAYERS;
     return e->b.ids && e->b.see_through && e->b.reflection && e->b.shadow ? 0 : -1;
 }
 

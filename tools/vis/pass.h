@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "args.h"
+#include "effects_spec.h" /* VC_SEE_THROUGH_LAYERS, vc_effects_format */
 #include "vis/vis.h"
 
 typedef struct cli_pass_times {
@@ -26,12 +27,6 @@ vis_trace_desc cli_trace_desc(const cli_args *args);
 vis_status cli_pass_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
                         uint32_t passes, uint32_t *ids, size_t ids_capacity, float *depth, size_t depth_capacity,
                         cli_pass_times *out);
-
-/* "see-through,reflect,shadows,fog": the names of the effect bits set. */
-void cli_effects_format(uint32_t effects, char *out, size_t size);
-
-/* See-through layers the CLI asks for (docs/effects.md). */
-#define CLI_SEE_THROUGH_LAYERS 2u
 
 /* The buffers of an effects pass (no depth), owned. */
 typedef struct cli_effect_buffers {
