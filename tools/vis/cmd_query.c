@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "names.h"
 #include "query_compare.h"
 #include "query_replay.h"
 #include "query_sim.h"
@@ -40,6 +41,10 @@ static void usage(FILE *f)
             "  --chunk-res N        chunk pass resolution per face (default 32)\n"
             "  --chunk-every N      re-trace a viewer's chunks every N ticks (default 32)\n"
             "  --chunk-range X      the chunk pass's far plane in voxels (default 0: unlimited)\n"
+            "  --chunk-move X       re-trace a viewer's chunks when its eye moved X voxels (on any\n"
+            "                       axis) since its last pass, instead of every --chunk-every ticks\n"
+            "                       (default 0: the cadence, skipping passes whose camera is unchanged)\n"
+            "  --chunk-traversal M  the chunk passes' traversal (default auto; names as vis run's)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"
             "  --compare            also run the SMAC-style and Luanti-style checks and a dense truth\n"
             "  --truth-res N        truth: N x N per cube face (default 256)\n"
@@ -66,7 +71,8 @@ typedef struct qopts {
     uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, hold, chunk_res, chunk_every;
     uint32_t truth_res, truth_every, edit_every, viewer_budget;
     uint64_t budget, seed;
-    double margin, peek, slack, chunk_range, luanti_range, tick_ms;
+    double margin, peek, slack, chunk_range, chunk_move, luanti_range, tick_ms;
+    int chunk_traversal;
     int have_simulate;
 } qopts;
 
@@ -195,6 +201,13 @@ static int parse_args(int argc, char **argv, qopts *o)
                 fprintf(stderr, "vis query: --chunk-range '%s': 0 (unlimited) or at least 1 voxel\n", v);
                 rc = -1;
             }
+        } else if (!strcmp(a, "--chunk-move")) {
+            rc = parse_dbl(a, v, 0.0, 1e5, &o->chunk_move);
+        } else if (!strcmp(a, "--chunk-traversal")) {
+            /* The query has no short-stack depth of its own: "shortstack:N" is refused. */
+            if (!v || vc_name_lookup(&vc_traversals, v, &o->chunk_traversal) ||
+                vc_traversal_short_stack(o->chunk_traversal) != 0)
+                rc = (fprintf(stderr, "vis query: --chunk-traversal '%s': a method name without :N\n", v ? v : ""), -1);
         } else if (!strcmp(a, "--slack")) {
             rc = parse_dbl(a, v, 0.0, 100.0, &o->slack);
         } else if (!strcmp(a, "--peek")) {
@@ -488,6 +501,8 @@ static int run_replay(const qopts *o)
     qd.pair_ray_limit = o->pair_limit;
     qd.proof_slack = o->slack > 0.0 ? o->slack : -1.0; /* the library's 0 means its default */
     qd.chunk_range = o->chunk_range;
+    qd.chunk_move = o->chunk_move;
+    qd.chunk_traversal = vc_traversal_method(o->chunk_traversal);
     qd.threads = o->threads;
     if (vis_query_create(s.ctx, scene, &qd, &q) != VIS_OK) {
         rc = cli_fail_vis(CMD, s.ctx, "vis_query_create");
