@@ -44,7 +44,7 @@ static void usage(FILE *f)
             "  --chunk-move X       re-trace a viewer's chunks when its eye moved X voxels (on any\n"
             "                       axis) since its last pass, instead of every --chunk-every ticks\n"
             "                       (default 0: the cadence, skipping passes whose camera is unchanged)\n"
-            "  --chunk-traversal M  the chunk passes' traversal (default auto; names as vis run's)\n"
+            "  --chunk-traversal M  the chunk passes' traversal (default auto: stack; names as vis run's)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"
             "  --compare            also run the SMAC-style and Luanti-style checks and a dense truth\n"
             "  --truth-res N        truth: N x N per cube face (default 256)\n"

@@ -817,8 +817,9 @@ typedef struct vis_query_desc {
                                   left the cube of half-side chunk_move around the eye of
                                   its last pass, or its dir or fov_deg changed (and at once
                                   for a new viewer or after a scene edit); at most 1e5      */
-    vis_traversal chunk_traversal; /* the chunk passes' traversal; default VIS_TRAVERSAL_AUTO
-                                  (the backend's choice); every method gives the same IDs   */
+    vis_traversal chunk_traversal; /* the chunk passes' traversal; VIS_TRAVERSAL_AUTO (default):
+                                  VIS_TRAVERSAL_STACK, cheaper than packets for passes this
+                                  coarse (docs/server.md); every method gives the same IDs  */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
