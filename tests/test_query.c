@@ -882,10 +882,11 @@ static void test_chunk_reuse(void **state)
     uint32_t kept[6 * 32 * 32], fresh[6 * 32 * 32];
     size_t nk = 0, nf = 0;
     assert_int_equal(vis_query_chunks(q, 0, kept, 6 * 32 * 32, &nk), VIS_OK);
+    double y = v.eye[1];
     v.eye[1] += 1e-9;
     assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 1);
-    v.eye[1] -= 1e-9;
+    v.eye[1] = y;
     vis_query *q2 = NULL;
     assert_int_equal(vis_query_create(ctx, scene, &d, &q2), VIS_OK);
     assert_int_equal(vis_query_run(q2, &v, 1, NULL, 0, &st), VIS_OK);
@@ -1022,6 +1023,11 @@ static void test_cli_simulate_replay(void **state)
     assert_int_equal(lines, 49); /* header + 48 ticks */
     assert_non_null(strstr(text, "\"edits\":[["));
     free(text);
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --chunk-move 1 --chunk-traversal ropes --json", MAZE,
+               qpath("maze.jsonl"));
+    vt_assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "\"mean\":"));
+    vt_run_free(&r);
     r = vt_run(VIS_EXE, qdir, NULL,
                "query --scene %s --replay %s --compare --truth-every 8 --truth-res 128 --json --out %s", MAZE,
                qpath("maze.jsonl"), qpath("out.jsonl"));
@@ -1106,6 +1112,13 @@ static void test_cli_hostile_replay(void **state)
     r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --threads 0", MAZE, qpath("long.jsonl"));
     vt_assert_exit(r, 2);
     vt_run_free(&r);
+    const char *bad_opts[] = {"--chunk-move -1", "--chunk-move nan", "--chunk-move 1e6", "--chunk-traversal shortstack:3",
+                              "--chunk-traversal warp", "--chunk-traversal", "--chunks"};
+    for (size_t i = 0; i < sizeof bad_opts / sizeof bad_opts[0]; ++i) {
+        r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s %s", MAZE, qpath("long.jsonl"), bad_opts[i]);
+        vt_assert_exit(r, 2);
+        vt_run_free(&r);
+    }
 }
 
 static int cli_setup(void **state)

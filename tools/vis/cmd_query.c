@@ -217,12 +217,12 @@ static int parse_args(int argc, char **argv, qopts *o)
         } else if (!strcmp(a, "--tick-ms")) {
             rc = parse_dbl(a, v, 0.1, 10000.0, &o->tick_ms);
         } else if (!strcmp(a, "--chunks")) {
-            if (!strcmp(v, "view"))
+            if (v && !strcmp(v, "view"))
                 o->around = 0;
-            else if (!strcmp(v, "around"))
+            else if (v && !strcmp(v, "around"))
                 o->around = 1;
             else
-                rc = (fprintf(stderr, "vis query: --chunks '%s': view or around\n", v), -1);
+                rc = (fprintf(stderr, "vis query: --chunks '%s': view or around\n", v ? v : ""), -1);
         } else {
             fprintf(stderr, "vis query: unknown option '%s' (vis query --help)\n", a);
             return CLI_EXIT_USAGE;
