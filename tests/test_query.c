@@ -894,6 +894,17 @@ static void test_chunk_reuse(void **state)
     assert_int_equal(nk, nf);
     assert_memory_equal(kept, fresh, nk * 4);
     vis_query_destroy(q2);
+    /* An edit retraces a still viewer on the cadence too: the box behind the window, removed,
+     * leaves the list on the next tick. */
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1); /* back from the 1e-9 step */
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    assert_true(chunk_listed(q, 0, 3, NULL));
+    assert_int_equal(vis_scene_remove_object(scene, 3), VIS_OK);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_false(chunk_listed(q, 0, 3, NULL));
     vis_query_destroy(q);
 
     /* Bad values are refused at creation. */
