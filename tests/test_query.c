@@ -567,6 +567,15 @@ static void test_threads_deterministic(void **state)
         assert_memory_equal(a, b, n1 * 4);
         assert_int_equal(s1.entity_rays, s2.entity_rays);
     }
+    /* Passes driven by the eyes' motion, with another traversal: still the same lists. */
+    d.chunk_move = 0.5;
+    d.chunk_traversal = VIS_TRAVERSAL_SHORTSTACK;
+    n1 = run_ticks(1, &d, a, CAP, &s1);
+    for (int t = 0; t < 2; ++t) {
+        size_t n2 = run_ticks(threads[t], &d, b, CAP, &s2);
+        assert_int_equal(n1, n2);
+        assert_memory_equal(a, b, n1 * 4);
+    }
     free(a);
     free(b);
 }
@@ -749,6 +758,170 @@ static void test_chunks_match_trace(void **state)
     for (size_t i = 0; i < n; ++i)
         assert_int_equal(got[i], list[i].id);
     vis_query_destroy(q);
+    /* Every traversal method names the same chunks (docs/traversal.md, "Exactness"). */
+    for (int t = VIS_TRAVERSAL_STACK; t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
+        vis_query_desc d;
+        vis_query_desc_defaults(&d);
+        d.chunk_traversal = (vis_traversal)t;
+        assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+        assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, NULL), VIS_OK);
+        uint32_t other[1024];
+        size_t k = 0;
+        assert_int_equal(vis_query_chunks(q, 0, other, 1024, &k), VIS_OK);
+        assert_int_equal(k, n);
+        assert_memory_equal(other, got, n * 4);
+        vis_query_destroy(q);
+    }
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* The chunks a viewer's last pass named, and whether object `id` is among them. */
+static int chunk_listed(vis_query *q, uint32_t viewer, uint32_t id, size_t *count)
+{
+    uint32_t got[6 * 32 * 32];
+    size_t n = 0;
+    assert_int_equal(vis_query_chunks(q, viewer, got, 6 * 32 * 32, &n), VIS_OK);
+    if (count)
+        *count = n;
+    for (size_t i = 0; i < n; ++i)
+        if (got[i] == id)
+            return 1;
+    return 0;
+}
+
+/* Chunk passes that run only when needed. With chunk_move, a viewer's pass runs when its eye
+ * has left the cube of half-side chunk_move around its last pass's eye, or it turned, or the
+ * scene was edited -- an edit opening a window shows on the next tick although the viewer
+ * stood still. With the cadence (chunk_move 0), a due pass whose camera is unchanged is
+ * skipped and its list kept, which is the list the pass would give. */
+static void test_chunk_reuse(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    corner_world(&w);
+    /* Object 3: a box behind the wall (x = 20), hidden from the eye until the window opens. */
+    float blo[3] = {30, 2, 19}, bhi[3] = {32, 4, 21};
+    obj_box(add_obj(&w, 3), blo, bhi);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    v.eye[2] = 20.0;
+    v.fov_deg = 60.0;
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.chunk_move = 2.0;
+    d.chunk_every = 1000; /* ignored with chunk_move */
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    vis_query_stats st;
+    size_t n0 = 0, n = 0;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1); /* a new viewer: at once */
+    assert_int_equal(st.chunk_rays, 32 * 32);
+    assert_true(chunk_listed(q, 0, 2, &n0));
+    assert_false(chunk_listed(q, 0, 3, NULL));
+    /* 1.5 voxels on x and z: inside the cube, no pass, the list kept. */
+    v.eye[0] += 1.5;
+    v.eye[2] -= 1.5;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    assert_int_equal(st.chunk_rays, 0);
+    assert_true(chunk_listed(q, 0, 2, &n));
+    assert_int_equal(n, n0);
+    /* 2.5 voxels from the last pass's eye: a pass. */
+    v.eye[0] += 1.0;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    /* A turn, a narrower view, all around: a pass each. */
+    v.dir[2] = 0.25;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    v.fov_deg = 50.0;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    v.dir[0] = v.dir[2] = 0.0;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_rays, 6 * 32 * 32);
+    v.fov_deg = 40.0; /* ignored all around */
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    assert_false(chunk_listed(q, 0, 3, NULL));
+    /* Cut a window z in [18, 22), y in [2, 4) into the wall (as test_edit_opens_wall): the
+     * viewer stands still, yet the next tick's list names the box behind it. */
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 2;
+    float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 22, 21, 10, 40}, {20, 1, 18, 21, 2, 22}, {20, 4, 18, 21, 10, 22}};
+    for (int i = 0; i < 4; ++i)
+        obj_box(&o, parts[i], parts[i] + 3);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_true(chunk_listed(q, 0, 3, NULL));
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    assert_true(chunk_listed(q, 0, 3, NULL));
+    vis_query_destroy(q);
+
+    /* The cadence (chunk_move 0, every tick): a still viewer's due pass is skipped, a moved
+     * one's runs, and the kept list equals what a fresh query traces from the same eye. */
+    vis_query_desc_defaults(&d);
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    uint32_t kept[6 * 32 * 32], fresh[6 * 32 * 32];
+    size_t nk = 0, nf = 0;
+    assert_int_equal(vis_query_chunks(q, 0, kept, 6 * 32 * 32, &nk), VIS_OK);
+    double y = v.eye[1];
+    v.eye[1] += 1e-9;
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    v.eye[1] = y;
+    vis_query *q2 = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q2), VIS_OK);
+    assert_int_equal(vis_query_run(q2, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(vis_query_chunks(q2, 0, fresh, 6 * 32 * 32, &nf), VIS_OK);
+    assert_int_equal(nk, nf);
+    assert_memory_equal(kept, fresh, nk * 4);
+    vis_query_destroy(q2);
+    /* An edit retraces a still viewer on the cadence too: the box behind the window, removed,
+     * leaves the list on the next tick. */
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1); /* back from the 1e-9 step */
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    assert_true(chunk_listed(q, 0, 3, NULL));
+    assert_int_equal(vis_scene_remove_object(scene, 3), VIS_OK);
+    assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_false(chunk_listed(q, 0, 3, NULL));
+    vis_query_destroy(q);
+
+    /* Bad values are refused at creation. */
+    double bad_move[] = {NAN, -1.0, INFINITY, 1e6};
+    for (size_t i = 0; i < sizeof bad_move / sizeof bad_move[0]; ++i) {
+        vis_query_desc_defaults(&d);
+        d.chunk_move = bad_move[i];
+        q = NULL;
+        assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_ERROR_INVALID_ARGUMENT);
+        assert_non_null(strstr(vis_context_last_error(ctx), "chunk_move"));
+        assert_null(q);
+    }
+    vis_query_desc_defaults(&d);
+    d.chunk_traversal = (vis_traversal)99;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_ERROR_INVALID_ARGUMENT);
+    assert_non_null(strstr(vis_context_last_error(ctx), "chunk_traversal"));
+    assert_null(q);
     vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -861,6 +1034,11 @@ static void test_cli_simulate_replay(void **state)
     assert_int_equal(lines, 49); /* header + 48 ticks */
     assert_non_null(strstr(text, "\"edits\":[["));
     free(text);
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --chunk-move 1 --chunk-traversal ropes --json", MAZE,
+               qpath("maze.jsonl"));
+    vt_assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "\"mean\":"));
+    vt_run_free(&r);
     r = vt_run(VIS_EXE, qdir, NULL,
                "query --scene %s --replay %s --compare --truth-every 8 --truth-res 128 --json --out %s", MAZE,
                qpath("maze.jsonl"), qpath("out.jsonl"));
@@ -945,6 +1123,13 @@ static void test_cli_hostile_replay(void **state)
     r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --threads 0", MAZE, qpath("long.jsonl"));
     vt_assert_exit(r, 2);
     vt_run_free(&r);
+    const char *bad_opts[] = {"--chunk-move -1", "--chunk-move nan", "--chunk-move 1e6", "--chunk-traversal shortstack:3",
+                              "--chunk-traversal warp", "--chunk-traversal", "--chunks"};
+    for (size_t i = 0; i < sizeof bad_opts / sizeof bad_opts[0]; ++i) {
+        r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s %s", MAZE, qpath("long.jsonl"), bad_opts[i]);
+        vt_assert_exit(r, 2);
+        vt_run_free(&r);
+    }
 }
 
 static int cli_setup(void **state)
@@ -960,6 +1145,7 @@ int main(void)
         cmocka_unit_test(test_slack_cache),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
+        cmocka_unit_test(test_chunk_reuse),
         cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),
     };
     const struct CMUnitTest cli_tests[] = {

@@ -129,13 +129,17 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
                         VIS_QUERY_MAX_CHUNK_RES, d->pair_ray_limit, QUERY_MAX_PAIR_RAYS);
     if (!isfinite(d->margin) || d->margin < 0.0 || d->margin > QUERY_MAX_BOX || !isfinite(d->peek_speed) ||
         d->peek_speed < 0.0 || d->peek_speed > VIS_QUERY_MAX_SPEED || !isfinite(d->proof_slack) ||
-        d->proof_slack > QUERY_MAX_BOX || !isfinite(d->chunk_range) ||
+        d->proof_slack > QUERY_MAX_BOX || !isfinite(d->chunk_move) || d->chunk_move < 0.0 ||
+        d->chunk_move > QUERY_MAX_BOX || !isfinite(d->chunk_range) ||
         !(d->chunk_range == 0.0 || (d->chunk_range >= 1.0 && d->chunk_range <= QUERY_MAX_COORD)))
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
                         "vis_query_create: margin %g must be in [0, %g], peek_speed %g in [0, %g], proof_slack %g "
-                        "at most %g, chunk_range %g 0 or in [1, %g]",
+                        "at most %g, chunk_move %g in [0, %g], chunk_range %g 0 or in [1, %g]",
                         d->margin, QUERY_MAX_BOX, d->peek_speed, VIS_QUERY_MAX_SPEED, d->proof_slack, QUERY_MAX_BOX,
-                        d->chunk_range, QUERY_MAX_COORD);
+                        d->chunk_move, QUERY_MAX_BOX, d->chunk_range, QUERY_MAX_COORD);
+    if ((unsigned)d->chunk_traversal > (unsigned)VIS_TRAVERSAL_CACHED_STACK)
+        return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_query_create: chunk_traversal %d is not a vis_traversal",
+                        (int)d->chunk_traversal);
     return VIS_OK;
 }
 

@@ -20,6 +20,9 @@ typedef struct vis_qviewer {
     uint32_t id;              /* 0: free                                                   */
     uint64_t chunk_tick;      /* tick of its last chunk pass (0: none)                      */
     uint32_t chunk_count;     /* entries of its chunk list                                  */
+    double chunk_eye[3];      /* the camera of that pass: eye, dir, fov_deg (chunk_move and  */
+    double chunk_dir[3];      /* the skip of an unchanged camera compare with them)          */
+    double chunk_fov;
 } vis_qviewer;
 
 typedef struct vis_qentity {

@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "names.h"
 #include "query_compare.h"
 #include "query_replay.h"
 #include "query_sim.h"
@@ -40,6 +41,10 @@ static void usage(FILE *f)
             "  --chunk-res N        chunk pass resolution per face (default 32)\n"
             "  --chunk-every N      re-trace a viewer's chunks every N ticks (default 32)\n"
             "  --chunk-range X      the chunk pass's far plane in voxels (default 0: unlimited)\n"
+            "  --chunk-move X       re-trace a viewer's chunks when its eye moved X voxels (on any\n"
+            "                       axis) since its last pass, instead of every --chunk-every ticks\n"
+            "                       (default 0: the cadence, skipping passes whose camera is unchanged)\n"
+            "  --chunk-traversal M  the chunk passes' traversal (default auto: stack; names as vis run's)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"
             "  --compare            also run the SMAC-style and Luanti-style checks and a dense truth\n"
             "  --truth-res N        truth: N x N per cube face (default 256)\n"
@@ -66,7 +71,8 @@ typedef struct qopts {
     uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, hold, chunk_res, chunk_every;
     uint32_t truth_res, truth_every, edit_every, viewer_budget;
     uint64_t budget, seed;
-    double margin, peek, slack, chunk_range, luanti_range, tick_ms;
+    double margin, peek, slack, chunk_range, chunk_move, luanti_range, tick_ms;
+    int chunk_traversal;
     int have_simulate;
 } qopts;
 
@@ -195,6 +201,13 @@ static int parse_args(int argc, char **argv, qopts *o)
                 fprintf(stderr, "vis query: --chunk-range '%s': 0 (unlimited) or at least 1 voxel\n", v);
                 rc = -1;
             }
+        } else if (!strcmp(a, "--chunk-move")) {
+            rc = parse_dbl(a, v, 0.0, 1e5, &o->chunk_move);
+        } else if (!strcmp(a, "--chunk-traversal")) {
+            /* The query has no short-stack depth of its own: "shortstack:N" is refused. */
+            if (!v || vc_name_lookup(&vc_traversals, v, &o->chunk_traversal) ||
+                vc_traversal_short_stack(o->chunk_traversal) != 0)
+                rc = (fprintf(stderr, "vis query: --chunk-traversal '%s': a method name without :N\n", v ? v : ""), -1);
         } else if (!strcmp(a, "--slack")) {
             rc = parse_dbl(a, v, 0.0, 100.0, &o->slack);
         } else if (!strcmp(a, "--peek")) {
@@ -204,12 +217,12 @@ static int parse_args(int argc, char **argv, qopts *o)
         } else if (!strcmp(a, "--tick-ms")) {
             rc = parse_dbl(a, v, 0.1, 10000.0, &o->tick_ms);
         } else if (!strcmp(a, "--chunks")) {
-            if (!strcmp(v, "view"))
+            if (v && !strcmp(v, "view"))
                 o->around = 0;
-            else if (!strcmp(v, "around"))
+            else if (v && !strcmp(v, "around"))
                 o->around = 1;
             else
-                rc = (fprintf(stderr, "vis query: --chunks '%s': view or around\n", v), -1);
+                rc = (fprintf(stderr, "vis query: --chunks '%s': view or around\n", v ? v : ""), -1);
         } else {
             fprintf(stderr, "vis query: unknown option '%s' (vis query --help)\n", a);
             return CLI_EXIT_USAGE;
@@ -329,15 +342,23 @@ static int cmp_dbl(const void *x, const void *y)
     return a < b ? -1 : a > b;
 }
 
-static void acc_ms(acc *a, double *med, double *mn, double *mx)
+/* Median, min, max, mean and 99th percentile (nearest rank) of the ticks' milliseconds: the
+ * median alone hides passes that land on few ticks (--chunk-move), the mean does not. */
+static void acc_ms(acc *a, double *med, double *mn, double *mx, double *mean, double *p99)
 {
-    *med = *mn = *mx = 0.0;
+    *med = *mn = *mx = *mean = *p99 = 0.0;
     if (!a->n)
         return;
     qsort(a->ms, a->n, sizeof *a->ms, cmp_dbl);
     *med = a->n % 2 ? a->ms[a->n / 2] : 0.5 * (a->ms[a->n / 2 - 1] + a->ms[a->n / 2]);
     *mn = a->ms[0];
     *mx = a->ms[a->n - 1];
+    double sum = 0.0;
+    for (size_t i = 0; i < a->n; ++i)
+        sum += a->ms[i];
+    *mean = sum / (double)a->n;
+    size_t rank = (size_t)ceil(0.99 * (double)a->n);
+    *p99 = a->ms[rank ? rank - 1 : 0];
 }
 
 static int find_u32(const uint32_t *v, size_t n, uint32_t x)
@@ -365,14 +386,15 @@ static double chunk_rays_per_view(const acc *a)
 static void print_method(FILE *f, const char *name, acc *a, uint64_t ticks, uint64_t truth_ticks, int json, int chunks,
                          int first)
 {
-    double med, mn, mx;
-    acc_ms(a, &med, &mn, &mx);
+    double med, mn, mx, mean, p99;
+    acc_ms(a, &med, &mn, &mx, &mean, &p99);
     double t = ticks ? (double)ticks : 1.0;
     double leak = a->truly_hidden ? (double)a->leaks / (double)a->truly_hidden : 0.0;
     if (json) {
-        fprintf(f, "%s\"%s\":{\"ms_per_tick\":{\"median\":%.4f,\"min\":%.4f,\"max\":%.4f},\"rays_per_tick\":%.1f,"
-                   "\"entities_sent_per_tick\":%.1f,\"pairs_per_tick\":%.1f",
-                first ? "" : ",", name, med, mn, mx, (double)a->rays / t, (double)a->sent / t, (double)a->pairs / t);
+        fprintf(f, "%s\"%s\":{\"ms_per_tick\":{\"median\":%.4f,\"min\":%.4f,\"max\":%.4f,\"mean\":%.4f,\"p99\":%.4f},"
+                   "\"rays_per_tick\":%.1f,\"entities_sent_per_tick\":%.1f,\"pairs_per_tick\":%.1f",
+                first ? "" : ",", name, med, mn, mx, mean, p99, (double)a->rays / t, (double)a->sent / t,
+                (double)a->pairs / t);
         if (truth_ticks)
             fprintf(f, ",\"hidden_while_visible\":%llu,\"truly_visible\":%llu,\"leak_share\":%.4f",
                     (unsigned long long)a->fn, (unsigned long long)a->truly_visible, leak);
@@ -388,8 +410,8 @@ static void print_method(FILE *f, const char *name, acc *a, uint64_t ticks, uint
         fprintf(f, "}");
         return;
     }
-    fprintf(f, "  %-8s %7.3f ms/tick (min %.3f, max %.3f)  %9.0f rays/tick  %8.1f of %.1f entities sent/tick", name,
-            med, mn, mx, (double)a->rays / t, (double)a->sent / t, (double)a->pairs / t);
+    fprintf(f, "  %-8s %7.3f ms/tick (min %.3f, max %.3f, mean %.3f, p99 %.3f)  %9.0f rays/tick  %8.1f of %.1f entities sent/tick",
+            name, med, mn, mx, mean, p99, (double)a->rays / t, (double)a->sent / t, (double)a->pairs / t);
     if (truth_ticks)
         fprintf(f, "  hid %llu of %llu truly visible, leaked %.1f%% of hidden", (unsigned long long)a->fn,
                 (unsigned long long)a->truly_visible, 100.0 * leak);
@@ -488,6 +510,8 @@ static int run_replay(const qopts *o)
     qd.pair_ray_limit = o->pair_limit;
     qd.proof_slack = o->slack > 0.0 ? o->slack : -1.0; /* the library's 0 means its default */
     qd.chunk_range = o->chunk_range;
+    qd.chunk_move = o->chunk_move;
+    qd.chunk_traversal = vc_traversal_method(o->chunk_traversal);
     qd.threads = o->threads;
     if (vis_query_create(s.ctx, scene, &qd, &q) != VIS_OK) {
         rc = cli_fail_vis(CMD, s.ctx, "vis_query_create");

@@ -810,6 +810,16 @@ typedef struct vis_query_desc {
                                   sends blocks within a range, 192 voxels by default); chunks
                                   seen only beyond it are not listed. 0 (default): unlimited;
                                   otherwise at least 1                                        */
+    double chunk_move;         /* voxels: 0 (default), passes come on the chunk_every cadence
+                                  (a due pass whose camera is the last one's, to the bit, is
+                                  skipped: it would trace the same pixels); above 0, the
+                                  cadence is off and a viewer's pass runs when its eye has
+                                  left the cube of half-side chunk_move around the eye of
+                                  its last pass, or its dir or fov_deg changed (and at once
+                                  for a new viewer or after a scene edit); at most 1e5      */
+    vis_traversal chunk_traversal; /* the chunk passes' traversal; VIS_TRAVERSAL_AUTO (default):
+                                  VIS_TRAVERSAL_STACK, cheaper than packets for passes this
+                                  coarse (docs/server.md); every method gives the same IDs  */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
