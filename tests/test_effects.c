@@ -524,6 +524,64 @@ static void test_fog_at_face(void **state)
     vis_context_destroy(ctx);
 }
 
+/* Triangles inside packets (the lanes go through vis_test_tri with their see-through lists):
+ * a glass triangle (32) in front of an opaque one (33) in front of a reflective wall (31),
+ * seen through 16x16 packets, every effect set against the brute force; the glass triangle
+ * is recorded and the opaque one hit. */
+static void test_triangles_in_packets(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = w.size[1] = w.size[2] = 16.0f;
+    tobj *wall = add_obj(&w, 31);
+    obj_quad(wall, 2, 1.0f, 0.0f, 0.0f, 16.0f, 16.0f);
+    flag_last(wall, VIS_PRIM_REFLECTIVE);
+    const float g0[3] = {5, 3, 8}, g1[3] = {11, 3, 8}, g2[3] = {8, 7, 8};
+    tobj *glass = add_obj(&w, 32);
+    obj_tri(glass, g0, g1, g2);
+    glass->tris[0].flags = VIS_PRIM_SEE_THROUGH;
+    const float o0[3] = {7, 3.5f, 5}, o1[3] = {10, 4, 4.5f}, o2[3] = {8.5f, 6.5f, 4};
+    obj_tri(add_obj(&w, 33), o0, o1, o2);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_camera cam = {{8, 6, 15}, {8, 4, 1}, 16, 0.05, 0};
+    assert_true(expect_packets(ctx, scene, &cam, 48, 48, 16) >= diagonal(w.size));
+    static const uint32_t sets[] = {
+        VIS_EFFECT_SEE_THROUGH,
+        VIS_EFFECT_REFLECT,
+        VIS_EFFECT_SHADOWS,
+        VIS_EFFECT_FOG,
+        VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG,
+    };
+    const double light[3] = {0.3, 1.0, 0.5};
+    fx_bufs ref, got;
+    bufs_init(&ref, 48, 48, 2);
+    bufs_init(&got, 48, 48, 2);
+    int seen_through = 0, hit = 0;
+    for (size_t e = 0; e < sizeof sets / sizeof sets[0]; ++e) {
+        trace_fx(ctx, scene, &cam, VIS_TRAVERSAL_BRUTEFORCE, sets[e], light, 14.2, &ref);
+        const vis_traversal methods[2] = {VIS_TRAVERSAL_PACKET, VIS_TRAVERSAL_AUTO};
+        for (int m = 0; m < 2; ++m) {
+            trace_fx(ctx, scene, &cam, methods[m], sets[e], light, 14.2, &got);
+            char why[256];
+            if (!bufs_equal(&got, &ref, sets[e], why, sizeof why))
+                fail_msg("effects 0x%x, method %d: %s", sets[e], (int)methods[m], why);
+        }
+        if (sets[e] & VIS_EFFECT_SEE_THROUGH)
+            for (size_t i = 0; i < 48 * 48; ++i) {
+                seen_through += ref.st[i * 2] == 32;
+                hit += ref.ids[i] == 33;
+            }
+    }
+    assert_true(seen_through > 0 && hit > 0);
+    bufs_free(&ref);
+    bufs_free(&got);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* ---- effects off, bad inputs, the draw list --------------------------------------------- */
 
 /* desc.effects == 0: vis_trace's buffers. */
@@ -763,6 +821,7 @@ int main(void)
         cmocka_unit_test(test_mirror_facing_mirror),
         cmocka_unit_test(test_caster_on_light_ray),
         cmocka_unit_test(test_fog_at_face),
+        cmocka_unit_test(test_triangles_in_packets),
         cmocka_unit_test(test_no_effects_is_plain_trace),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_drawlist_reasons),
