@@ -1582,7 +1582,8 @@ VIS_INLINE void vis_effects_finish(const vis_ray_setup *s, const vis_effect_setu
                 o[i] = r->o[i] + h->t * r->d[i];
             o[a] = h->plane;
             ++out->secondary;
-            out->shadow = vis_trace_secondary(s, second, o, e->light, VIS_INF, VIS_ST_SKIP, a, h->plane, VIS_SCENE_ARGS);
+            out->shadow =
+                vis_trace_secondary(s, second, o, e->light, VIS_INF, VIS_ST_SKIP, a, h->plane, VIS_SCENE_ARGS);
         }
     }
 }

@@ -42,6 +42,9 @@
 #include <string.h>
 
 #include "cpu/packet.h"
+#ifdef PK_EFFECTS
+#  include "cpu/effects.h"
+#endif
 
 #if !defined(PK_TILE_W) || !defined(PK_TILE_H) || !defined(PK_ENTRY)
 #  error "define PK_TILE_W, PK_TILE_H and PK_ENTRY before including packet_impl.h"
@@ -393,8 +396,8 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
 #ifdef PK_EFFECTS
             /* vis_prim_better: (t, ID), then the primitive. */
             uint32_t bid = p->best_id[i], bprim = p->best_prim[i];
-            int better = (t < bt) | ((t == bt) & ((id < bid) | ((id == bid) & ((prim < bprim) |
-                                                                              ((prim == bprim) & (qplane < p->best_plane[i]))))));
+            int tie_prim = (prim < bprim) | ((prim == bprim) & (qplane < p->best_plane[i]));
+            int better = (t < bt) | ((t == bt) & ((id < bid) | ((id == bid) & tie_prim)));
 #else
             int better = (t < bt) | ((t == bt) & (id < p->best_id[i]));
 #endif
@@ -759,8 +762,6 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
     return 1;
 }
 #else /* PK_EFFECTS */
-
-#include "cpu/effects.h"
 
 /* The tile's primary rays by packet, then each pixel by vis_effects_finish (its secondary rays
  * alone, by the stack method), written to `out` as vis_cpu_effects_tile does; *secondary gets
