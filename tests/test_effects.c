@@ -524,6 +524,43 @@ static void test_fog_at_face(void **state)
     vis_context_destroy(ctx);
 }
 
+/* One object (40), two faces meeting at a concave edge: a floor (y = 2, x in [0, 8]) and a
+ * reflective wall (x = 8, from y = 2 up). The ray from (4, 6, 8) along (1, -1, 0) meets both
+ * planes at the same t (4 / d, exactly: the components are equal in magnitude), so (t, ID)
+ * ties and the primitive decides: the floor (axis 1) before the wall (axis 0 | reflective
+ * << 2), which is not reflective, so no reflected ray -- in every method, in a packet too,
+ * whichever face it offers first. */
+static void test_tie_between_primitives(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = w.size[1] = w.size[2] = 16.0f;
+    tobj *o = add_obj(&w, 40);
+    obj_quad(o, 1, 2.0f, 0.0f, 0.0f, 16.0f, 8.0f); /* axis y: u = z, v = x */
+    obj_quad(o, 0, 8.0f, 2.0f, 0.0f, 10.0f, 16.0f); /* axis x: u = y, v = z */
+    flag_last(o, VIS_PRIM_REFLECTIVE);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_camera cam = {{4, 6, 8}, {8, 2, 8}, 30, 0.05, 0};
+    fx_bufs f;
+    bufs_init(&f, 1, 1, 1);
+    trace_all_1x1(ctx, scene, &cam, VIS_EFFECT_REFLECT, 1, NULL, 0, &f);
+    assert_int_equal(f.ids[0], 40);
+    assert_int_equal(f.refl[0], 0);
+    /* Both reflective: the wall (0 | 2 << 2) before the floor (1 | 2 << 2); its reflected ray
+     * leaves the edge along (-1, -1, 0), and whatever it meets (the floor, or nothing where
+     * the rounded origin lies just below y = 2), every method says the same. */
+    o->quads[0].flags = VIS_PRIM_REFLECTIVE;
+    set_obj(scene, o);
+    trace_all_1x1(ctx, scene, &cam, VIS_EFFECT_REFLECT, 1, NULL, 0, &f);
+    assert_int_equal(f.ids[0], 40);
+    bufs_free(&f);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Triangles inside packets (the lanes go through vis_test_tri with their see-through lists):
  * a glass triangle (32) in front of an opaque one (33) in front of a reflective wall (31),
  * seen through 16x16 packets, every effect set against the brute force; the glass triangle
@@ -822,6 +859,7 @@ int main(void)
         cmocka_unit_test(test_caster_on_light_ray),
         cmocka_unit_test(test_fog_at_face),
         cmocka_unit_test(test_triangles_in_packets),
+        cmocka_unit_test(test_tie_between_primitives),
         cmocka_unit_test(test_no_effects_is_plain_trace),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_drawlist_reasons),
