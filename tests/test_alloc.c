@@ -184,18 +184,23 @@ static vis_status frame(vis_context *ctx, vis_scene *s, vis_zcull *z, const vis_
             if ((st = vis_drawlist_build(ctx, s, g_ids, W, H, (vis_id_mode)mode, list, 8, &count)) != VIS_OK)
                 return st;
         }
-    for (int t = 0; t <= (int)VIS_TRAVERSAL_PACKET; ++t) { /* every effect, every method */
+    /* Every effect, every method; the packet instance too (AUTO, PACKET): 4x4 packets on this
+     * view, 16x16 on the last pass, narrowed to 12 degrees. */
+    for (int t = 0; t <= (int)VIS_TRAVERSAL_PACKET + 1; ++t) {
+        vis_camera view = *cam;
+        if (t > (int)VIS_TRAVERSAL_PACKET)
+            view.fovy_deg = 12;
         vis_trace_desc td;
         vis_trace_desc_defaults(&td);
         td.width = W;
         td.height = H;
-        td.traversal = (vis_traversal)t;
+        td.traversal = t > (int)VIS_TRAVERSAL_PACKET ? VIS_TRAVERSAL_PACKET : (vis_traversal)t;
         td.effects = VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG;
         td.light_dir[0] = 0.3, td.light_dir[1] = 1.0, td.light_dir[2] = 0.2;
         td.fog_dist = 80.0;
         vis_effect_buffers b = {g_ids, W * H, g_depth, W * H, g_layers, 2 * W * H, g_reflection, W * H, g_shadow, W * H};
         vis_effect_entry fx[8];
-        if ((st = vis_trace_effects(ctx, s, cam, &td, &b)) != VIS_OK ||
+        if ((st = vis_trace_effects(ctx, s, &view, &td, &b)) != VIS_OK ||
             (st = vis_drawlist_build_effects(ctx, s, &b, W, H, 2, fx, 8, &count)) != VIS_OK)
             return st;
     }

@@ -1528,6 +1528,66 @@ VIS_INLINE uint32_t vis_trace_secondary(const vis_ray_setup *s, uint32_t method,
     return h.object == VIS_NO_OBJECT ? 0u : h.id;
 }
 
+/* What a pixel gets from its primary ray's ray r and final hit state h (traced by `method`
+ * with fx's see-through policy): the ID, depth and see-through layers, then its secondary
+ * rays. The per-ray pass (vis_trace_pixel_effects) and the CPU's packets (packet_impl.h) end
+ * each pixel here. */
+VIS_INLINE void vis_effects_finish(const vis_ray_setup *s, const vis_effect_setup *e, uint32_t fx, uint32_t method,
+                                   const vis_ray *r, const vis_hit *h, VIS_SCENE_PARAMS, vis_effect_pixel *out)
+{
+    uint32_t st = fx & VIS_FX_SEE_THROUGH;
+    int hit = h->object != VIS_NO_OBJECT;
+    out->id = hit ? h->id : 0u;
+    out->depth = hit ? h->t : VIS_INF;
+    /* Sorted by (t, ID): the crossings that beat the opaque hit are a prefix. */
+    for (uint32_t k = 0u; k < VIS_MAX_LAYERS; ++k)
+        out->see_through[k] = k < h->st_n && vis_hit_better(h->st_t[k], h->st_id[k], h) ? h->st_id[k] : 0u;
+    out->reflection = 0u;
+    out->shadow = 0u;
+    out->secondary = 0u;
+    uint32_t second = method == VIS_TRAVERSAL_ID_BRUTEFORCE ? method : VIS_TRAVERSAL_ID_STACK;
+    if (fx & VIS_FX_REFLECT) {
+        float t = 0.0f, plane = 0.0f;
+        uint32_t prim = 3u;
+        if (h->rid != 0u && vis_hit_better(h->rt, h->rid, h)) {
+            t = h->rt;
+            prim = h->rprim;
+            plane = h->rplane;
+        } else if (hit && (h->prim & 3u) != 3u && (h->prim >> 2 & VIS_FLAG_REFLECTIVE)) {
+            t = h->t;
+            prim = h->prim;
+            plane = h->plane;
+        }
+        uint32_t a = prim & 3u;
+        if (a != 3u) {
+            float o[3], d[3];
+            for (uint32_t i = 0u; i < 3u; ++i) {
+                o[i] = r->o[i] + t * r->d[i];
+                d[i] = r->d[i];
+            }
+            o[a] = plane;
+            d[a] = -d[a];
+            ++out->secondary;
+            out->reflection = vis_trace_secondary(s, second, o, d, s->t_far, st ? VIS_ST_SKIP : VIS_ST_OCCLUDE, a,
+                                                  plane, VIS_SCENE_ARGS);
+        }
+    }
+    if ((fx & VIS_FX_SHADOWS) && hit && (h->prim & 3u) != 3u) {
+        uint32_t a = h->prim & 3u;
+        /* The seen side faces -d[a] (d[a] != 0 for a quad hit); lit when the light is on it. */
+        float facing = r->d[a] > 0.0f ? -e->light[a] : e->light[a];
+        if (facing > 0.0f) {
+            float o[3];
+            for (uint32_t i = 0u; i < 3u; ++i)
+                o[i] = r->o[i] + h->t * r->d[i];
+            o[a] = h->plane;
+            ++out->secondary;
+            out->shadow =
+                vis_trace_secondary(s, second, o, e->light, VIS_INF, VIS_ST_SKIP, a, h->plane, VIS_SCENE_ARGS);
+        }
+    }
+}
+
 VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect_setup *e, uint32_t x, uint32_t y,
                                         VIS_SCENE_PARAMS, vis_effect_pixel *out)
 {
@@ -1540,64 +1600,15 @@ VIS_INLINE void vis_trace_pixel_effects(const vis_ray_setup *s, const vis_effect
 #else
     uint32_t fx = e->effects;
 #endif
-    uint32_t st = fx & VIS_FX_SEE_THROUGH;
     vis_hit h;
-    vis_hit_init(&h, st ? VIS_ST_RECORD : VIS_ST_OCCLUDE, e->layers, VIS_NO_AXIS, 0.0f);
+    vis_hit_init(&h, (fx & VIS_FX_SEE_THROUGH) ? VIS_ST_RECORD : VIS_ST_OCCLUDE, e->layers, VIS_NO_AXIS, 0.0f);
 #ifdef VIS_TRAVERSAL_ONLY
     uint32_t method = VIS_TRAVERSAL_ONLY;
 #else
     uint32_t method = s->traversal;
 #endif
     vis_traverse(&r, s, method, VIS_SCENE_ARGS, &h);
-    int hit = h.object != VIS_NO_OBJECT;
-    out->id = hit ? h.id : 0u;
-    out->depth = hit ? h.t : VIS_INF;
-    /* Sorted by (t, ID): the crossings that beat the opaque hit are a prefix. */
-    for (uint32_t k = 0u; k < VIS_MAX_LAYERS; ++k)
-        out->see_through[k] = k < h.st_n && vis_hit_better(h.st_t[k], h.st_id[k], &h) ? h.st_id[k] : 0u;
-    out->reflection = 0u;
-    out->shadow = 0u;
-    out->secondary = 0u;
-    uint32_t second = method == VIS_TRAVERSAL_ID_BRUTEFORCE ? method : VIS_TRAVERSAL_ID_STACK;
-    if (fx & VIS_FX_REFLECT) {
-        float t = 0.0f, plane = 0.0f;
-        uint32_t prim = 3u;
-        if (h.rid != 0u && vis_hit_better(h.rt, h.rid, &h)) {
-            t = h.rt;
-            prim = h.rprim;
-            plane = h.rplane;
-        } else if (hit && (h.prim & 3u) != 3u && (h.prim >> 2 & VIS_FLAG_REFLECTIVE)) {
-            t = h.t;
-            prim = h.prim;
-            plane = h.plane;
-        }
-        uint32_t a = prim & 3u;
-        if (a != 3u) {
-            float o[3], d[3];
-            for (uint32_t i = 0u; i < 3u; ++i) {
-                o[i] = r.o[i] + t * r.d[i];
-                d[i] = r.d[i];
-            }
-            o[a] = plane;
-            d[a] = -d[a];
-            ++out->secondary;
-            out->reflection = vis_trace_secondary(s, second, o, d, s->t_far, st ? VIS_ST_SKIP : VIS_ST_OCCLUDE, a,
-                                                  plane, VIS_SCENE_ARGS);
-        }
-    }
-    if ((fx & VIS_FX_SHADOWS) && hit && (h.prim & 3u) != 3u) {
-        uint32_t a = h.prim & 3u;
-        /* The seen side faces -d[a] (d[a] != 0 for a quad hit); lit when the light is on it. */
-        float facing = r.d[a] > 0.0f ? -e->light[a] : e->light[a];
-        if (facing > 0.0f) {
-            float o[3];
-            for (uint32_t i = 0u; i < 3u; ++i)
-                o[i] = r.o[i] + h.t * r.d[i];
-            o[a] = h.plane;
-            ++out->secondary;
-            out->shadow = vis_trace_secondary(s, second, o, e->light, VIS_INF, VIS_ST_SKIP, a, h.plane, VIS_SCENE_ARGS);
-        }
-    }
+    vis_effects_finish(s, e, fx, method, &r, &h, VIS_SCENE_ARGS, out);
 }
 #endif /* VIS_TRACE_EFFECTS */
 

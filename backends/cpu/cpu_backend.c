@@ -5,7 +5,8 @@
  * only refreshes the subtree occupancy flags the packet method skips empty space with.
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
- * instance of that code (effects.c) per ray in 8x8 tiles, whatever the method. */
+ * instance of that code (effects.c): per ray in 8x8 tiles, or for the packet method in
+ * packets of primary rays (packet_fx_*.c) in VIS_PACKET_SIDE tiles. */
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
@@ -49,7 +50,10 @@ static void trace_tile(void *user, uint32_t tile)
     if (job->effects) {
         uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
         uint32_t y1 = y0 + job->side < s->height ? y0 + job->side : s->height;
-        uint64_t n = vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
+        uint64_t n = s->traversal == VIS_TRAVERSAL_ID_PACKET
+                         ? vis_cpu_effects_packet_tile(&v, job->occupied, s, job->effects, job->effect_out,
+                                                       job->packet_side, x0, y0)
+                         : vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
         atomic_fetch_add_explicit((atomic_ullong *)&job->secondary, (unsigned long long)n, memory_order_relaxed);
         return;
     }
@@ -144,8 +148,10 @@ static vis_status cpu_trace_effects(void *impl, void *scene_data, const vis_scen
 {
     (void)err, (void)err_size;
     const vis_occupancy *occ = scene_data;
-    cpu_job job = {view, occ->occupied, setup, out->ids, out->depth, TILE, (setup->width + TILE - 1) / TILE, 0u,
-                   NULL, effects, out, 0};
+    int packets = setup->traversal == VIS_TRAVERSAL_ID_PACKET;
+    uint32_t side = packets ? VIS_PACKET_SIDE : TILE;
+    cpu_job job = {view, occ->occupied, setup, out->ids, out->depth, side, (setup->width + side - 1) / side,
+                   packets ? vis_packet_side(setup) : 0u, NULL, effects, out, 0};
     run_job(impl, &job);
     if (out->secondary_rays)
         *out->secondary_rays = atomic_load(&job.secondary);

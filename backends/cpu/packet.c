@@ -48,6 +48,15 @@ static float pixel_extent(const vis_ray_setup *setup)
     return fmaxf(2.0f * vec_len(setup->right) / (float)setup->width, 2.0f * vec_len(setup->up) / (float)setup->height);
 }
 
+/* 16x16 packets keep going: on gen:large's far views giving up at 3 voxels per pixel was a
+ * wash (overview 166 -> 154 ms, top-down 156 -> 183 ms; docs/performance.md). */
+static inline float give_up_distance(const vis_ray_setup *setup, uint32_t side)
+{
+    return side == 16u ? INFINITY : PACKET_MAX_FOOTPRINT / pixel_extent(setup);
+}
+
+float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side) { return give_up_distance(setup, side); }
+
 uint32_t vis_packet_side(const vis_ray_setup *setup)
 {
     float pixel = pixel_extent(setup);
@@ -65,9 +74,7 @@ void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *vie
 {
     packet_fn fn = side == 16u ? vis_packet_trace_16x16 : side == 8u ? vis_packet_trace_8x8
                  : side == 4u ? vis_packet_trace_4x4 : NULL;
-    /* 16x16 packets keep going: on gen:large's far views giving up at 3 voxels per pixel was a
-     * wash (overview 166 -> 154 ms, top-down 156 -> 183 ms; docs/performance.md). */
-    float give_up_t = side == 16u ? INFINITY : PACKET_MAX_FOOTPRINT / pixel_extent(setup);
+    float give_up_t = give_up_distance(setup, side);
     uint32_t x_end = x0 + VIS_PACKET_SIDE < setup->width ? x0 + VIS_PACKET_SIDE : setup->width;
     uint32_t y_end = y0 + VIS_PACKET_SIDE < setup->height ? y0 + VIS_PACKET_SIDE : setup->height;
     for (uint32_t ty = y0; ty < y_end; ty += side)

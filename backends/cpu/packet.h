@@ -13,6 +13,10 @@
  * spread too wide, or 1 (each ray its own packet). */
 uint32_t vis_packet_side(const vis_ray_setup *setup);
 
+/* The distance past which a packet of `side` that first enters a leaf gives up, its rays
+ * then traced one by one (+inf for 16x16 packets, which never give up). */
+float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
+
 /* Traces the pixels [x0, x0 + VIS_PACKET_SIDE) x [y0, y0 + VIS_PACKET_SIDE) of the view in
  * `setup` (clipped to the image) and writes their IDs and depths (depth may be NULL): per
  * pixel, the nearest hit over every primitive under the lowest-ID tie rule, with the rays

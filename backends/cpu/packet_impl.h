@@ -26,14 +26,31 @@
  * x86-64 with GCC the tile function is also built for AVX2 and picked at load time (define
  * VIS_NO_TARGET_CLONES for the baseline build only). No FMA is contracted
  * (-ffp-contract=off), so a lane computes exactly what a scalar ray does. docs/traversal.md
- * has the measurements behind the tile size, the units and the culls. */
+ * has the measurements behind the tile size, the units and the culls.
+ *
+ * The effects instance (packet_fx_*.c define PK_EFFECTS, and VIS_TRACE_EFFECTS before any
+ * include, docs/effects.md): the same walk for the primary rays of an effects pass. Each lane
+ * also keeps its hit primitive (axis | flags << 2, plane: ties in (t, ID) go on to it, as in
+ * vis_hit_offer_prim) for its secondary rays; with the see-through effect, a see-through quad
+ * never becomes a lane's hit and is offered instead to the lane's list of see-through objects
+ * (vis_see_through_offer, the per-ray code's own state) wherever it crosses no farther than
+ * the lane's hit. The culls only drop what lies beyond every hit it could beat, and the hit
+ * is the opaque one, so every crossing that beats it is offered as in the per-ray methods,
+ * and each lane's pixel is finished by the per-ray code (vis_effects_finish: the cut to the
+ * crossings before the hit, then the reflected and shadow rays, traced alone). */
 #include <math.h>
 #include <string.h>
 
 #include "cpu/packet.h"
+#ifdef PK_EFFECTS
+#  include "cpu/effects.h"
+#endif
 
 #if !defined(PK_TILE_W) || !defined(PK_TILE_H) || !defined(PK_ENTRY)
 #  error "define PK_TILE_W, PK_TILE_H and PK_ENTRY before including packet_impl.h"
+#endif
+#if defined(PK_EFFECTS) != defined(VIS_TRACE_EFFECTS)
+#  error "the effects instance defines both PK_EFFECTS and VIS_TRACE_EFFECTS, the plain one neither"
 #endif
 
 #define LANES (PK_TILE_W * PK_TILE_H)
@@ -78,6 +95,12 @@ typedef struct packet {
     uint32_t tests[LANES];
     int leaves_entered;
     int given_up;
+#ifdef PK_EFFECTS
+    uint32_t best_prim[LANES]; /* the hit primitive: axis | flags << 2 (3: a triangle)     */
+    float best_plane[LANES];   /* and its plane (0 for triangles)                          */
+    int see_through;           /* VIS_FX_SEE_THROUGH: see-through quads are recorded, not hit */
+    vis_hit fx[LANES];         /* with see_through: each lane's see-through list and reflector */
+#endif
 } packet;
 
 #if defined(VIS_PACKET_PROFILE) /* every step its own symbol, for perf */
@@ -341,6 +364,26 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
     float tn = p->t_near, tf = p->t_far;
     uint32_t obj = VIS_META_OBJECT(q->meta);
     int any = 0, first_hits = 0;
+#ifdef PK_EFFECTS
+    uint32_t prim = q->meta & 0xFFu; /* axis | flags << 2 */
+    float qplane = q->plane;
+    if (p->see_through && (VIS_META_FLAGS(q->meta) & VIS_FLAG_SEE_THROUGH)) {
+        /* A crossing no farther than the lane's hit joins its list (vis_test_quad's bounds);
+         * the hits and their culls stay as they are. */
+        for (; units; units &= units - 1u) {
+            int first = __builtin_ctz(units) * UNIT;
+            for (int i = first; i < first + UNIT; ++i) {
+                float t = p->plane_t[i], t_in = t, t_out = t;
+                int in_u = pk_slab(cu0, cu1, p->d[u][i], p->inv[u][i], &t_in, &t_out);
+                int in_v = pk_slab(cv0, cv1, p->d[v][i], p->inv[v][i], &t_in, &t_out);
+                if ((p->d[a][i] != 0.0f) & in_u & in_v & (t_in <= vis_t_limit(t_out)) & (t >= tn) & (t <= tf) &
+                    (t <= p->best_t[i]))
+                    vis_see_through_offer(t, id, prim, qplane, &p->fx[i]);
+            }
+        }
+        return 0;
+    }
+#endif
     for (; units; units &= units - 1u) {
         int first = __builtin_ctz(units) * UNIT;
         if (p->counting)
@@ -350,11 +393,23 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
             float t = p->plane_t[i], bt = p->best_t[i], t_in = t, t_out = t;
             int in_u = pk_slab(cu0, cu1, p->d[u][i], p->inv[u][i], &t_in, &t_out);
             int in_v = pk_slab(cv0, cv1, p->d[v][i], p->inv[v][i], &t_in, &t_out);
+#ifdef PK_EFFECTS
+            /* vis_prim_better: (t, ID), then the primitive. */
+            uint32_t bid = p->best_id[i], bprim = p->best_prim[i];
+            int tie_prim = (prim < bprim) | ((prim == bprim) & (qplane < p->best_plane[i]));
+            int better = (t < bt) | ((t == bt) & ((id < bid) | ((id == bid) & tie_prim)));
+#else
+            int better = (t < bt) | ((t == bt) & (id < p->best_id[i]));
+#endif
             int m = (p->d[a][i] != 0.0f) & in_u & in_v & (t_in <= vis_t_limit(t_out)) & (t >= tn) & (t <= tf) &
-                    ((t < bt) | ((t == bt) & (id < p->best_id[i])));
+                    better;
             p->best_t[i] = m ? t : bt;
             p->best_id[i] = m ? id : p->best_id[i];
             p->best_obj[i] = m ? obj : p->best_obj[i];
+#ifdef PK_EFFECTS
+            p->best_prim[i] = m ? prim : bprim;
+            p->best_plane[i] = m ? qplane : p->best_plane[i];
+#endif
             any |= m;
             first_hits += m & (bt == INFINITY);
         }
@@ -377,6 +432,14 @@ PK_INLINE void packet_lane(const packet *p, int i, vis_ray *r, vis_hit *h)
     }
     r->t_near = p->t_near;
     r->t_far = p->t_far;
+#ifdef PK_EFFECTS
+    if (p->see_through)
+        *h = p->fx[i];
+    else
+        vis_hit_init(h, VIS_ST_OCCLUDE, 0u, VIS_NO_AXIS, 0.0f);
+    h->prim = p->best_prim[i];
+    h->plane = p->best_plane[i];
+#endif
     h->t = p->best_t[i];
     h->object = p->best_obj[i];
     h->id = p->best_id[i];
@@ -416,6 +479,12 @@ PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_fla
         p->best_t[i] = h.t;
         p->best_obj[i] = h.object;
         p->best_id[i] = h.id;
+#ifdef PK_EFFECTS
+        p->best_prim[i] = h.prim;
+        p->best_plane[i] = h.plane;
+        if (p->see_through)
+            p->fx[i] = h; /* its see-through list and reflector */
+#endif
     }
     float unit_lo[UNITS];
     pk_unit_bounds(p->best_t, unit_lo, p->unit_best);
@@ -650,6 +719,7 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
     }
 }
 
+#ifndef PK_EFFECTS
 int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
              uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
@@ -691,3 +761,53 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
     }
     return 1;
 }
+#else /* PK_EFFECTS */
+
+/* The tile's primary rays by packet, then each pixel by vis_effects_finish (its secondary rays
+ * alone, by the stack method), written to `out` as vis_cpu_effects_tile does; *secondary gets
+ * the secondary rays cast added. Returns 0, having written nothing, where the packet gives up
+ * (packet.c): its rays then go one by one. */
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+             uint32_t x0, uint32_t y0, const vis_effect_setup *effects, const vis_effect_outputs *out,
+             uint64_t *secondary);
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
+__attribute__((target_clones("avx2", "default")))
+#endif
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+             uint32_t x0, uint32_t y0, const vis_effect_setup *effects, const vis_effect_outputs *out,
+             uint64_t *secondary)
+{
+    packet p;
+    packet_rays(&p, setup, x0, y0);
+    p.give_up_t = give_up_t;
+    p.see_through = (effects->effects & VIS_FX_SEE_THROUGH) != 0u;
+    for (int i = 0; i < LANES; ++i) {
+        p.best_prim[i] = 0u;
+        p.best_plane[i] = 0.0f;
+    }
+    if (p.see_through)
+        for (int i = 0; i < LANES; ++i)
+            vis_hit_init(&p.fx[i], VIS_ST_RECORD, effects->layers, VIS_NO_AXIS, 0.0f);
+    packet_bounds(&p);
+    packet_traverse(&p, view, occupied);
+    if (p.given_up)
+        return 0;
+    uint64_t cast = 0;
+    for (int i = 0; i < LANES; ++i) {
+        uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
+        if (x >= setup->width || y >= setup->height)
+            continue;
+        vis_ray r;
+        vis_hit h;
+        packet_lane(&p, i, &r, &h);
+        vis_effect_pixel px;
+        vis_effects_finish(setup, effects, effects->effects, VIS_TRAVERSAL_ID_PACKET, &r, &h, VIS_SCENE_VIEW_ARGS(view),
+                           &px);
+        vis_effect_pixel_store(out, effects->layers, (size_t)y * setup->width + x, &px);
+        cast += px.secondary;
+    }
+    *secondary += cast;
+    return 1;
+}
+#endif /* PK_EFFECTS */
