@@ -1,7 +1,7 @@
 /* test_effects.c — vis_trace_effects and vis_drawlist_build_effects (docs/effects.md).
  *
- *  - Every effect alone and all together, on generated worlds with water (gen:terrain) and
- *    glass (gen:city), for every method: bit for bit the brute force's buffers, and the
+ *  - Every effect alone and all together, on generated worlds with water (gen:terrain),
+ *    leaves (gen:terrain with trees) and glass (gen:city), for every method: bit for bit the brute force's buffers, and the
  *    effects actually occur there (see-through layers, reflections, off-screen casters).
  *  - The same through the packet instance (packet and auto, backends/cpu/packet_fx_*.c) on
  *    views narrow enough for 16x16, 8x8 and 4x4 packets, checked to be taken, and on a view
@@ -303,6 +303,13 @@ static void test_worlds_match_bruteforce(void **state)
     assert_true(terrain.see_through > 0 && terrain.reflected > 0 && terrain.casters > 0);
     assert_true(city.see_through > 0 && city.reflected > 0 && city.casters > 0);
     assert_true(city.off_screen > 0); /* casters the frustum misses: what the effect is for */
+    /* A terrain with trees, and the same without: their leaves are see-through too. */
+    fx_counts forest = {0}, bare = {0};
+    world_against_bruteforce(ctx, "gen:terrain:size=96x64x96:seed=6:trees=80", &forest);
+    world_against_bruteforce(ctx, "gen:terrain:size=96x64x96:seed=6", &bare);
+    print_message("trees: %llu see-through pixels, %llu without them\n", (unsigned long long)forest.see_through,
+                  (unsigned long long)bare.see_through);
+    assert_true(forest.see_through > bare.see_through);
     vis_context_destroy(ctx);
 }
 

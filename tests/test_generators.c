@@ -402,6 +402,10 @@ static void test_spec_errors(void **state)
         "gen:terrain:size",
         "gen:city:preset=large",
         "gen:terrain:preset=huge",
+        "gen:terrain:trees=101",
+        "gen:terrain:trees=-1",
+        "gen:terrain:trees=many",
+        "gen:city:trees=10",
         "world.txt",
         "",
         "terrain",
@@ -579,6 +583,65 @@ static void test_threads_same_world(void **state)
     assert_true(hash_world(one) == hash_world(ref));
     vw_world_destroy(one);
     vw_world_destroy(ref);
+}
+
+/* Trees (gen:terrain's trees=PERCENT): they only fill air, with wood trunks standing on
+ * grass and see-through leaves, the rest of the world as without them; the same for every
+ * thread count, also at a negative origin (crowns cross column borders, and each column
+ * draws the parts of its neighbours' trees); none with trees=0. */
+static void test_terrain_trees(void **state)
+{
+    (void)state;
+    vw_world *bare = gen("gen:terrain:size=160x96x144:seed=6"), *zero = gen("gen:terrain:size=160x96x144:seed=6:trees=0");
+    vw_world *trees = gen("gen:terrain:size=160x96x144:seed=6:trees=60");
+    assert_true(hash_world(bare) == hash_world(zero));
+    grid a = to_grid(bare), b = to_grid(trees);
+    size_t wood = 0, leaves = 0, standing = 0, crossing = 0;
+    for (int32_t z = 0; z < a.n[2]; z++)
+        for (int32_t y = 0; y < a.n[1]; y++)
+            for (int32_t x = 0; x < a.n[0]; x++) {
+                const uint8_t va = at(&a, x, y, z), vb = at(&b, x, y, z);
+                if (va == vb)
+                    continue;
+                if (va != 0)
+                    fail_msg("trees changed a solid voxel at (%d,%d,%d): %u -> %u", x, y, z, va, vb);
+                const vw_material *m = vw_world_material(trees, vb);
+                if (vb == 17) { /* leaves */
+                    assert_true((m->flags & VW_MAT_SEE_THROUGH) != 0);
+                    ++leaves;
+                    crossing += (x % 16 == 0 || x % 16 == 15 || z % 16 == 0 || z % 16 == 15);
+                } else {
+                    assert_true((m->flags & VW_MAT_SEE_THROUGH) == 0); /* wood */
+                    ++wood;
+                    if (at(&b, x, y - 1, z) != vb) { /* a trunk's foot: on grass (index 1) */
+                        if (at(&b, x, y - 1, z) != 1)
+                            fail_msg("a trunk at (%d,%d,%d) stands on material %u", x, y, z, at(&b, x, y - 1, z));
+                        ++standing;
+                    }
+                }
+            }
+    printf("trees=60 on 160x96x144: %zu trunks, %zu wood and %zu leaf voxels (%zu at chunk-column borders)\n", standing,
+           wood, leaves, crossing);
+    assert_true(standing >= 20 && leaves > 20 * standing && crossing > 0);
+    free(a.v), free(b.v);
+    const uint64_t h = hash_world(trees);
+    vw_world *threaded = load_threads("gen:terrain:size=160x96x144:seed=6:trees=60", 3);
+    if (hash_world(threaded) != h)
+        fail_msg("trees: 3 threads gave another world");
+    vw_world_destroy(threaded);
+    const char *neg = "gen:terrain:size=96x96x96:seed=6:trees=60:origin=-64,0,-48";
+    vw_world *n1 = gen(neg), *n3 = load_threads(neg, 3), *nb = gen("gen:terrain:size=96x96x96:seed=6:origin=-64,0,-48");
+    assert_true(hash_world(n1) == hash_world(n3));
+    vw_world_info i1, ib;
+    vw_world_get_info(n1, &i1);
+    vw_world_get_info(nb, &ib);
+    assert_true(i1.solid_voxels > ib.solid_voxels); /* trees there too */
+    vw_world_destroy(n1);
+    vw_world_destroy(n3);
+    vw_world_destroy(nb);
+    vw_world_destroy(bare);
+    vw_world_destroy(zero);
+    vw_world_destroy(trees);
 }
 
 /* The budget counts each worker's scratch; where it has room for one worker only, more
@@ -811,6 +874,7 @@ int main(void)
         cmocka_unit_test(test_budget_default_world),
         cmocka_unit_test(test_recorded_worlds),
         cmocka_unit_test(test_threads_same_world),
+        cmocka_unit_test(test_terrain_trees),
         cmocka_unit_test(test_threads_budget),
         cmocka_unit_test(test_threads_progress),
         cmocka_unit_test(test_pool_edits),

@@ -9,6 +9,8 @@
  *    the idea behind Minecraft 1.18's noise caves), plus caverns where a third field is high,
  *    deep down. Tunnels stay a few voxels below the surface except in "entrance" areas of a
  *    2D mask, where they cut through it, so a camera can walk in from outside.
+ *  - Trees (only with the spec's trees=PERCENT): a trunk of wood and a crown of leaves, a
+ *    see-through material, on grass; see plant_trees.
  *
  * Speed: 3D noise is evaluated only on a lattice every 4 voxels, only up to the column's
  * highest surface, and interpolated trilinearly (as Minecraft does), so a 512x128x512 world
@@ -28,10 +30,14 @@
  * rounding of the interpolation. */
 #define TUNNEL_FAR 0.116
 #define CAVERN_FAR 0.319
+#define TREE_CELL 8    /* at most one tree per cell of this many voxels on x and z          */
+#define CROWN 2        /* the crown's half-width: a tree reaches this far from its trunk    */
 
 typedef struct terrain {
     int32_t h;                /* world height                                               */
     int32_t sea;              /* water fills air up to this y above the surface             */
+    int32_t trees;            /* percent of TREE_CELL x TREE_CELL cells with a tree         */
+    uint64_t tree_seed;
     vwn_noise hills, ranges, overhang_mask, entrance, tun_a, tun_b, cavern, fold;
 } terrain;
 
@@ -48,6 +54,66 @@ static double surface_height(const terrain *t, double x, double z)
 
 /* 3D fields sampled on the lattice; index [field][ly][lz][lx]. */
 enum { F_TUN_A, F_TUN_B, F_CAVERN, F_FOLD, F_COUNT };
+
+/* Sets voxel (x, y, z) of the column to v where it is air and inside the column. */
+static void put_in_air(vwg_column *col, int32_t wx, int32_t y, int32_t wz, uint8_t v)
+{
+    const int32_t x = wx - col->x0, z = wz - col->z0;
+    if (x < 0 || x >= col->c || z < 0 || z >= col->c || y < 1 || y >= col->h)
+        return;
+    uint8_t *p = vwg_at(col, x, y, z);
+    if (!*p)
+        *p = v;
+}
+
+/* Trees: each TREE_CELL x TREE_CELL cell of the world holds at most one, chosen by a hash of
+ * the seed and the cell, on flat grass only: where the fold band is off (no overhang), the
+ * cave entrances are closed (so caves stay 5 voxels under the surface) and the ground is
+ * neither beach nor snow. There the surface is exactly the heightmap's voxel, so a trunk
+ * stands on it, computed the same way from whichever column looks. A column draws every tree
+ * whose crown reaches it, in one global order (by cell), writing only into air: a voxel that
+ * two trees claim goes to the first, in every column alike, so the world stays the same for
+ * any thread count. The crown (leaves) is see-through: it lets rays through to what lies
+ * behind it (docs/effects.md). */
+static void plant_trees(const terrain *t, vwg_column *col)
+{
+    const int32_t H = col->h;
+    const int64_t lo_x = (int64_t)col->x0 - TREE_CELL, hi_x = (int64_t)col->x0 + col->c + TREE_CELL;
+    const int64_t lo_z = (int64_t)col->z0 - TREE_CELL, hi_z = (int64_t)col->z0 + col->c + TREE_CELL;
+    for (int64_t gz = lo_z / TREE_CELL - (lo_z < 0); gz * TREE_CELL < hi_z; gz++)
+        for (int64_t gx = lo_x / TREE_CELL - (lo_x < 0); gx * TREE_CELL < hi_x; gx++) {
+            const uint64_t h = vwn_mix(t->tree_seed ^ vwn_mix((uint64_t)gx * 0x9E3779B97F4A7C15ull ^ (uint64_t)gz));
+            if ((int32_t)(h % 100u) >= t->trees)
+                continue;
+            /* The trunk 2..5 voxels into its cell: crowns of neighbouring cells may touch. */
+            const int32_t tx = (int32_t)(gx * TREE_CELL + 2 + (int64_t)(h >> 8 & 3u));
+            const int32_t tz = (int32_t)(gz * TREE_CELL + 2 + (int64_t)(h >> 10 & 3u));
+            if (tx + CROWN < col->x0 || tx - CROWN >= col->x0 + col->c || tz + CROWN < col->z0 ||
+                tz - CROWN >= col->z0 + col->c)
+                continue;
+            const double wx = tx, wz = tz;
+            const double height = surface_height(t, wx, wz);
+            const int32_t hi = (int32_t)height;
+            const int32_t trunk = 4 + (int32_t)(h >> 12 & 1u) + (int32_t)(h >> 13 & 1u); /* 4..6 */
+            if (hi <= t->sea + 1 || hi > (int32_t)(H * 0.78) || hi + trunk + 2 >= H)
+                continue; /* beach, snow, or no room under the sky */
+            if (vwn_fbm2(&t->overhang_mask, wx / 180.0, wz / 180.0, 2) * 3.0 - 0.3 > 0.0)
+                continue; /* the fold band may reshape the surface here */
+            if (vwn_fbm2(&t->entrance, wx / 150.0, wz / 150.0, 2) > 0.22 && height > t->sea + 3)
+                continue; /* a cave entrance may open the surface here */
+            const int32_t top = hi + trunk;
+            for (int32_t y = hi + 1; y <= top; y++)
+                put_in_air(col, tx, y, tz, VWG_WOOD);
+            for (int32_t y = top - 1; y <= top + 1; y++)
+                for (int32_t dz = -CROWN; dz <= CROWN; dz++)
+                    for (int32_t dx = -CROWN; dx <= CROWN; dx++)
+                        if (!((dx == -CROWN || dx == CROWN) && (dz == -CROWN || dz == CROWN)))
+                            put_in_air(col, tx + dx, y, tz + dz, VWG_LEAVES);
+            for (int32_t dz = -1; dz <= 1; dz++)
+                for (int32_t dx = -1; dx <= 1; dx++)
+                    put_in_air(col, tx + dx, top + 2, tz + dz, VWG_LEAVES);
+        }
+}
 
 /* `scratch`: one column's 3D lattice (lattice_bytes), the worker's own. */
 static void fill(const void *state, void *scratch, vwg_column *col)
@@ -181,6 +247,8 @@ static void fill(const void *state, void *scratch, vwg_column *col)
                 *vwg_at(col, x, w, z) = VWG_WATER;
             *vwg_at(col, x, 0, z) = VWG_BEDROCK;
         }
+    if (t->trees > 0)
+        plant_trees(t, col);
 }
 
 static void destroy(void *state) { free(state); }
@@ -205,7 +273,7 @@ uint64_t vwg_terrain_worker_bytes(const int32_t size[3], int32_t chunk)
     return lattice_bytes(size[1] < MAX_H ? size[1] : MAX_H, chunk);
 }
 
-vw_status vwg_terrain_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_error *err)
+vw_status vwg_terrain_create(vw_world *w, uint64_t seed, int32_t trees, vwg_generator *out, vw_error *err)
 {
     if (w->size[1] > MAX_H)
         return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "terrain: height %d is over the generator's limit of %d voxels",
@@ -215,6 +283,8 @@ vw_status vwg_terrain_create(vw_world *w, uint64_t seed, vwg_generator *out, vw_
         return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "terrain: out of memory");
     t->h = w->size[1];
     t->sea = (int32_t)(t->h * 0.34);
+    t->trees = trees;
+    t->tree_seed = vwn_mix(seed * 0x100000001B3ull + 0x7EE5u);
     vwn_noise *fields[] = {&t->hills, &t->ranges, &t->overhang_mask, &t->entrance,
                            &t->tun_a, &t->tun_b, &t->cavern, &t->fold};
     for (size_t i = 0; i < sizeof fields / sizeof fields[0]; i++)

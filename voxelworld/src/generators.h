@@ -30,7 +30,8 @@ enum {
     VWG_ROOF,
     VWG_FURNITURE,
     VWG_MAZE_WALL,
-    VWG_MAZE_FLOOR
+    VWG_MAZE_FLOOR,
+    VWG_LEAVES   /* see-through (gen:terrain with trees) */
 };
 
 void vwg_set_palette(vw_world *world);
@@ -62,7 +63,8 @@ typedef struct vwg_generator {
 
 /* Each prepares a generator for `world` (its size is the generated size) and sets the
  * materials it uses. */
-vw_status vwg_terrain_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);
+/* trees: percent of 8x8-voxel cells that hold a tree (0..100; 0 = none, the default). */
+vw_status vwg_terrain_create(vw_world *world, uint64_t seed, int32_t trees, vwg_generator *out, vw_error *err);
 vw_status vwg_city_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);
 vw_status vwg_maze_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);
 

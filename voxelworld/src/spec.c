@@ -42,6 +42,7 @@ void vwg_set_palette(vw_world *w)
         {VWG_FURNITURE, 0xFF1E90C8u, VW_MAT_OPAQUE},
         {VWG_MAZE_WALL, 0xFF7A6A5Au, VW_MAT_OPAQUE},
         {VWG_MAZE_FLOOR, 0xFF506050u, VW_MAT_OPAQUE},
+        {VWG_LEAVES, 0xC03A8B2Eu, VW_MAT_SEE_THROUGH},
     };
     for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
         vw_material m = {table[i].rgba, table[i].flags};
@@ -94,6 +95,7 @@ typedef struct gen_spec {
     uint64_t seed;
     int32_t chunk;
     int64_t origin[3];
+    int32_t trees;           /* terrain: percent of 8x8 cells with a tree */
 } gen_spec;
 
 static vw_status parse_gen(const char *spec, gen_spec *g, vw_error *err)
@@ -150,6 +152,14 @@ static vw_status parse_gen(const char *spec, gen_spec *g, vw_error *err)
             for (int a = 0; a < 3; a++)
                 if (g->origin[a] < -VWI_MAX_ORIGIN || g->origin[a] > VWI_MAX_ORIGIN)
                     return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': origin %lld is beyond +-2^60", spec, (long long)g->origin[a]);
+        } else if (KEY("trees")) {
+            int64_t tr;
+            if (strcmp(g->name, "terrain") != 0)
+                return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': trees are a terrain key (%s has none)", spec, g->name);
+            if (!parse_i64(val, stop, &tr) || tr < 0 || tr > 100)
+                return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': trees '%.*s' is not a percentage 0..100", spec,
+                                (int)(stop - val), val);
+            g->trees = (int32_t)tr;
         } else if (KEY("preset")) {
             if ((size_t)(stop - val) == 5 && memcmp(val, "large", 5) == 0 && strcmp(g->name, "terrain") == 0)
                 large = 1;
@@ -157,7 +167,7 @@ static vw_status parse_gen(const char *spec, gen_spec *g, vw_error *err)
                 return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': unknown preset '%.*s' for %s (terrain has: default, large)",
                                 spec, (int)(stop - val), val, g->name);
         } else {
-            return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': unknown key '%.*s' (size, seed, chunk, origin, preset)",
+            return vwi_fail(err, VW_ERROR_INVALID_ARGUMENT, "spec '%s': unknown key '%.*s' (size, seed, chunk, origin, preset, trees)",
                             spec, (int)klen, key);
         }
 #undef KEY
@@ -197,7 +207,7 @@ static vw_status generate(const vw_world_desc *d, const gen_spec *g, int terrain
     vwg_generator gen;
     memset(&gen, 0, sizeof gen);
     if (terrain)
-        st = vwg_terrain_create(w, g->seed, &gen, err);
+        st = vwg_terrain_create(w, g->seed, g->trees, &gen, err);
     else if (strcmp(g->name, "city") == 0)
         st = vwg_city_create(w, g->seed, &gen, err);
     else
