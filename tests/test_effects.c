@@ -269,20 +269,30 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
     vw_world_destroy(world);
 }
 
+typedef void (*world_check)(vis_context *ctx, const char *spec, fx_counts *counts);
+
+/* One check on the water terrain and on the glass city, both of which must exercise every
+ * effect (else the comparison would prove little). */
+static void terrain_and_city(vis_context *ctx, world_check check, const char *label, fx_counts *terrain, fx_counts *city)
+{
+    check(ctx, "gen:terrain:size=64x48x64:seed=3", terrain);
+    check(ctx, "gen:city:size=96x48x96:seed=2", city);
+    print_message("%s, all effects, brute force: terrain %llu see-through pixels, %llu reflected, %llu shadowed "
+                  "(%llu by off-screen casters); city %llu, %llu, %llu (%llu)\n",
+                  label, (unsigned long long)terrain->see_through, (unsigned long long)terrain->reflected,
+                  (unsigned long long)terrain->casters, (unsigned long long)terrain->off_screen,
+                  (unsigned long long)city->see_through, (unsigned long long)city->reflected,
+                  (unsigned long long)city->casters, (unsigned long long)city->off_screen);
+    assert_true(terrain->see_through > 0 && terrain->reflected > 0 && terrain->casters > 0);
+    assert_true(city->see_through > 0 && city->reflected > 0 && city->casters > 0);
+}
+
 static void test_worlds_by_packets_match_bruteforce(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(2);
     fx_counts terrain = {0}, city = {0};
-    world_packets_against_bruteforce(ctx, "gen:terrain:size=64x48x64:seed=3", &terrain);
-    world_packets_against_bruteforce(ctx, "gen:city:size=96x48x96:seed=2", &city);
-    print_message("packet views, all effects, brute force: terrain %llu see-through pixels, %llu reflected, %llu "
-                  "shadowed; city %llu, %llu, %llu\n",
-                  (unsigned long long)terrain.see_through, (unsigned long long)terrain.reflected,
-                  (unsigned long long)terrain.casters, (unsigned long long)city.see_through,
-                  (unsigned long long)city.reflected, (unsigned long long)city.casters);
-    assert_true(terrain.see_through > 0 && terrain.reflected > 0 && terrain.casters > 0);
-    assert_true(city.see_through > 0 && city.reflected > 0 && city.casters > 0);
+    terrain_and_city(ctx, world_packets_against_bruteforce, "packet views", &terrain, &city);
     vis_context_destroy(ctx);
 }
 
@@ -291,17 +301,7 @@ static void test_worlds_match_bruteforce(void **state)
     (void)state;
     vis_context *ctx = make_cpu_ctx(2);
     fx_counts terrain = {0}, city = {0};
-    world_against_bruteforce(ctx, "gen:terrain:size=64x48x64:seed=3", &terrain);
-    world_against_bruteforce(ctx, "gen:city:size=96x48x96:seed=2", &city);
-    print_message("all effects, brute force: terrain %llu see-through pixels, %llu reflected, %llu shadowed "
-                  "(%llu by off-screen casters); city %llu, %llu, %llu (%llu)\n",
-                  (unsigned long long)terrain.see_through, (unsigned long long)terrain.reflected,
-                  (unsigned long long)terrain.casters, (unsigned long long)terrain.off_screen,
-                  (unsigned long long)city.see_through, (unsigned long long)city.reflected,
-                  (unsigned long long)city.casters, (unsigned long long)city.off_screen);
-    /* The worlds exercise every effect (else the comparison above would prove little). */
-    assert_true(terrain.see_through > 0 && terrain.reflected > 0 && terrain.casters > 0);
-    assert_true(city.see_through > 0 && city.reflected > 0 && city.casters > 0);
+    terrain_and_city(ctx, world_against_bruteforce, "every method", &terrain, &city);
     assert_true(city.off_screen > 0); /* casters the frustum misses: what the effect is for */
     /* A terrain with trees, and the same without: their leaves are see-through too. */
     fx_counts forest = {0}, bare = {0};

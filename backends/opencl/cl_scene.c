@@ -98,16 +98,23 @@ static int array_alloc(upload_state *u, vis_cl_array *a, size_t cap, const char 
     return VIS_OK;
 }
 
+/* Whether [first, first + count) lies in the device buffer; the message when not. */
+static int range_fits(upload_state *u, const vis_cl_array *a, size_t first, size_t count, const char *what)
+{
+    if (first + count <= a->cap)
+        return 1;
+    snprintf(u->err, u->err_size, "internal: %s range [%zu, %zu) beyond the device buffer (%zu)", what, first,
+             first + count, a->cap);
+    return 0;
+}
+
 static int write_range(upload_state *u, vis_cl_array *a, const void *host, size_t first, size_t count,
                        const char *what)
 {
     if (count == 0)
         return VIS_OK;
-    if (first + count > a->cap) {
-        snprintf(u->err, u->err_size, "internal: %s range [%zu, %zu) beyond the device buffer (%zu)", what, first,
-                 first + count, a->cap);
+    if (!range_fits(u, a, first, count, what))
         return VIS_ERROR_BACKEND;
-    }
     size_t off = first * a->elem, bytes = count * a->elem;
     cl_int e = clEnqueueWriteBuffer(u->b->queue, a->mem, CL_FALSE, off, bytes, (const char *)host + off, 0, NULL,
                                     NULL);
@@ -188,11 +195,8 @@ static int stage_range(upload_state *u, vis_cl_array *a, enum stage_array which,
 {
     if (count == 0)
         return VIS_OK;
-    if (first + count > a->cap) {
-        snprintf(u->err, u->err_size, "internal: %s range [%zu, %zu) beyond the device buffer (%zu)", what, first,
-                 first + count, a->cap);
+    if (!range_fits(u, a, first, count, what))
         return VIS_ERROR_BACKEND;
-    }
     const size_t per = a->elem / sizeof(cl_uint);
     const cl_uint *src = (const cl_uint *)host + first * per;
     size_t word = first * per, left = count * per;

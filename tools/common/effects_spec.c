@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int parse_double(const char *s, double *out)
+int vc_parse_double(const char *s, double *out)
 {
     errno = 0;
     char *end;
@@ -56,7 +56,7 @@ int vc_effects_parse(const char *list, vc_effects *out, char *err, size_t err_si
             ti += 2;
             double l[3];
             for (int i = 0; i < 3; ++i)
-                if (!num[i] || parse_double(num[i], &l[i]) != 0) {
+                if (!num[i] || vc_parse_double(num[i], &l[i]) != 0) {
                     snprintf(err, err_size, "shadows needs a light direction shadows:DX,DY,DZ (3 finite numbers)");
                     return -1;
                 }
@@ -68,7 +68,7 @@ int vc_effects_parse(const char *list, vc_effects *out, char *err, size_t err_si
         } else if (strncmp(t, "fog:", 4) == 0) {
             bit = VIS_EFFECT_FOG;
             double f;
-            if (parse_double(t + 4, &f) != 0 || !(f > 0.0)) {
+            if (vc_parse_double(t + 4, &f) != 0 || !(f > 0.0)) {
                 snprintf(err, err_size, "fog:DIST needs a finite distance > 0, got '%s'", t + 4);
                 return -1;
             }

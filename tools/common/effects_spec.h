@@ -20,6 +20,10 @@ typedef struct vc_effects {
     double fog;      /* fog:DIST; set only when FOG is named                              */
 } vc_effects;
 
+/* 0 and *out when all of s is one finite number (strtod), -1 otherwise. The --effects list
+ * reads its numbers with it, and so does vis's argument parser. */
+int vc_parse_double(const char *s, double *out);
+
 /* Parses a list into *out (bits from 0; light and fog left as they were unless named, so a
  * caller may preset defaults). Returns 0, or -1 with the problem in err ("unknown effect
  * 'glitter' (...)", "'reflect' given twice", "the light direction must not be zero", ...);

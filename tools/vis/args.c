@@ -2,7 +2,6 @@
 #include "args.h"
 
 #include <errno.h>
-#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -59,17 +58,6 @@ static int parse_u32_opt(const char *cmd, const char *opt, const char *value, ui
     return CLI_EXIT_OK;
 }
 
-static int parse_double(const char *s, double *out)
-{
-    errno = 0;
-    char *end;
-    double v = strtod(s, &end);
-    if (!s[0] || *end || errno || !isfinite(v))
-        return -1;
-    *out = v;
-    return 0;
-}
-
 static int p_scene(const char *cmd, const char *opt, const char *value, int list, cli_args *a)
 {
     if (!value[0])
@@ -91,7 +79,7 @@ static int p_camera(const char *cmd, const char *opt, const char *value, int lis
             return cli_usage_error(cmd, "%s '%s': expected EX,EY,EZ,TX,TY,TZ[,FOVY] (6 or 7 numbers)", opt, value);
         memcpy(buf, p, len);
         buf[len] = '\0';
-        if (parse_double(buf, &v[n]) != 0)
+        if (vc_parse_double(buf, &v[n]) != 0)
             return cli_usage_error(cmd, "%s: '%s' is not a finite number", opt, buf);
         ++n;
         if (!comma)
