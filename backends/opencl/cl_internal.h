@@ -197,6 +197,8 @@ typedef struct vis_cl_backend {
     cl_mem stage_pinned, stage_dev;
     void *stage_host;
     cl_event stage_done;
+    struct vis_cl_scene *stage_scene; /* the copy that scatter writes                       */
+    int stage_unavailable;    /* staging memory could not be made: writes per range instead */
 
     double last_kernel_ms;    /* from event profiling, summed over a batch's launches */
 } vis_cl_backend;
@@ -214,6 +216,7 @@ typedef struct vis_cl_scene {
     uint64_t last_upload_bytes;
     uint64_t total_upload_bytes;
     uint32_t reallocations;   /* device buffers grown past their capacity (counted, logged) */
+    int stale;                /* a staged upload into this copy failed: the next sync sends all */
 } vis_cl_scene;
 
 /* ---- cl_device.c ---------------------------------------------------------------------- */

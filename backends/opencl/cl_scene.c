@@ -150,8 +150,9 @@ static int stage_ready(upload_state *u)
 }
 
 /* Waits until the staging memory may be written again: the last scatter that read it has
- * run. Its failure (reported only here, as the sync that enqueued it did not wait) fails
- * this sync, which drops the device copy: the next one sends everything again. */
+ * run. A scatter that failed (reported only here, as the sync that enqueued it did not wait)
+ * left its scene's copy half-written: when that is this sync's scene, this sync fails, which
+ * drops the copy; another scene's copy is marked stale, and its next sync sends it whole. */
 static int stage_wait(upload_state *u)
 {
     vis_cl_backend *b = u->b;
@@ -160,7 +161,15 @@ static int stage_wait(upload_state *u)
     cl_int e = clWaitForEvents(1, &b->stage_done);
     clReleaseEvent(b->stage_done);
     b->stage_done = NULL;
-    return e == CL_SUCCESS ? VIS_OK : vis_cl_fail(e, "the previous scene upload", u->err, u->err_size);
+    vis_cl_scene *failed = e == CL_SUCCESS ? NULL : b->stage_scene;
+    b->stage_scene = NULL;
+    if (!failed)
+        return VIS_OK;
+    if (failed != u->sc) {
+        failed->stale = 1;
+        return VIS_OK;
+    }
+    return vis_cl_fail(e, "the previous scene upload", u->err, u->err_size);
 }
 
 /* Sends what is staged: one write of the headers and words, one scatter kernel. */
@@ -180,6 +189,8 @@ static int stage_flush(upload_state *u)
     size_t local = 64, global = (size_t)u->ranges * local;
     if (e == CL_SUCCESS)
         e = clEnqueueNDRangeKernel(b->queue, k, 1, NULL, &global, &local, 0, NULL, &b->stage_done);
+    if (e == CL_SUCCESS)
+        b->stage_scene = sc;
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "scene upload (staged)", u->err, u->err_size);
     u->ranges = 0;
@@ -193,6 +204,8 @@ static int stage_flush(upload_state *u)
 static int stage_range(upload_state *u, vis_cl_array *a, enum stage_array which, const void *host, size_t first,
                        size_t count, const char *what)
 {
+    if (!u->b->stage_host) /* no staging memory (see sync_partial): a write per range */
+        return write_range(u, a, host, first, count, what);
     if (count == 0)
         return VIS_OK;
     if (!range_fits(u, a, first, count, what))
@@ -357,8 +370,13 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
         st = ensure(u, &sc->objects, v->object_count, sc, "objects");
     if (st == VIS_OK)
         st = ensure(u, &sc->object_leaves, v->object_leaf_count, sc, "object leaf lists");
-    if (st == VIS_OK && (ch->leaf_count || ch->object_count || ch->object_leaf_hi > ch->object_leaf_lo))
-        st = stage_ready(u);
+    if (st == VIS_OK && (ch->leaf_count || ch->object_count || ch->object_leaf_hi > ch->object_leaf_lo) &&
+        !u->b->stage_unavailable && stage_ready(u) != VIS_OK) {
+        /* Pinned memory is a convenience: without it, each range is its own write (said once). */
+        vis_cl_log(u->b, 1, "opencl: no staging memory for scene uploads (%s): a write per range", u->err);
+        u->err[0] = '\0';
+        u->b->stage_unavailable = 1;
+    }
     for (uint32_t i = 0; i < ch->leaf_count && st == VIS_OK; ++i)
         st = upload_leaf(u, sc, v, ch->leaves[i]);
     for (uint32_t i = 0; i < ch->object_count && st == VIS_OK; ++i) {
@@ -413,7 +431,9 @@ int vis_cl_scene_sync(vis_cl_backend *b, vis_cl_scene **scene, const vis_scene_v
         fresh = 1;
     }
     upload_state u = {b, sc, 0, 0, 0, 0, 0, err, err_size};
-    int st = fresh || changes->full ? sync_full(&u, sc, view) : sync_partial(&u, sc, view, changes);
+    int st = fresh || changes->full || sc->stale ? sync_full(&u, sc, view) : sync_partial(&u, sc, view, changes);
+    if (st == VIS_OK)
+        sc->stale = 0;
     if (st != VIS_OK || u.direct) {
         cl_int e = clFinish(b->queue);
         if (st == VIS_OK && e != CL_SUCCESS)
@@ -435,6 +455,12 @@ void vis_cl_scene_release(vis_cl_backend *b, vis_cl_scene *sc)
 {
     if (!sc)
         return;
+    if (b->stage_scene == sc) { /* its scatter's outcome no longer matters */
+        clWaitForEvents(1, &b->stage_done);
+        clReleaseEvent(b->stage_done);
+        b->stage_done = NULL;
+        b->stage_scene = NULL;
+    }
     vis_cl_array *arrays[] = {&sc->nodes,   &sc->leaves,        &sc->buckets, &sc->quads,     &sc->tris,
                               &sc->objects, &sc->object_leaves, &sc->ropes,   &sc->rope_index};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
@@ -459,4 +485,5 @@ void vis_cl_staging_release(vis_cl_backend *b)
     b->stage_pinned = b->stage_dev = NULL;
     b->stage_host = NULL;
     b->stage_done = NULL;
+    b->stage_scene = NULL;
 }

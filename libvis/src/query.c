@@ -645,6 +645,7 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
     uint64_t gen = q->scene->generation;
     vis_scene_end_read(q->scene);
     q->regenerated = q->tick > 1 && gen != q->generation;
+    const uint64_t previous_generation = q->generation;
     q->generation = gen;
 
     /* Eye regions (the swept boxes depend on each viewer's latency: its job makes them). */
@@ -656,6 +657,7 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
     if (st != VIS_OK) {
         --q->tick; /* the slots moved, but no result of this tick is readable */
         q->last_viewers = 0;
+        q->generation = previous_generation; /* an edit not traced yet still forces the passes */
         return st;
     }
 

@@ -36,7 +36,7 @@
 typedef struct terrain {
     int32_t h;                /* world height                                               */
     int32_t sea;              /* water fills air up to this y above the surface             */
-    int32_t trees;            /* percent of TREE_CELL x TREE_CELL cells with a tree         */
+    int32_t trees;            /* percent of TREE_CELL x TREE_CELL cells that try a tree     */
     uint64_t tree_seed;
     vwn_noise hills, ranges, overhang_mask, entrance, tun_a, tun_b, cavern, fold;
 } terrain;
@@ -55,43 +55,34 @@ static double surface_height(const terrain *t, double x, double z)
 /* 3D fields sampled on the lattice; index [field][ly][lz][lx]. */
 enum { F_TUN_A, F_TUN_B, F_CAVERN, F_FOLD, F_COUNT };
 
-/* Sets voxel (x, y, z) of the column to v where it is air and inside the column. */
-static void put_in_air(vwg_column *col, int32_t wx, int32_t y, int32_t wz, uint8_t v)
+/* Sets voxel (x, y, z) of the column to v where it is air. */
+static void put_in_air(vwg_column *col, int32_t x, int32_t y, int32_t z, uint8_t v)
 {
-    const int32_t x = wx - col->x0, z = wz - col->z0;
-    if (x < 0 || x >= col->c || z < 0 || z >= col->c || y < 1 || y >= col->h)
-        return;
     uint8_t *p = vwg_at(col, x, y, z);
     if (!*p)
         *p = v;
 }
 
-/* Trees: each TREE_CELL x TREE_CELL cell of the world holds at most one, chosen by a hash of
- * the seed and the cell, on flat grass only: where the fold band is off (no overhang), the
- * cave entrances are closed (so caves stay 5 voxels under the surface) and the ground is
- * neither beach nor snow. There the surface is exactly the heightmap's voxel, so a trunk
- * stands on it, computed the same way from whichever column looks. A column draws every tree
- * whose crown reaches it, in one global order (by cell), writing only into air: a voxel that
- * two trees claim goes to the first, in every column alike, so the world stays the same for
- * any thread count. The crown (leaves) is see-through: it lets rays through to what lies
- * behind it (docs/effects.md). */
+/* Trees: each TREE_CELL x TREE_CELL cell holds at most one, chosen by a hash of the seed and
+ * the cell, on flat grass only: where the fold band is off (no overhang), the cave entrances
+ * are closed (so caves stay 5 voxels under the surface) and the ground is neither beach nor
+ * snow. There the surface is exactly the heightmap's voxel, so the trunk stands on it. A tree
+ * stays inside its cell (trunk 2..5 voxels in, crown CROWN wide), and cells tile chunk
+ * columns (a chunk is 16 or 32 voxels, column origins are chunk multiples), so each column
+ * plants its own cells' trees and no other: the world is the same for any thread count. The
+ * crown (leaves) is see-through: rays pass it to what lies behind (docs/effects.md). */
+_Static_assert(2 - CROWN >= 0 && 5 + CROWN < TREE_CELL && 16 % TREE_CELL == 0, "a tree stays inside its cell");
 static void plant_trees(const terrain *t, vwg_column *col)
 {
     const int32_t H = col->h;
-    const int64_t lo_x = (int64_t)col->x0 - TREE_CELL, hi_x = (int64_t)col->x0 + col->c + TREE_CELL;
-    const int64_t lo_z = (int64_t)col->z0 - TREE_CELL, hi_z = (int64_t)col->z0 + col->c + TREE_CELL;
-    for (int64_t gz = lo_z / TREE_CELL - (lo_z < 0); gz * TREE_CELL < hi_z; gz++)
-        for (int64_t gx = lo_x / TREE_CELL - (lo_x < 0); gx * TREE_CELL < hi_x; gx++) {
-            const uint64_t h = vwn_mix(t->tree_seed ^ vwn_mix((uint64_t)gx * 0x9E3779B97F4A7C15ull ^ (uint64_t)gz));
+    for (int32_t cz = 0; cz < col->c; cz += TREE_CELL)
+        for (int32_t cx = 0; cx < col->c; cx += TREE_CELL) {
+            const uint64_t gx = (uint64_t)(col->x0 + cx) / TREE_CELL, gz = (uint64_t)(col->z0 + cz) / TREE_CELL;
+            const uint64_t h = vwn_mix(t->tree_seed ^ vwn_mix(gx * 0x9E3779B97F4A7C15ull ^ gz));
             if ((int32_t)(h % 100u) >= t->trees)
                 continue;
-            /* The trunk 2..5 voxels into its cell: crowns of neighbouring cells may touch. */
-            const int32_t tx = (int32_t)(gx * TREE_CELL + 2 + (int64_t)(h >> 8 & 3u));
-            const int32_t tz = (int32_t)(gz * TREE_CELL + 2 + (int64_t)(h >> 10 & 3u));
-            if (tx + CROWN < col->x0 || tx - CROWN >= col->x0 + col->c || tz + CROWN < col->z0 ||
-                tz - CROWN >= col->z0 + col->c)
-                continue;
-            const double wx = tx, wz = tz;
+            const int32_t x = cx + 2 + (int32_t)(h >> 8 & 3u), z = cz + 2 + (int32_t)(h >> 10 & 3u);
+            const double wx = col->x0 + x, wz = col->z0 + z;
             const double height = surface_height(t, wx, wz);
             const int32_t hi = (int32_t)height;
             const int32_t trunk = 4 + (int32_t)(h >> 12 & 1u) + (int32_t)(h >> 13 & 1u); /* 4..6 */
@@ -103,15 +94,15 @@ static void plant_trees(const terrain *t, vwg_column *col)
                 continue; /* a cave entrance may open the surface here */
             const int32_t top = hi + trunk;
             for (int32_t y = hi + 1; y <= top; y++)
-                put_in_air(col, tx, y, tz, VWG_WOOD);
+                put_in_air(col, x, y, z, VWG_WOOD);
             for (int32_t y = top - 1; y <= top + 1; y++)
                 for (int32_t dz = -CROWN; dz <= CROWN; dz++)
                     for (int32_t dx = -CROWN; dx <= CROWN; dx++)
                         if (!((dx == -CROWN || dx == CROWN) && (dz == -CROWN || dz == CROWN)))
-                            put_in_air(col, tx + dx, y, tz + dz, VWG_LEAVES);
+                            put_in_air(col, x + dx, y, z + dz, VWG_LEAVES);
             for (int32_t dz = -1; dz <= 1; dz++)
                 for (int32_t dx = -1; dx <= 1; dx++)
-                    put_in_air(col, tx + dx, top + 2, tz + dz, VWG_LEAVES);
+                    put_in_air(col, x + dx, top + 2, z + dz, VWG_LEAVES);
         }
 }
 

@@ -63,7 +63,8 @@ typedef struct vwg_generator {
 
 /* Each prepares a generator for `world` (its size is the generated size) and sets the
  * materials it uses. */
-/* trees: percent of 8x8-voxel cells that hold a tree (0..100; 0 = none, the default). */
+/* trees: percent of 8x8-voxel cells that try a tree (0..100; 0 = none, the default); a try
+ * on beach, snow, an overhang or a cave entrance plants nothing. */
 vw_status vwg_terrain_create(vw_world *world, uint64_t seed, int32_t trees, vwg_generator *out, vw_error *err);
 vw_status vwg_city_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);
 vw_status vwg_maze_create(vw_world *world, uint64_t seed, vwg_generator *out, vw_error *err);

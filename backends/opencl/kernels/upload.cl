@@ -2,8 +2,8 @@
  *
  * A partial scene sync packs every changed range (a leaf's header, bucket table, quads and
  * triangles; an object's slot; the rewritten part of the object leaf lists) into one staging
- * buffer: a header of VIS_CL_STAGE_RANGES (array, first word, words, source word) entries,
- * then the words. One write and this one kernel replace a write per range, each of which
+ * buffer: a header of STAGE_RANGES (cl_scene.c) entries of (array, first word, words,
+ * source word) as ulongs, then the words. One write and this one kernel replace a write per range, each of which
  * costs the driver a few microseconds whatever its size. Every scene array is a whole
  * number of 32-bit words (cl_scene.c checks the element sizes), so the copy is by word. */
 

@@ -148,7 +148,9 @@ typedef void (*vis_log_fn)(vis_log_level level, const char *message, void *user)
 /* Optional job system for the CPU backend: runs job(i, arg) once for every i in [0, count),
  * on any threads, in any order, and returns when all have finished. Called from inside
  * vis_trace()/vis_trace_batch() on the calling thread; several contexts sharing one job
- * system may call it at the same time. */
+ * system may call it at the same time. A job keeps a whole ray packet on its stack: give its
+ * threads (or fibers) at least 64 KiB of stack (a 16x16 packet of an effects pass is 39 KB,
+ * of a plain pass 15 KB). */
 typedef void (*vis_parallel_for_fn)(uint32_t count, void (*job)(uint32_t index, void *arg), void *arg,
                                     void *user);
 
