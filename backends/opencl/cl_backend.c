@@ -535,6 +535,12 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
     }
     vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
     st = vis_cl_program_get(b, vis_cl_traversal_options(0u), &p, err, err_size);
+    if (st == VIS_OK) { /* staged scene uploads (cl_scene.c) */
+        cl_int e = CL_SUCCESS;
+        b->stage_scatter = clCreateKernel(p->program, "vis_scatter_words", &e);
+        if (e != CL_SUCCESS)
+            st = vis_cl_fail(e, "clCreateKernel (vis_scatter_words)", err, err_size);
+    }
     if (st != VIS_OK) {
         cl_destroy(b);
         return st;

@@ -138,7 +138,6 @@ typedef struct vis_cl_program {
     cl_kernel drawlist;    /* vis_trace_drawlist_kernel: the batch kernel counting pixels per key */
     cl_kernel compact;     /* vis_drawlist_compact: counts to per-view lists            */
     cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
-    cl_kernel scatter;     /* vis_scatter_words: staged scene uploads (cl_scene.c)       */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -193,7 +192,8 @@ typedef struct vis_cl_backend {
 
     /* Staged scene uploads (cl_scene.c): pinned host memory mapped for the backend's life,
      * its device copy, and the event of the last scatter that read it. The scatter kernel
-     * is the first program's (programs[0], built when the backend is created). */
+     * (vis_scatter_words) comes from the program built when the backend is created. */
+    cl_kernel stage_scatter;
     cl_mem stage_pinned, stage_dev;
     void *stage_host;
     cl_event stage_done;

@@ -181,7 +181,7 @@ static int stage_flush(upload_state *u)
     vis_cl_scene *sc = u->sc;
     size_t bytes = (size_t)(STAGE_HEADER_WORDS + u->words) * sizeof(cl_uint);
     cl_int e = clEnqueueWriteBuffer(b->queue, b->stage_dev, CL_FALSE, 0, bytes, b->stage_host, 0, NULL, NULL);
-    cl_kernel k = b->programs[0].scatter;
+    cl_kernel k = b->stage_scatter;
     const cl_mem *args[] = {&b->stage_dev,    &b->stage_dev, &sc->leaves.mem,  &sc->buckets.mem,
                             &sc->quads.mem,   &sc->tris.mem, &sc->objects.mem, &sc->object_leaves.mem};
     for (cl_uint i = 0; e == CL_SUCCESS && i < sizeof args / sizeof args[0]; ++i)
@@ -482,7 +482,10 @@ void vis_cl_staging_release(vis_cl_backend *b)
         clReleaseMemObject(b->stage_pinned);
     if (b->stage_dev)
         clReleaseMemObject(b->stage_dev);
+    if (b->stage_scatter)
+        clReleaseKernel(b->stage_scatter);
     b->stage_pinned = b->stage_dev = NULL;
+    b->stage_scatter = NULL;
     b->stage_host = NULL;
     b->stage_done = NULL;
     b->stage_scene = NULL;
