@@ -807,6 +807,49 @@ static void test_build_options(void **state)
     vis_context_destroy(tuned);
 }
 
+/* A device without double precision (pretended with $VIS_OPENCL_ASSUME_NO_FP64) traces quad
+ * scenes as any other, and refuses a scene holding triangles with its reason instead of
+ * tracing it differently from the CPU (the triangle test's fallback needs fp64). */
+static void test_no_fp64_refuses_triangles(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(plain);
+    uint64_t rng = 77;
+    tworld w;
+    random_chunk_world(&w, &rng, 2, 2, 2);
+    for (uint32_t i = 0; i < w.n; ++i)
+        w.objs[i].nt = 0; /* quads only: the entities' triangles dropped */
+    vis_camera c = {{1, 20, 1}, {16, 0, 16}, 60, 0.1, 100};
+    vis_trace_desc td = desc_make(16, 16, VIS_IDS_OBJECT, VIS_TRAVERSAL_STACK);
+    uint32_t want[256], got[256];
+    vis_scene *s = make_scene(plain, &w, NULL, 0);
+    assert_int_equal(vis_trace(plain, s, &c, &td, want, 256, NULL, 0), VIS_OK);
+    vis_scene_destroy(s);
+    vis_context_destroy(plain);
+
+    setenv("VIS_OPENCL_ASSUME_NO_FP64", "1", 1);
+    vis_status st = VIS_OK;
+    vis_context *cl = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+    unsetenv("VIS_OPENCL_ASSUME_NO_FP64");
+    if (!cl)
+        fail_msg("no context without fp64: %s (%s)", vis_status_string(st), g_log);
+    assert_non_null(strstr(g_log, "cl_khr_fp64"));
+    s = make_scene(cl, &w, NULL, 0);
+    assert_int_equal(vis_trace(cl, s, &c, &td, got, 256, NULL, 0), VIS_OK);
+    assert_memory_equal(got, want, sizeof want);
+    tobj *t = add_obj(&w, 500000);
+    const float a[3] = {2, 2, 2}, b[3] = {12, 2, 2}, d[3] = {2, 12, 12};
+    obj_tri(t, a, b, d);
+    set_obj(s, t);
+    assert_int_equal(vis_trace(cl, s, &c, &td, got, 256, NULL, 0), VIS_ERROR_UNSUPPORTED);
+    const char *why = vis_context_last_error(cl);
+    if (!strstr(why, "cl_khr_fp64") || !strstr(why, "triangles"))
+        fail_msg("refusal without its reason: \"%s\"", why);
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
 /* A generated terrain (greedy chunk meshes, the real workload) with voxel edits: two copies
  * of the same world, one scene per backend, the same edits applied to both. */
 /* The same world loaded twice, one scene on the CPU and one on OpenCL, edited in lockstep. */
@@ -1102,6 +1145,7 @@ int main(void)
         cmocka_unit_test(test_bad_selector_not_found),
         cmocka_unit_test(test_errors_and_timing),
         cmocka_unit_test(test_build_options),
+        cmocka_unit_test(test_no_fp64_refuses_triangles),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_drawlist_on_device),

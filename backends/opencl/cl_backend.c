@@ -118,6 +118,17 @@ static void cl_destroy(void *impl)
 static vis_status cl_scene_sync(void *impl, void **scene_data, const vis_scene_view *view, const vis_scene_changes *changes,
                          char *err, size_t err_size)
 {
+    const vis_cl_backend *b = impl;
+    /* The watertight triangle test needs double precision to equal the CPU (trace_core.h):
+     * without it a triangle scene is refused rather than traced differently. Quads never
+     * use it, so quad scenes trace bit for bit on any device. */
+    if (!b->caps.fp64 && view->tri_count > 0u) {
+        snprintf(err, err_size,
+                 "device '%s' has no double precision (cl_khr_fp64), which the triangle test needs to equal the "
+                 "CPU; this scene holds triangles: trace it on the CPU backend",
+                 b->caps.name);
+        return VIS_ERROR_UNSUPPORTED;
+    }
     return vis_cl_scene_sync(impl, (vis_cl_scene **)scene_data, view, changes, err, err_size);
 }
 
@@ -492,6 +503,11 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         vis_host_free(alloc, b);
         return st;
     }
+    /* $VIS_OPENCL_ASSUME_NO_FP64=1 treats the device as one without double precision, so
+     * that the refusal of triangle scenes (cl_scene_sync) can be tested on any device. */
+    const char *no_fp64 = getenv("VIS_OPENCL_ASSUME_NO_FP64");
+    if (no_fp64 && strcmp(no_fp64, "1") == 0)
+        b->caps.fp64 = 0;
     cl_int e = CL_SUCCESS;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)b->platform, 0};
     b->context = clCreateContext(props, 1, &b->device, NULL, NULL, &e);
@@ -550,9 +566,7 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
                b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1],
                b->extra_options[0] ? "; extra build options " : "", b->extra_options);
     if (!b->caps.fp64)
-        vis_cl_log(b, 2,
-                   "opencl: '%s' has no cl_khr_fp64: rays that graze a triangle edge exactly may differ from the CPU",
-                   b->caps.name);
+        vis_cl_log(b, 2, "opencl: '%s' has no cl_khr_fp64: scenes holding triangles are refused on it", b->caps.name);
     snprintf(device_name, name_size, "%s", b->caps.name);
     *is_gpu = b->caps.is_gpu;
     out->ops = &cl_ops;

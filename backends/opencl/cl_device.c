@@ -102,6 +102,13 @@ int vis_cl_device_check(cl_platform_id platform, cl_device_id d, vis_cl_device_c
         snprintf(err, err_size, "device '%s' has no OpenCL C compiler", caps->name);
         return VIS_ERROR_UNSUPPORTED;
     }
+    if (!caps->denorms) {
+        snprintf(err, err_size,
+                 "device '%s' flushes single-precision subnormals to zero (no CL_FP_DENORM), which would change "
+                 "results where a value falls below 2^-126",
+                 caps->name);
+        return VIS_ERROR_UNSUPPORTED;
+    }
     if (!(fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT)) {
         snprintf(err, err_size,
                  "device '%s' lacks correctly rounded single-precision divide and sqrt "

@@ -383,14 +383,14 @@ typedef enum vis_id_mode {
 
 /* kd-tree traversal methods (Chang & Ihm 2010; docs/traversal.md). All give the nearest hit
  * with the lowest-ID tie rule; they differ in speed and in the per-ray state they need. The
- * per-ray methods give bit-identical buffers among themselves, and on the CPU and on every
- * OpenCL device with double precision (cl_khr_fp64). On an OpenCL device without it the
- * kernel is built all the same, without the watertight triangle test's double-precision
- * fallback for edge functions that round to zero: rays that graze a triangle's edge or
- * vertex exactly may then differ from the CPU (quads are unaffected); the backend logs a
- * warning when it is created on such a device (docs/opencl.md). Every method, packets
- * included, equals VIS_TRAVERSAL_BRUTEFORCE bit for bit for quads (docs/traversal.md,
- * "Exactness"). */
+ * per-ray methods give bit-identical buffers among themselves, on the CPU and on every
+ * OpenCL device the backend accepts. An OpenCL device without double precision
+ * (cl_khr_fp64), which the watertight triangle test's fallback needs, traces scenes of quads
+ * only: tracing a scene that holds triangles there fails with VIS_ERROR_UNSUPPORTED and the
+ * reason, rather than giving other pixels than the CPU. Devices that flush single-precision
+ * subnormals to zero, or lack correctly rounded division, are not accepted at all
+ * (docs/opencl.md). Every method, packets included, equals VIS_TRAVERSAL_BRUTEFORCE bit for
+ * bit (docs/traversal.md, "Exactness"). */
 typedef enum vis_traversal {
     VIS_TRAVERSAL_AUTO = 0,       /* the backend's fastest (default): PACKET on the CPU,
                                      STACK on OpenCL                                         */
