@@ -885,6 +885,10 @@ typedef struct vis_query_stats {
                                   swept box still lie inside the regions it covered          */
     uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
     uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
+    uint32_t chunk_edit_passes;/* of those, the viewers traced because a scene edit since the
+                                  last tick reached a ray of their last pass (or every viewer
+                                  with a pass when the scene's change log no longer reached
+                                  back: more than 64 boxes changed)                           */
     double ms;                 /* the call, wall clock                                         */
 } vis_query_stats;
 
