@@ -97,6 +97,11 @@ struct vis_query {
     uint32_t chunk_edit_passes; /* this tick's passes that an edit made due                 */
 };
 
+/* Can this tick's changed boxes (q->changes, q->change_count) change the IDs of the last
+ * chunk pass of the viewer in slot s? 0 only when no ray of that pass reaches one before its
+ * hit (query_edits.c). */
+int vis_query_edit_reaches(const vis_query *q, uint32_t slot);
+
 /* Traces the chunk passes due this tick (query_chunks.c); the caller holds the context. */
 vis_status vis_query_chunks_run(vis_query *q);
 
