@@ -486,12 +486,23 @@ static size_t run_ticks_on(vis_context *ctx, uint32_t threads, const vis_query_d
             en[j].velocity[2] = (double)(j % 5);
         }
         vw[t % NV].latency_ms = 50.0 * t;
+        if (t >= 2) { /* edits: the passes they reach are traced again, the others kept */
+            float lo[3] = {20.0f * (float)t - 30.0f, 1.0f, 30.0f}, hi[3] = {20.0f * (float)t - 28.0f, 4.0f, 33.0f};
+            tobj o;
+            memset(&o, 0, sizeof o);
+            o.id = 500u + (uint32_t)t;
+            obj_box(&o, lo, hi);
+            set_obj(scene, &o);
+            obj_clear(&o);
+        }
         vis_query_stats st;
         assert_int_equal(vis_query_run(q, vw, NV, en, NE, &st), VIS_OK);
         st_out->pairs_unchecked += st.pairs_unchecked;
         st_out->pairs_hidden += st.pairs_hidden;
         st_out->entity_rays += st.entity_rays;
         st_out->pairs += st.pairs;
+        st_out->chunk_rays += st.chunk_rays;
+        st_out->chunk_edit_passes += st.chunk_edit_passes;
         for (uint32_t i = 0; i < NV; ++i) {
             vis_query_hit hits[NE];
             size_t k = 0;
@@ -566,7 +577,10 @@ static void test_threads_deterministic(void **state)
         assert_int_equal(n1, n2);
         assert_memory_equal(a, b, n1 * 4);
         assert_int_equal(s1.entity_rays, s2.entity_rays);
+        assert_int_equal(s1.chunk_rays, s2.chunk_rays);
+        assert_int_equal(s1.chunk_edit_passes, s2.chunk_edit_passes);
     }
+    assert_true(s1.chunk_edit_passes > 0 && s1.chunk_edit_passes < 2 * 12); /* edits retraced some viewers */
     /* Passes driven by the eyes' motion, with another traversal: still the same lists. */
     d.chunk_move = 0.5;
     d.chunk_traversal = VIS_TRAVERSAL_SHORTSTACK;
@@ -865,6 +879,7 @@ static void test_chunk_reuse(void **state)
     obj_clear(&o);
     assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_edit_passes, 1);
     assert_true(chunk_listed(q, 0, 3, NULL));
     assert_int_equal(vis_query_run(q, &v, 1, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 0);
@@ -922,6 +937,205 @@ static void test_chunk_reuse(void **state)
     assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_ERROR_INVALID_ARGUMENT);
     assert_non_null(strstr(vis_context_last_error(ctx), "chunk_traversal"));
     assert_null(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* ---- edits retrace only the passes they can change ----------------------------------- */
+
+/* Viewer i's list of the last run equals what a fresh query traces for the same viewer now
+ * (a still viewer: its last pass's camera). */
+static void assert_list_fresh(vis_context *ctx, vis_scene *scene, vis_query *q, uint32_t i, const vis_query_viewer *v)
+{
+    enum { CAP = 6 * 32 * 32 };
+    static uint32_t kept[CAP], fresh[CAP];
+    size_t nk = 0, nf = 0;
+    assert_int_equal(vis_query_chunks(q, i, kept, CAP, &nk), VIS_OK);
+    vis_query *q2 = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, NULL, &q2), VIS_OK);
+    assert_int_equal(vis_query_run(q2, v, 1, NULL, 0, NULL), VIS_OK);
+    assert_int_equal(vis_query_chunks(q2, 0, fresh, CAP, &nf), VIS_OK);
+    vis_query_destroy(q2);
+    assert_int_equal(nk, nf);
+    assert_memory_equal(kept, fresh, nk * 4);
+}
+
+static void set_box(vis_scene *scene, uint32_t id, const float lo[3], const float hi[3])
+{
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = id;
+    obj_box(&o, lo, hi);
+    set_obj(scene, &o);
+    obj_clear(&o);
+}
+
+/* An edit behind a wall, or behind an in-view viewer, retraces nobody that cannot see it (no
+ * pass, no ray) and the kept lists are a fresh pass's; one in sight retraces that viewer and
+ * its list names the new object on the next tick; more changed boxes than the scene's log
+ * holds retrace everyone, and the log serves again after. Edits of one box, repeated, take one
+ * entry of the log. */
+static void test_edit_retraces_few(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    corner_world(&w);
+    /* A scene origin away from 0: the edit test works in scene-local coordinates. */
+    const double origin[3] = {-37.25, 5.0, 100.5};
+    vis_scene *scene = make_scene(ctx, &w, origin, 0);
+    vis_query_viewer v[2];
+    vis_query_entity e;
+    corner_setup(&v[0], &e);        /* in view, looking +x at the wall from z = 38 */
+    corner_setup(&v[1], &e);
+    v[1].id = 2;
+    v[1].eye[2] = 30.0;
+    v[1].dir[0] = 0.0;               /* all around */
+    for (int i = 0; i < 2; ++i)
+        for (int k = 0; k < 3; ++k)
+            v[i].eye[k] += origin[k];
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.chunk_every = 100000; /* still viewers: only edits bring passes */
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    vis_query_stats st;
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 2);
+    assert_int_equal(st.chunk_edit_passes, 0);
+
+    /* Behind the wall (x = 20..21) for both: nobody traced. */
+    float hid_lo[3] = {40, 2, 10}, hid_hi[3] = {42, 4, 12};
+    set_box(scene, 10, hid_lo, hid_hi);
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    assert_int_equal(st.chunk_rays, 0);
+    for (uint32_t i = 0; i < 2; ++i) {
+        assert_false(chunk_listed(q, i, 10, NULL));
+        assert_list_fresh(ctx, scene, q, i, &v[i]);
+    }
+    /* Behind the in-view viewer, in the open for the all-around one: only the latter. */
+    float back_lo[3] = {2, 1, 33}, back_hi[3] = {4, 4, 37};
+    set_box(scene, 11, back_lo, back_hi);
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_edit_passes, 1);
+    assert_int_equal(st.chunk_rays, 6 * 32 * 32);
+    assert_false(chunk_listed(q, 0, 11, NULL));
+    assert_true(chunk_listed(q, 1, 11, NULL));
+    for (uint32_t i = 0; i < 2; ++i)
+        assert_list_fresh(ctx, scene, q, i, &v[i]);
+    /* Removed again: the all-around viewer's list loses it on the next tick. */
+    assert_int_equal(vis_scene_remove_object(scene, 11), VIS_OK);
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_edit_passes, 1);
+    assert_false(chunk_listed(q, 1, 11, NULL));
+    /* The same hidden box set 200 times: one entry of the log, nobody traced. */
+    for (int k = 0; k < 200; ++k)
+        set_box(scene, 10, hid_lo, hid_hi);
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    /* 70 hidden boxes, more than the log holds: everyone is traced (the log cannot tell), and
+     * the lists are still a fresh pass's. */
+    for (uint32_t k = 0; k < 70; ++k) {
+        float lo[3] = {30.0f + (float)(k % 10) * 3.0f, 1.0f, 2.0f + (float)(k / 10) * 3.0f};
+        float hi[3] = {lo[0] + 1.0f, 2.0f, lo[2] + 1.0f};
+        set_box(scene, 100 + k, lo, hi);
+    }
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 2);
+    assert_int_equal(st.chunk_edit_passes, 2);
+    for (uint32_t i = 0; i < 2; ++i)
+        assert_list_fresh(ctx, scene, q, i, &v[i]);
+    /* After it, one more hidden edit: the log serves again. */
+    assert_int_equal(vis_scene_remove_object(scene, 100), VIS_OK);
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 0);
+    /* A hole through the wall in front of both: both traced, the box behind shows. */
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 2;
+    float parts[4][6] = {{20, 1, 0, 21, 10, 21}, {20, 1, 27, 21, 10, 40}, {20, 1, 21, 21, 2, 27}, {20, 5, 21, 21, 10, 27}};
+    for (int i = 0; i < 4; ++i)
+        obj_box(&o, parts[i], parts[i] + 3);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_edit_passes, 2);
+    assert_true(chunk_listed(q, 1, 10, NULL));
+    for (uint32_t i = 0; i < 2; ++i)
+        assert_list_fresh(ctx, scene, q, i, &v[i]);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* Random walls, still viewers (in view and all around) and random edits (boxes added, moved,
+ * removed; walls cut lower): after every tick each viewer's list is a fresh pass's, some
+ * viewers are spared and some traced. */
+static void test_edit_retrace_random(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    uint64_t rng = 0x5eed0011;
+    tworld w;
+    walls_world(&w, &rng, 24);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    enum { NV = 8, ROUNDS = 16 };
+    vis_query_viewer v[NV];
+    for (uint32_t i = 0; i < NV; ++i) {
+        random_viewer(&rng, 1 + i, &v[i]);
+        if (i % 2)
+            v[i].dir[0] = v[i].dir[2] = 0.0;
+    }
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.chunk_every = 100000;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    vis_query_stats st;
+    assert_int_equal(vis_query_run(q, v, NV, NULL, 0, &st), VIS_OK);
+    uint32_t traced = 0;
+    for (int r = 0; r < ROUNDS; ++r) {
+        uint32_t kind = (uint32_t)(vt_rand(&rng) % 3);
+        if (kind == 0 || r < 4) { /* a small box, new or moved */
+            float lo[3] = {1.0f + (float)(vt_rand(&rng) % 60), 1.0f + (float)(vt_rand(&rng) % 4),
+                           1.0f + (float)(vt_rand(&rng) % 60)};
+            float hi[3] = {lo[0] + 1.0f + (float)(vt_rand(&rng) % 2), lo[1] + 1.0f, lo[2] + 1.0f};
+            set_box(scene, 200u + (uint32_t)(vt_rand(&rng) % 4), lo, hi);
+        } else if (kind == 1) { /* a box removed, when there is one */
+            uint32_t id = 200u + (uint32_t)(vt_rand(&rng) % 4);
+            vis_status rs = vis_scene_remove_object(scene, id);
+            assert_true(rs == VIS_OK || rs == VIS_ERROR_NOT_FOUND);
+        } else { /* a wall cut down to 2 voxels */
+            uint32_t k = (uint32_t)(vt_rand(&rng) % 24);
+            const tobj *o = &w.objs[1 + k];
+            float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+            for (uint32_t n = 0; n < o->nq; ++n) { /* the wall's box, from its quads */
+                const vis_quad *qd = &o->quads[n];
+                uint32_t a = qd->axis, u = (a + 1) % 3, vv = (a + 2) % 3;
+                lo[a] = fminf(lo[a], qd->plane);
+                hi[a] = fmaxf(hi[a], qd->plane);
+                lo[u] = fminf(lo[u], qd->u0);
+                hi[u] = fmaxf(hi[u], qd->u1);
+                lo[vv] = fminf(lo[vv], qd->v0);
+                hi[vv] = fmaxf(hi[vv], qd->v1);
+            }
+            hi[1] = 2.0f;
+            set_box(scene, o->id, lo, hi);
+        }
+        assert_int_equal(vis_query_run(q, v, NV, NULL, 0, &st), VIS_OK);
+        assert_int_equal(st.chunk_passes, st.chunk_edit_passes);
+        traced += st.chunk_edit_passes;
+        for (uint32_t i = 0; i < NV; ++i)
+            assert_list_fresh(ctx, scene, q, i, &v[i]);
+    }
+    print_message("edits traced %u of %u viewer passes\n", traced, ROUNDS * NV);
+    assert_true(traced > 0);
+    assert_true(traced < ROUNDS * NV / 2);
+    vis_query_destroy(q);
     vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -1146,6 +1360,7 @@ int main(void)
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_chunk_reuse),
+        cmocka_unit_test(test_edit_retraces_few), cmocka_unit_test(test_edit_retrace_random),
         cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),
     };
     const struct CMUnitTest cli_tests[] = {

@@ -155,7 +155,8 @@ static void query_free(vis_query *q)
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
                       q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys,
-                      q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals};
+                      q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals,
+                      q->chunk_setup, q->chunk_depth, q->depth, q->setups};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);
@@ -209,6 +210,10 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->ids, V * 6 * res2 * 4},
         {(void **)&q->chunk_set.keys, sm * 4ull},
         {(void **)&q->chunk_set.vals, sm * 4ull},
+        {(void **)&q->chunk_setup, V * 6 * sizeof(vis_ray_setup)},
+        {(void **)&q->chunk_depth, V * 6 * res2 * 4},
+        {(void **)&q->depth, V * 6 * res2 * 4},
+        {(void **)&q->setups, V * 6 * sizeof(vis_ray_setup)},
     };
     uint64_t total = 0;
     for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i)
@@ -643,8 +648,10 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
 
     vis_scene_begin_read(q->scene);
     uint64_t gen = q->scene->generation;
-    vis_scene_end_read(q->scene);
     q->regenerated = q->tick > 1 && gen != q->generation;
+    /* Where it changed, read under the same lock as the generation (query_chunks.c). */
+    q->change_count = q->regenerated ? vis_scene_edits_since(q->scene, q->generation, q->changes, VIS_SCENE_EDIT_LOG) : 0;
+    vis_scene_end_read(q->scene);
     const uint64_t previous_generation = q->generation;
     q->generation = gen;
 
@@ -689,6 +696,7 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
         s.tick = q->tick;
         s.chunk_rays = q->chunk_rays;
         s.chunk_passes = q->chunk_passes;
+        s.chunk_edit_passes = q->chunk_edit_passes;
         for (uint32_t i = 0; i < nv; ++i) {
             const vis_qresult *r = &q->results[i];
             s.entity_rays += r->rays;

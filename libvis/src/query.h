@@ -23,6 +23,8 @@ typedef struct vis_qviewer {
     double chunk_eye[3];      /* the camera of that pass: eye, dir, fov_deg (chunk_move and  */
     double chunk_dir[3];      /* the skip of an unchanged camera compare with them)          */
     double chunk_fov;
+    uint32_t chunk_faces;     /* cameras of that pass (6 all around, 1 in view); their ray   */
+                              /* setups and depths are kept (chunk_setup, chunk_depth)       */
 } vis_qviewer;
 
 typedef struct vis_qentity {
@@ -82,7 +84,23 @@ struct vis_query {
     vis_idmap chunk_set;      /* dedup of one viewer's pass                                 */
     uint32_t chunk_passes;
     uint64_t chunk_rays;
+
+    /* Edits: which passes an edit can change (query_chunks.c). Each slot keeps its last pass's
+     * ray setups and per-pixel hit distances; the boxes the scene changed since the last tick
+     * are tested against them, and only passes with a ray that reaches one are traced again. */
+    vis_ray_setup *chunk_setup; /* max_viewers * 6, by viewer slot                          */
+    float *chunk_depth;       /* max_viewers * chunk_cap, by viewer slot                    */
+    float *depth;             /* max_viewers * 6 * chunk_res^2: the batch's hit distances   */
+    vis_ray_setup *setups;    /* max_viewers * 6: the batch's ray setups                    */
+    vis_scene_edit_box changes[VIS_SCENE_EDIT_LOG]; /* this tick's changed boxes            */
+    uint32_t change_count;    /* UINT32_MAX: the log did not reach back (retrace everyone)  */
+    uint32_t chunk_edit_passes; /* this tick's passes that an edit made due                 */
 };
+
+/* Can this tick's changed boxes (q->changes, q->change_count) change the IDs of the last
+ * chunk pass of the viewer in slot s? 0 only when no ray of that pass reaches one before its
+ * hit (query_edits.c). */
+int vis_query_edit_reaches(const vis_query *q, uint32_t slot);
 
 /* Traces the chunk passes due this tick (query_chunks.c); the caller holds the context. */
 vis_status vis_query_chunks_run(vis_query *q);

@@ -29,18 +29,28 @@ static int camera_moved(const vis_qviewer *v, const vis_query_viewer *in, double
     return !all_around(in) && in->fov_deg != v->chunk_fov;
 }
 
-/* Is the viewer in slot s due for a pass this tick? New viewers and every viewer after an
- * edit at once. Otherwise, with chunk_move 0, each slot on its own phase of chunk_every ticks,
+/* ---- when a pass runs --------------------------------------------------------------------- */
+
+/* Is the viewer in slot s due for a pass this tick? New viewers at once, and after an edit
+ * every viewer with a ray of its last pass that reaches a changed box before its hit (the
+ * others keep their lists: the pass would give the same IDs). Otherwise, with chunk_move 0,
+ * each slot on its own phase of chunk_every ticks,
  * so that the passes spread evenly over the ticks instead of all landing on the same one --
  * unless its camera is the last pass's to the bit, which would trace the same pixels of the
  * same scene. With chunk_move above 0, when the eye has left the cube of half-side chunk_move
  * around its last pass's eye (or turned): a viewer that stands still costs no rays, one that
- * walks pays in proportion to its speed, and no cadence synchronises the passes. */
-static int due(const vis_query *q, uint32_t s, const vis_query_viewer *in)
+ * walks pays in proportion to its speed, and no cadence synchronises the passes. Sets
+ * *edited when an edit made it due. */
+static int due(const vis_query *q, uint32_t s, const vis_query_viewer *in, int *edited)
 {
     const vis_qviewer *v = &q->viewers[s];
-    if (v->chunk_tick == 0 || q->regenerated)
+    *edited = 0;
+    if (v->chunk_tick == 0)
         return 1;
+    if (q->regenerated && vis_query_edit_reaches(q, s)) {
+        *edited = 1;
+        return 1;
+    }
     if (q->desc.chunk_move > 0.0)
         return camera_moved(v, in, q->desc.chunk_move);
     return (q->tick + s) % q->desc.chunk_every == 0 && camera_moved(v, in, 0.0);
@@ -65,12 +75,14 @@ static void face_camera(const vis_query_viewer *in, double range, int face, vis_
 
 vis_status vis_query_chunks_run(vis_query *q)
 {
-    uint32_t ncam = 0;
+    uint32_t ncam = 0, edited_passes = 0;
     for (uint32_t i = 0; i < q->viewer_count; ++i) {
         const vis_query_viewer *in = &q->in_viewers[i];
         uint32_t s = q->vslot[i];
-        if (!due(q, s, in))
+        int edited = 0;
+        if (!due(q, s, in, &edited))
             continue;
+        edited_passes += (uint32_t)edited;
         if (all_around(in)) {
             for (int f = 0; f < 6; ++f) {
                 face_camera(in, q->desc.chunk_range, f, &q->cameras[ncam]);
@@ -83,6 +95,7 @@ vis_status vis_query_chunks_run(vis_query *q)
     }
     q->chunk_passes = 0;
     q->chunk_rays = 0;
+    q->chunk_edit_passes = 0;
     if (ncam == 0)
         return VIS_OK;
     vis_trace_desc d;
@@ -94,16 +107,29 @@ vis_status vis_query_chunks_run(vis_query *q)
      * passes of gen:city and gen:maze (docs/server.md). Every method names the same IDs. */
     d.traversal = q->desc.chunk_traversal == VIS_TRAVERSAL_AUTO ? VIS_TRAVERSAL_STACK : q->desc.chunk_traversal;
     size_t pixels = (size_t)q->desc.chunk_res * q->desc.chunk_res;
-    vis_status st = vis_trace_batch_held(q->ctx, q->scene, q->cameras, ncam, &d, q->ids, pixels * ncam, NULL, 0);
+    /* What the edit test needs of each face: its rays (the trace's own setup, from the same
+     * camera and desc) and their hit distances, both into scratch arrays first, so that a
+     * failure leaves every slot's as it was. */
+    vis_status st = VIS_OK;
+    for (uint32_t c = 0; c < ncam && st == VIS_OK; ++c)
+        st = vis_trace_make_setup(q->ctx, q->scene, &q->cameras[c], &d, &q->setups[c]);
     if (st != VIS_OK)
         return st;
+    st =
+        vis_trace_batch_held(q->ctx, q->scene, q->cameras, ncam, &d, q->ids, pixels * ncam, q->depth, pixels * ncam);
+    if (st != VIS_OK)
+        return st;
+    q->chunk_edit_passes = edited_passes;
     q->chunk_rays = (uint64_t)pixels * ncam;
     /* Cameras of one viewer are consecutive. */
     for (uint32_t c = 0; c < ncam;) {
         uint32_t s = q->camera_viewer[c];
         uint32_t *out = q->chunks + (size_t)s * q->chunk_cap;
-        uint32_t n = 0, last = 0;
-        for (; c < ncam && q->camera_viewer[c] == s; ++c) {
+        uint32_t n = 0, last = 0, faces = 0;
+        for (; c < ncam && q->camera_viewer[c] == s; ++c, ++faces) {
+            q->chunk_setup[(size_t)s * 6 + faces] = q->setups[c];
+            memcpy(q->chunk_depth + (size_t)s * q->chunk_cap + faces * pixels, q->depth + (size_t)c * pixels,
+                   pixels * sizeof *q->depth);
             const uint32_t *ids = q->ids + (size_t)c * pixels;
             for (size_t p = 0; p < pixels; ++p) {
                 uint32_t id = ids[p];
@@ -117,6 +143,7 @@ vis_status vis_query_chunks_run(vis_query *q)
         vis_idmap_clear(&q->chunk_set);
         vis_sort_u32(out, n);
         q->viewers[s].chunk_count = n;
+        q->viewers[s].chunk_faces = faces;
         q->viewers[s].chunk_tick = q->tick;
         ++q->chunk_passes;
     }

@@ -1107,6 +1107,12 @@ static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, c
                                      const float lo[3], const float hi[3], const uint32_t *leaves, uint32_t n)
 {
     vis_status st;
+    const int had = slot != VIS_NO_OBJECT;
+    float old_lo[3] = {0.0f, 0.0f, 0.0f}, old_hi[3] = {0.0f, 0.0f, 0.0f};
+    if (had) {
+        memcpy(old_lo, s->object_host[slot].box_lo, sizeof old_lo);
+        memcpy(old_hi, s->object_host[slot].box_hi, sizeof old_hi);
+    }
     if (slot == VIS_NO_OBJECT) {
         if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)))
             return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for objects");
@@ -1169,7 +1175,7 @@ static vis_status set_object_located(vis_scene *s, uint32_t id, uint32_t slot, c
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory tracking changes");
     vis_scene_compact_pools(s);
     ++s->edits;
-    ++s->generation;
+    vis_scene_log_edit(s, had, old_lo, old_hi, 1, lo, hi);
     return VIS_OK;
 }
 
@@ -1262,7 +1268,7 @@ vis_status vis_scene_apply_remove(vis_scene *s, uint32_t id)
                 s->max_id = s->objects[i].id;
     }
     ++s->edits;
-    ++s->generation;
+    vis_scene_log_edit(s, 1, oh->box_lo, oh->box_hi, 0, NULL, NULL);
     return VIS_OK;
 }
 

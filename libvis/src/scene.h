@@ -22,6 +22,24 @@ typedef struct vis_staged_edit {
     vis_mesh mesh;
 } vis_staged_edit;
 
+/* The boxes the last edits changed, so that a reader behind by a few generations learns
+ * where the scene changed instead of only that it did (the server queries retrace only the
+ * chunk passes whose rays reach one, query_chunks.c). A ring of VIS_SCENE_EDIT_LOG entries,
+ * each a box and the generations first..last whose edits it covers (an edit of the box just
+ * logged extends that entry instead of taking another); `floor` is the oldest generation the
+ * ring still reaches back from. Fixed size inside the scene: nothing is allocated per edit. */
+#define VIS_SCENE_EDIT_LOG 64u
+typedef struct vis_scene_edit_box {
+    uint64_t first, last;     /* generations made by the edits of this box                   */
+    float lo[3], hi[3];       /* scene-local: the object's box before and after, hulled       */
+} vis_scene_edit_box;
+
+typedef struct vis_scene_edit_log {
+    vis_scene_edit_box ring[VIS_SCENE_EDIT_LOG];
+    uint32_t head, count;     /* next entry to write; entries held                            */
+    uint64_t floor;           /* boxes changed since any generation >= floor are all held     */
+} vis_scene_edit_log;
+
 /* An object as the host keeps it: its primitives ready to copy into leaves. */
 typedef struct vis_object_host {
     uint32_t id;              /* 0: free slot                                              */
@@ -83,6 +101,7 @@ struct vis_scene {
 
     /* Changes since the backend's last sync. */
     uint64_t generation;
+    vis_scene_edit_log edit_log; /* the boxes of the last edits (scene_edit_log.c)             */
     int dirty_full;
     uint32_t *dirty_leaves;
     uint32_t dirty_leaf_count;
@@ -148,6 +167,17 @@ void vis_scene_lock_free(vis_scene *scene);
 
 /* Releases the other contexts' copies and the staged edits (vis_scene_destroy). */
 void vis_scene_share_free(vis_scene *scene);
+
+/* Counts an edit (++generation) and logs the box it changed: the hull of the object's box
+ * before (have_old) and after (have_new) the edit (scene_edit_log.c). */
+void vis_scene_log_edit(vis_scene *scene, int have_old, const float old_lo[3], const float old_hi[3], int have_new,
+                          const float new_lo[3], const float new_hi[3]);
+
+/* The boxes changed since generation `since` (<= the scene's), hull by hull, into
+ * out[0..capacity): their count, 0 when nothing changed, or UINT32_MAX when the log no longer
+ * reaches back that far or capacity is short (the caller then treats everything as changed).
+ * The caller holds the scene's lock (shared is enough). */
+uint32_t vis_scene_edits_since(const vis_scene *scene, uint64_t since, vis_scene_edit_box *out, uint32_t capacity);
 
 /* Object slot of an ID, or VIS_NO_OBJECT. */
 uint32_t vis_scene_find(const vis_scene *scene, uint32_t id);

@@ -488,7 +488,7 @@ static int run_replay(const qopts *o)
     memset(&ours, 0, sizeof ours);
     memset(&smac, 0, sizeof smac);
     memset(&luanti, 0, sizeof luanti);
-    uint64_t ticks = 0, truth_ticks = 0;
+    uint64_t ticks = 0, truth_ticks = 0, edit_passes = 0;
     char tmp[4096] = "";
 
     rd = qr_open(o->replay, o->max_viewers, o->max_entities, wmin, wmax, err, sizeof err);
@@ -615,6 +615,7 @@ static int run_replay(const qopts *o)
         acc_push(&ours, ours_ms);
         ours.rays += st.entity_rays;
         ours.chunk_rays += st.chunk_rays;
+        edit_passes += st.chunk_edit_passes;
         ours.pairs += st.pairs;
         ours.unchecked += st.pairs_unchecked;
         ours.held += st.pairs_held;
@@ -732,9 +733,11 @@ static int run_replay(const qopts *o)
         /* Output line. */
         size_t sent = 0;
         if (out)
-            fprintf(out, "{\"tick\":%llu,\"ms\":%.4f,\"entity_rays\":%llu,\"chunk_rays\":%llu,\"viewers\":[",
+            fprintf(out,
+                    "{\"tick\":%llu,\"ms\":%.4f,\"entity_rays\":%llu,\"chunk_rays\":%llu,\"chunk_passes\":%u,"
+                    "\"chunk_edit_passes\":%u,\"viewers\":[",
                     (unsigned long long)t.tick, ours_ms, (unsigned long long)st.entity_rays,
-                    (unsigned long long)st.chunk_rays);
+                    (unsigned long long)st.chunk_rays, st.chunk_passes, st.chunk_edit_passes);
         for (uint32_t i = 0; i < t.viewer_count; ++i) {
             size_t nh = 0, nc = 0;
             if (vis_query_entities(q, i, hits, o->max_entities, &nh) != VIS_OK ||
@@ -767,6 +770,7 @@ static int run_replay(const qopts *o)
                o->scene, o->replay, (unsigned long long)ticks, (unsigned long long)truth_ticks, o->threads,
                wi.nonempty_chunks);
         printf("\"chunk_rays_per_tick\":%.1f,", ticks ? (double)ours.chunk_rays / (double)ticks : 0.0);
+        printf("\"chunk_edit_passes\":%llu,", (unsigned long long)edit_passes);
         print_method(stdout, "libvis", &ours, ticks, truth_ticks, 1, 1, 1);
         if (o->compare) {
             print_method(stdout, "smac", &smac, ticks, truth_ticks, 1, 0, 0);
@@ -777,7 +781,8 @@ static int run_replay(const qopts *o)
         printf("vis query: %s on %s, %llu ticks (%llu with truth at %ux%u x 6), %u threads, %u non-empty chunks\n",
                o->replay, o->scene, (unsigned long long)ticks, (unsigned long long)truth_ticks, o->truth_res,
                o->truth_res, o->threads, wi.nonempty_chunks);
-        printf("  chunk passes: %.0f rays per tick\n", ticks ? (double)ours.chunk_rays / (double)ticks : 0.0);
+        printf("  chunk passes: %.0f rays per tick, %llu passes traced because an edit reached them\n",
+               ticks ? (double)ours.chunk_rays / (double)ticks : 0.0, (unsigned long long)edit_passes);
         print_method(stdout, "libvis", &ours, ticks, truth_ticks, 0, 1, 1);
         if (o->compare) {
             print_method(stdout, "smac", &smac, ticks, truth_ticks, 0, 0, 0);

@@ -790,7 +790,12 @@ VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timin
  * Thread safety: a vis_query belongs to the context and scene it was created with; its
  * calls count as calls on that context (VIS_ERROR_BUSY while another thread is inside one).
  * The scene may be edited between calls (through its own context); each call sees the
- * committed state, and an edit since the last call invalidates every cached result. */
+ * committed state, and an edit since the last call invalidates every cached entity result.
+ * Chunk lists: an edit retraces, on the next call, the viewers with a ray of their last chunk
+ * pass that reaches an edited object's box (its hull before and after the edit) before that
+ * ray's hit -- exactly the passes whose IDs the edit can change; the others keep their lists,
+ * which are what their pass would give on the edited scene. When more than 64 boxes changed
+ * since the last call (the scene keeps a log of the last 64), every viewer is retraced. */
 typedef struct vis_query vis_query;
 
 /* Sizes a query may be created with. */
@@ -806,8 +811,9 @@ typedef struct vis_query_desc {
     uint32_t chunk_res;        /* the chunk ID pass: chunk_res x chunk_res per face,
                                   1..VIS_QUERY_MAX_CHUNK_RES; default 32                     */
     uint32_t chunk_every;      /* re-trace a viewer's chunks every N ticks, each viewer slot
-                                  on its own phase (and at once for a new viewer or after a
-                                  scene edit); default 1: every tick                          */
+                                  on its own phase (and at once for a new viewer, or after a
+                                  scene edit that reaches the viewer's last pass: see above);
+                                  default 1: every tick                                       */
     double chunk_range;        /* the chunk pass's far plane, in voxels from the eye (Luanti
                                   sends blocks within a range, 192 voxels by default); chunks
                                   seen only beyond it are not listed. 0 (default): unlimited;
@@ -818,7 +824,8 @@ typedef struct vis_query_desc {
                                   cadence is off and a viewer's pass runs when its eye has
                                   left the cube of half-side chunk_move around the eye of
                                   its last pass, or its dir or fov_deg changed (and at once
-                                  for a new viewer or after a scene edit); at most 1e5      */
+                                  for a new viewer, or after an edit that reaches its last
+                                  pass); at most 1e5                                         */
     vis_traversal chunk_traversal; /* the chunk passes' traversal; VIS_TRAVERSAL_AUTO (default):
                                   VIS_TRAVERSAL_STACK, cheaper than packets for passes this
                                   coarse (docs/server.md); every method gives the same IDs  */
@@ -885,6 +892,10 @@ typedef struct vis_query_stats {
                                   swept box still lie inside the regions it covered          */
     uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
     uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
+    uint32_t chunk_edit_passes;/* of those, the viewers traced because a scene edit since the
+                                  last tick reached a ray of their last pass (or every viewer
+                                  with a pass when the scene's change log no longer reached
+                                  back: more than 64 boxes changed)                           */
     double ms;                 /* the call, wall clock                                         */
 } vis_query_stats;
 
