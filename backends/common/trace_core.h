@@ -1458,81 +1458,92 @@ VIS_INLINE float vis_dda_exit(const vis_ray *r, uint32_t a, int i, int step, int
     return b >= 1 && b <= n - 1 ? vis_dda_cross(r, a, b, cs) : VIS_INF;
 }
 
-/* A test may define VIS_DDA_VISIT(cell) before including this file to see each cell visited
- * (tests/test_traversal.c holds the walk to the cell test above). */
+/* A test may define VIS_DDA_VISIT(entry) before including this file to see each cell visited
+ * (its map entry, cell_map + cell; tests/test_traversal.c holds the walk to the cell test
+ * above). */
 #ifndef VIS_DDA_VISIT
-#  define VIS_DDA_VISIT(cell) ((void)0)
+#  define VIS_DDA_VISIT(entry) ((void)0)
 #endif
 
-VIS_INLINE void vis_dda_leaf(const vis_ray *r, const vis_ray_setup *s, const int *m, float ta, float tb,
-                             VIS_SCENE_PARAMS, vis_hit *h)
+/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. */
+VIS_INLINE void vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
 {
-    uint32_t cell = (uint32_t)m[0] + s->cells[0] * ((uint32_t)m[1] + s->cells[1] * (uint32_t)m[2]);
-    VIS_DDA_VISIT(cell);
-    vis_leaf_intersect(r, &leaves[rope_index[s->cell_map + cell]], buckets, quads, tris, objects, ta, tb, h);
+    VIS_DDA_VISIT(entry);
+    const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[rope_index[entry]];
+    if (leaf->quad_count | leaf->loose_count | leaf->tri_count)
+        vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
 }
 
 /* One walk from cell m0 (the lowest cell, in the ray's direction, that can pass at t0).
- * Returns 0 when a chain crossed an axis twice (the caller finishes the ray otherwise). */
+ * Returns 0 when a chain crossed an axis twice (the caller finishes the ray otherwise). The
+ * state is in scalars, axis by axis, so that it stays in registers. */
 VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int *m0, const int *step, float t0,
                             float t1, VIS_SCENE_PARAMS, vis_hit *h)
 {
     float cs = s->cell_size;
-    int m[3];
-    float tk[3];
-    for (uint32_t a = 0u; a < 3u; ++a) {
-        m[a] = m0[a];
-        tk[a] = step[a] == 0 ? VIS_INF : vis_dda_exit(r, a, m[a], step[a], (int)s->cells[a], cs);
-    }
+    int nx = (int)s->cells[0], ny = (int)s->cells[1], nz = (int)s->cells[2];
+    int mx = m0[0], my = m0[1], mz = m0[2];
+    int sx = step[0], sy = step[1], sz = step[2];
+    /* The cell's map entry, and what a step on each axis adds to it. */
+    uint32_t entry = s->cell_map + (uint32_t)mx + s->cells[0] * ((uint32_t)my + s->cells[1] * (uint32_t)mz);
+    uint32_t dx = (uint32_t)sx, dy = (uint32_t)sy * s->cells[0], dz = (uint32_t)sz * s->cells[0] * s->cells[1];
+    float tx = sx ? vis_dda_exit(r, 0u, mx, sx, nx, cs) : VIS_INF;
+    float ty = sy ? vis_dda_exit(r, 1u, my, sy, ny, cs) : VIS_INF;
+    float tz = sz ? vis_dda_exit(r, 2u, mz, sz, nz, cs) : VIS_INF;
     float T = t0; /* where the current cell is entered */
     for (;;) {
         if (T > vis_t_limit(h->t) || T > vis_t_limit(t1))
             return 1;
-        uint32_t a = 0u;
-        if (tk[1] < tk[a])
-            a = 1u;
-        if (tk[2] < tk[a])
-            a = 2u;
-        float e = tk[a];
-        vis_dda_leaf(r, s, m, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h);
+        float e = tx < ty ? tx : ty;
+        e = tz < e ? tz : e;
+        vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h);
         if (e == VIS_INF)
             return 1;
-        /* The cluster: the other axes' crossings chained to e within the slack. */
-        uint32_t b = a == 0u ? 1u : 0u, c = a == 2u ? 1u : 2u;
-        if (tk[c] < tk[b]) {
-            uint32_t x = b;
-            b = c;
-            c = x;
-        }
-        uint32_t set = 1u << a;
+        float lim = vis_t_limit(e);
+        uint32_t set = (tx <= lim ? 1u : 0u) | (ty <= lim ? 2u : 0u) | (tz <= lim ? 4u : 0u);
         float last = e;
-        if (tk[b] <= vis_t_limit(last)) {
-            set |= 1u << b;
-            last = tk[b];
-            if (tk[c] <= vis_t_limit(last)) {
-                set |= 1u << c;
-                last = tk[c];
-            }
+        if (set & (set - 1u)) {
+            /* The cluster: the crossings chained to e within the slack (a second round
+             * catches the third axis chained to the second), then the block around the edge
+             * or corner: every P + e(S), S a proper non-empty subset of the cluster's axes
+             * (P + e(A) is the next cell of the walk). */
+            last = (set & 1u) && tx > last ? tx : last;
+            last = (set & 2u) && ty > last ? ty : last;
+            last = (set & 4u) && tz > last ? tz : last;
+            lim = vis_t_limit(last);
+            set |= (tx <= lim ? 1u : 0u) | (ty <= lim ? 2u : 0u) | (tz <= lim ? 4u : 0u);
+            last = (set & 1u) && tx > last ? tx : last;
+            last = (set & 2u) && ty > last ? ty : last;
+            last = (set & 4u) && tz > last ? tz : last;
+            if (e <= vis_t_limit(h->t) && e <= vis_t_limit(t1))
+                for (uint32_t sub = 1u; sub < set; ++sub)
+                    if ((sub & set) == sub)
+                        vis_dda_leaf(r,
+                                     entry + ((sub & 1u) ? dx : 0u) + ((sub & 2u) ? dy : 0u) + ((sub & 4u) ? dz : 0u),
+                                     e, last, VIS_SCENE_ARGS, h);
         }
-        if (set != (1u << a) && e <= vis_t_limit(h->t) && e <= vis_t_limit(t1)) {
-            /* The block around the edge or corner: every P + e(S), S a proper non-empty
-             * subset of the cluster's axes (P + e(A) is the next cell of the walk). */
-            for (uint32_t sub = 1u; sub < set; ++sub) {
-                if ((sub & set) != sub)
-                    continue;
-                int q[3];
-                for (uint32_t k = 0u; k < 3u; ++k)
-                    q[k] = m[k] + ((sub >> k & 1u) ? step[k] : 0);
-                vis_dda_leaf(r, s, q, e, last, VIS_SCENE_ARGS, h);
-            }
+        lim = vis_t_limit(last);
+        if (set & 1u) {
+            mx += sx;
+            entry += dx;
+            tx = vis_dda_exit(r, 0u, mx, sx, nx, cs);
+            if (tx <= lim)
+                return 0; /* an axis crosses twice within the chain */
         }
-        for (uint32_t k = 0u; k < 3u; ++k)
-            if (set >> k & 1u) {
-                m[k] += step[k];
-                tk[k] = vis_dda_exit(r, k, m[k], step[k], (int)s->cells[k], cs);
-                if (tk[k] <= vis_t_limit(last))
-                    return 0; /* an axis crosses twice within the chain */
-            }
+        if (set & 2u) {
+            my += sy;
+            entry += dy;
+            ty = vis_dda_exit(r, 1u, my, sy, ny, cs);
+            if (ty <= lim)
+                return 0;
+        }
+        if (set & 4u) {
+            mz += sz;
+            entry += dz;
+            tz = vis_dda_exit(r, 2u, mz, sz, nz, cs);
+            if (tz <= lim)
+                return 0;
+        }
         T = last;
     }
 }
