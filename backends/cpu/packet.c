@@ -17,9 +17,9 @@
  *
  * A ray that goes alone (a pass too wide for 4x4 packets, or a packet that gave up) walks the
  * cell grid (trace_core.h, vis_traverse_dda) where the scene has its cell map: on gen:city's
- * overview at 171x96 and 64x64 that is 15-16 % fewer instructions than packets of one ray
- * (docs/performance.md, "A per-ray walk over the cell grid"). vis_trace_cost's pass keeps the
- * packets of one ray, which count their work. */
+ * overview at 171x96 and 64x64 the pass took 13-14 % fewer instructions than with packets of
+ * one ray (docs/performance.md, "A per-ray walk over the cell grid"). vis_trace_cost's pass
+ * keeps the packets of one ray, which count their work. */
 #include <math.h>
 
 #include "cpu/packet.h"
