@@ -35,6 +35,7 @@ VIS_CHECK_TRAVERSAL_(ROPES);
 VIS_CHECK_TRAVERSAL_(ROPES_SHORTSTACK);
 VIS_CHECK_TRAVERSAL_(PACKET);
 VIS_CHECK_TRAVERSAL_(CACHED_STACK);
+VIS_CHECK_TRAVERSAL_(DDA);
 #undef VIS_CHECK_TRAVERSAL_
 _Static_assert(VIS_IDS_OBJECT == 0 && VIS_IDS_LEAF == 1, "vis_ray_setup.id_mode is vis_id_mode");
 _Static_assert(VIS_FLAG_SEE_THROUGH == VIS_PRIM_SEE_THROUGH && VIS_FLAG_REFLECTIVE == VIS_PRIM_REFLECTIVE,
@@ -55,7 +56,7 @@ VIS_CHECK_LAYOUT_(vis_flat_quad, 24);
 VIS_CHECK_LAYOUT_(vis_flat_tri, 40);
 VIS_CHECK_LAYOUT_(vis_flat_object, 16);
 VIS_CHECK_LAYOUT_(vis_rope_node, 56);
-VIS_CHECK_LAYOUT_(vis_ray_setup, 96);
+VIS_CHECK_LAYOUT_(vis_ray_setup, 116);
 VIS_CHECK_LAYOUT_(vis_effect_setup, 32);
 #undef VIS_CHECK_LAYOUT_
 
@@ -101,7 +102,11 @@ typedef struct vis_scene_view {
     uint32_t object_leaf_count;
     const vis_rope_node *ropes;   /* built once with the tree; never change afterwards       */
     uint32_t rope_count;
-    const uint32_t *rope_index;   /* node_count entries                                      */
+    const uint32_t *rope_index;   /* rope_index_count entries: node_count, then the cell map  */
+    uint32_t rope_index_count;
+    uint32_t cells[3];            /* the cell grid; cell_map: where its map starts (0: none)  */
+    uint32_t cell_map;
+    float cell_size;
     float size[3];
     uint32_t kd_depth;
 } vis_scene_view;

@@ -602,7 +602,7 @@ static size_t count_str(const char *s, const char *what)
     return n;
 }
 
-/* --traversal all: Tables 3 and 5 (a row per method, cached stacks included) and Table 4
+/* --traversal all: Tables 3 and 5 (a row per method, cached stacks and dda included) and Table 4
  * (ropes, ropes-shortstack:1..4, 8). */
 static void test_bench_traversal_all(void **state)
 {
@@ -617,11 +617,12 @@ static void test_bench_traversal_all(void **state)
     assert_non_null(table);
     assert_non_null(ropes);
     assert_true(table < ropes);
-    assert_int_equal(count_str(r.out, "\"method\""), 17 + 6);     /* 17 methods, 6 rope rows */
+    assert_int_equal(count_str(r.out, "\"method\""), 18 + 6);     /* 18 methods, 6 rope rows */
     assert_int_equal(count_str(ropes, "\"short_stack\""), 6);
-    assert_int_equal(count_str(table, "\"backend\": \"cpu\""), 17);
+    assert_int_equal(count_str(table, "\"backend\": \"cpu\""), 18);
     assert_non_null(strstr(table, "\"method\": \"ropes-shortstack:4\""));
     assert_non_null(strstr(table, "\"method\": \"cached-stack:7\""));
+    assert_non_null(strstr(table, "\"method\": \"dda\""));
     vt_run_free(&r);
     /* only bench takes it */
     r = run_vis("cull --scene %s --res 32x32 --traversal all", SMALL);

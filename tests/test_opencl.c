@@ -159,7 +159,7 @@ static uint32_t compare_view_sel(const pair *p, const vis_camera *cam, uint32_t 
      * work-group's tile walk) is held here to the CPU's stack method, itself held to the
      * brute force below. */
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < VIS_TRAVERSAL_STACK + traversals && t <= VIS_TRAVERSAL_CACHED_STACK;
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < VIS_TRAVERSAL_STACK + traversals && t <= VIS_TRAVERSAL_DDA;
              ++t) {
             if (which == TREE_TRAVERSALS && t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE)
                 continue;
@@ -192,14 +192,19 @@ static uint32_t compare_view_sel(const pair *p, const vis_camera *cam, uint32_t 
                 if (ia[i] != ib[i] || memcmp(&da[i], &db[i], 4) != 0)
                     fail_msg("%s (ids %u): pixel (%zu,%zu): cpu packet id %u t %.9g, bruteforce id %u t %.9g", what,
                              mode, i % W, i / W, ib[i], (double)db[i], ia[i], (double)da[i]);
-            /* The per-ray methods (equal on both backends, above) equal the brute force too. */
-            td.traversal = VIS_TRAVERSAL_STACK;
-            if (vis_trace(p->cpu, p->cpu_scene, cam, &td, ib, n, db, n) != VIS_OK)
-                fail_msg("%s: cpu stack: %s", what, vis_context_last_error(p->cpu));
-            for (size_t i = 0; i < n; ++i)
-                if (ia[i] != ib[i] || memcmp(&da[i], &db[i], 4) != 0)
-                    fail_msg("%s (ids %u): pixel (%zu,%zu): stack id %u t %.9g, bruteforce id %u t %.9g", what, mode,
-                             i % W, i / W, ib[i], (double)db[i], ia[i], (double)da[i]);
+            /* The per-ray methods (equal on both backends, above) equal the brute force too:
+             * the stack method (whose decisions the kd methods share) and the cell-grid walk. */
+            static const vis_traversal per_ray[2] = {VIS_TRAVERSAL_STACK, VIS_TRAVERSAL_DDA};
+            for (uint32_t k = 0; k < 2; ++k) {
+                td.traversal = per_ray[k];
+                if (vis_trace(p->cpu, p->cpu_scene, cam, &td, ib, n, db, n) != VIS_OK)
+                    fail_msg("%s: cpu per-ray method %d: %s", what, (int)per_ray[k], vis_context_last_error(p->cpu));
+                for (size_t i = 0; i < n; ++i)
+                    if (ia[i] != ib[i] || memcmp(&da[i], &db[i], 4) != 0)
+                        fail_msg("%s (ids %u): pixel (%zu,%zu): method %d id %u t %.9g, bruteforce id %u t %.9g",
+                                 what, mode, i % W, i / W, (int)per_ray[k], ib[i], (double)db[i], ia[i],
+                                 (double)da[i]);
+            }
         }
     free(ia), free(ib), free(da), free(db);
     return hits;

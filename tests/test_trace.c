@@ -31,8 +31,9 @@
 #include "voxelworld/vw.h"
 #include "world_scene.h"
 
-/* Traces with the tree -- per ray (the stack method) and as packets (the default) -- and
- * with the built-in brute force; the first two must equal the brute force bit for bit, and
+/* Traces with the tree -- per ray (the stack method) and as packets (the default) -- with the
+ * cell-grid walk (dda) and with the built-in brute force; the first three must equal the brute
+ * force bit for bit, and
  * the brute force keeps the conservative rule against the double-precision reference.
  * Returns the number of hit pixels. */
 static uint32_t check_one_view(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
@@ -52,6 +53,15 @@ static uint32_t check_one_view(vis_context *ctx, vis_scene *scene, const tworld 
     assert_int_equal(vis_trace(ctx, scene, cam, &td, bf_ids, n, bf_depth, n), VIS_OK);
     td.traversal = VIS_TRAVERSAL_PACKET;
     assert_int_equal(vis_trace(ctx, scene, cam, &td, pk_ids, n, pk_depth, n), VIS_OK);
+    uint32_t *dd_ids = malloc(n * 4);
+    float *dd_depth = malloc(n * 4);
+    td.traversal = VIS_TRAVERSAL_DDA;
+    assert_int_equal(vis_trace(ctx, scene, cam, &td, dd_ids, n, dd_depth, n), VIS_OK);
+    for (size_t i = 0; i < n; ++i)
+        if (dd_ids[i] != bf_ids[i] || memcmp(&dd_depth[i], &bf_depth[i], 4) != 0)
+            fail_msg("%s: pixel (%u,%u): dda id %u t %.9g, bruteforce id %u t %.9g", what, (uint32_t)(i % W),
+                     (uint32_t)(i / W), dd_ids[i], (double)dd_depth[i], bf_ids[i], (double)bf_depth[i]);
+    free(dd_ids), free(dd_depth);
 
     vis_scene_info info;
     vis_scene_get_info(scene, &info);
@@ -855,14 +865,17 @@ static void voxel_world_close(voxel_world *vw)
     free_world(&vw->w);
 }
 
-/* The stack method (and, if brute, the brute force) on one ray, through the shared code. */
-static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis_ray *r, int brute, vis_hit *h)
+/* The stack method (method 0), the brute force (1) or the cell-grid walk (2) on one ray,
+ * through the shared code. */
+static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis_ray *r, int method, vis_hit *h)
 {
     h->t = INFINITY;
     h->object = VIS_NO_OBJECT;
     h->id = 0;
-    if (brute)
+    if (method == 1)
         vis_traverse_bruteforce(r, s, VIS_SCENE_VIEW_ARGS(v), h);
+    else if (method == 2)
+        vis_traverse_dda(r, s, VIS_SCENE_VIEW_ARGS(v), h);
     else
         vis_traverse_stack(r, s, VIS_SCENE_VIEW_ARGS(v), h);
 }
@@ -891,6 +904,10 @@ static void aim_direct(const voxel_world *vw, uint64_t *rng, int count, aim_stat
     memset(&s, 0, sizeof s);
     memcpy(s.size, vw->w.size, sizeof s.size);
     s.leaf_count = v.leaf_count;
+    memcpy(s.cells, v.cells, sizeof s.cells);
+    s.cell_map = v.cell_map;
+    s.cell_size = v.cell_size;
+    assert_true(s.cell_map != 0u);
     ref_scene rs;
     ref_scene_init(&rs, &vw->w);
     for (int i = 0; i < count; ++i) {
@@ -914,6 +931,12 @@ static void aim_direct(const voxel_world *vw, uint64_t *rng, int count, aim_stat
                          (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
                          (double)r.d[2], h.id, (double)h.t, b.id, (double)b.t);
         }
+        vis_hit g; /* the cell-grid walk, on every ray */
+        trace_ray(&v, &s, &r, 2, &g);
+        if (g.id != h.id || g.object != h.object || memcmp(&g.t, &h.t, 4) != 0)
+            fail_msg("ray o = (%.9g, %.9g, %.9g) d = (%.9g, %.9g, %.9g): stack id %u t %.9g, dda id %u t %.9g",
+                     (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1], (double)r.d[2],
+                     h.id, (double)h.t, g.id, (double)g.t);
         ref_ray rr;
         ref_ray_from_float(r.o, r.d, r.t_near, r.t_far, &rr);
         char why[256];
@@ -938,8 +961,8 @@ static void aim_cameras(vis_context *ctx, const voxel_world *vw, uint64_t *rng, 
 {
     enum { BATCH = 2048, SIDE = 17 };
     vis_camera *cams = malloc(BATCH * sizeof *cams);
-    uint32_t *ids = malloc(BATCH * 4), *pk_ids = malloc(BATCH * 4);
-    float *depth = malloc(BATCH * 4), *pk_depth = malloc(BATCH * 4);
+    uint32_t *ids = malloc(BATCH * 4), *pk_ids = malloc(BATCH * 4), *dd_ids = malloc(BATCH * 4);
+    float *depth = malloc(BATCH * 4), *pk_depth = malloc(BATCH * 4), *dd_depth = malloc(BATCH * 4);
     vis_scene_info info;
     vis_scene_get_info(vw->scene, &info);
     ref_scene rs;
@@ -965,8 +988,14 @@ static void aim_cameras(vis_context *ctx, const voxel_world *vw, uint64_t *rng, 
             fail_msg("batch: %s", vis_context_last_error(ctx));
         td.traversal = VIS_TRAVERSAL_PACKET;
         assert_int_equal(vis_trace_batch(ctx, vw->scene, cams, nb, &td, pk_ids, nb, pk_depth, nb), VIS_OK);
+        td.traversal = VIS_TRAVERSAL_DDA;
+        assert_int_equal(vis_trace_batch(ctx, vw->scene, cams, nb, &td, dd_ids, nb, dd_depth, nb), VIS_OK);
         for (uint32_t i = 0; i < nb; ++i) {
             const vis_camera *c = &cams[i];
+            if (ids[i] != dd_ids[i] || memcmp(&depth[i], &dd_depth[i], 4) != 0)
+                fail_msg("camera (%g, %g, %g) -> (%g, %g, %g): stack id %u t %.9g, dda id %u t %.9g", c->eye[0],
+                         c->eye[1], c->eye[2], c->target[0], c->target[1], c->target[2], ids[i], (double)depth[i],
+                         dd_ids[i], (double)dd_depth[i]);
             if (ids[i] != pk_ids[i] || memcmp(&depth[i], &pk_depth[i], 4) != 0)
                 fail_msg("camera (%g, %g, %g) -> (%g, %g, %g): stack id %u t %.9g, packet id %u t %.9g", c->eye[0],
                          c->eye[1], c->eye[2], c->target[0], c->target[1], c->target[2], ids[i], (double)depth[i],
@@ -1013,7 +1042,7 @@ static void aim_cameras(vis_context *ctx, const voxel_world *vw, uint64_t *rng, 
         }
     }
     ref_scene_free(&rs);
-    free(cams), free(ids), free(pk_ids), free(depth), free(pk_depth);
+    free(cams), free(ids), free(pk_ids), free(depth), free(pk_depth), free(dd_ids), free(dd_depth);
 }
 
 /* 10^6 rays (5 x 10^4 under VIS_TEST_SCALE=small) aimed at edges and corners of two generated
@@ -1074,7 +1103,7 @@ static void test_held_out_edge_view(void **state)
     } cases[] = {{187, 140, 75.0, 43, 92, 93.6627297}, {255, 255, 70.0, 27, 172, 93.5259894}};
     static const vis_traversal all[] = {VIS_TRAVERSAL_STACK,     VIS_TRAVERSAL_PACKET,     VIS_TRAVERSAL_RESTART,
                                         VIS_TRAVERSAL_PUSHDOWN,  VIS_TRAVERSAL_SHORTSTACK, VIS_TRAVERSAL_ROPES,
-                                        VIS_TRAVERSAL_ROPES_SHORTSTACK};
+                                        VIS_TRAVERSAL_ROPES_SHORTSTACK, VIS_TRAVERSAL_DDA};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
         vis_camera cam;
         memset(&cam, 0, sizeof cam);

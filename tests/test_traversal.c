@@ -24,6 +24,10 @@
 
 #include <cmocka.h>
 
+/* The cell-grid walk reports the cells it visits (test_dda_visits_every_passing_cell). */
+static unsigned char *g_dda_seen;
+static uint32_t g_dda_base; /* the scene's cell_map */
+#define VIS_DDA_VISIT(entry) (g_dda_seen ? (void)++g_dda_seen[(entry)-g_dda_base] : (void)0)
 #include "common/trace_core.h"
 #include "camera.h"
 #include "scene.h"
@@ -61,6 +65,7 @@ static const method methods[] = {
     {VIS_TRAVERSAL_CACHED_STACK, 3, "cached-stack:3"},
     {VIS_TRAVERSAL_CACHED_STACK, 7, "cached-stack:7"},
     {VIS_TRAVERSAL_CACHED_STACK, 16, "cached-stack:16"},
+    {VIS_TRAVERSAL_DDA, 0, "dda"},
 };
 #define METHOD_COUNT (sizeof methods / sizeof methods[0])
 
@@ -498,6 +503,7 @@ static void trace_ray(const vis_scene_view *v, const vis_ray_setup *s, const vis
         vis_traverse_cached_stack(r, s, ring, 1u, s->short_stack, VIS_SCENE_VIEW_ARGS(v), h);
         break;
     }
+    case VIS_TRAVERSAL_ID_DDA: vis_traverse_dda(r, s, VIS_SCENE_VIEW_ARGS(v), h); break;
     default: fail_msg("unknown traversal %u", s->traversal);
     }
 }
@@ -560,6 +566,9 @@ static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, i
     memcpy(s.size, w->size, sizeof s.size);
     s.root = 0;
     s.leaf_count = v.leaf_count;
+    memcpy(s.cells, v.cells, sizeof s.cells);
+    s.cell_map = v.cell_map;
+    s.cell_size = v.cell_size;
     ref_scene rs;
     ref_scene_init(&rs, w);
     for (int i = 0; i < count; ++i) {
@@ -889,7 +898,7 @@ static void test_desc_validation(void **state)
     td.short_stack = VIS_MAX_SHORT_STACK + 1;
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_ERROR_INVALID_ARGUMENT);
     assert_non_null(strstr(vis_context_last_error(ctx), "short_stack"));
-    td.traversal = (vis_traversal)(VIS_TRAVERSAL_CACHED_STACK + 1);
+    td.traversal = (vis_traversal)(VIS_TRAVERSAL_DDA + 1);
     td.short_stack = 0;
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_ERROR_INVALID_ARGUMENT);
     for (int i = 0; i < 16; ++i)
@@ -900,6 +909,141 @@ static void test_desc_validation(void **state)
     assert_int_equal(vis_trace(ctx, scene, &cam, &td, ids, 16, NULL, 0), VIS_OK);
     vis_scene_destroy(scene);
     free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* ---- the cell-grid walk against its definition -------------------------------------------
+ *
+ * vis_traverse_dda must visit every cell whose box passes the slab test within the slack
+ * (trace_core.h: max(t0, entries) <= lim(min(t1, exits)), the first and last cell of an axis
+ * open towards the scene box, which t0 and t1 already clip; a ray parallel to an axis in the
+ * closed slab of the cell), since a quad the brute force takes has its box in such a cell. On
+ * an empty scene nothing ends a ray early, so every such cell must be seen. Rays: origins on
+ * cell boundaries, on integers, anywhere, inside and outside the scene; directions with zero,
+ * equal and random components, and aimed exactly at cell edges and corners. Each cell is
+ * visited once (no in-plane ray here visits one twice either: its two walks differ on that
+ * axis). */
+static int dda_cell_passes(const vis_ray *r, const vis_ray_setup *s, const uint32_t c[3], float t0, float t1)
+{
+    float in = t0, out = t1;
+    for (uint32_t a = 0; a < 3; ++a) {
+        float lo = (float)c[a] * s->cell_size, hi = (float)(c[a] + 1u) * s->cell_size;
+        int first = c[a] == 0u, last = c[a] + 1u == s->cells[a];
+        if (r->d[a] == 0.0f) {
+            if ((!first && r->o[a] < lo) || (!last && r->o[a] > hi))
+                return 0;
+            continue;
+        }
+        float tlo = first ? (r->d[a] > 0.0f ? -INFINITY : INFINITY) : (lo - r->o[a]) * r->inv[a];
+        float thi = last ? (r->d[a] > 0.0f ? INFINITY : -INFINITY) : (hi - r->o[a]) * r->inv[a];
+        float e = r->d[a] > 0.0f ? tlo : thi, x = r->d[a] > 0.0f ? thi : tlo;
+        if (e > in)
+            in = e;
+        if (x < out)
+            out = x;
+    }
+    return in <= vis_t_limit(out);
+}
+
+static void test_dda_visits_every_passing_cell(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    static const float sizes[][3] = {{80, 48, 64}, {70, 33, 50}, {128, 16, 96}};
+    uint64_t rng = 4242;
+    int rays = vt_small() ? 20000 : 200000;
+    uint64_t checked = 0, passing = 0;
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; ++si) {
+        tworld w;
+        memset(&w, 0, sizeof w);
+        memcpy(w.size, sizes[si], sizeof w.size);
+        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+        vis_scene_view v = vis_scene_get_view(scene);
+        assert_true(v.cell_map != 0u);
+        vis_ray_setup s;
+        memset(&s, 0, sizeof s);
+        memcpy(s.size, w.size, sizeof s.size);
+        s.leaf_count = v.leaf_count;
+        memcpy(s.cells, v.cells, sizeof s.cells);
+        s.cell_map = v.cell_map;
+        s.cell_size = v.cell_size;
+        uint32_t ncells = v.cells[0] * v.cells[1] * v.cells[2];
+        unsigned char *seen = calloc(ncells, 1);
+        for (int i = 0; i < rays; ++i) {
+            float o[3], d[3];
+            int kind = (int)(vt_rand(&rng) % 4);
+            for (int a = 0; a < 3; ++a) {
+                double u = vt_rand_unit(&rng);
+                double x = vt_rand_unit(&rng) * (w.size[a] + 40.0) - 20.0;
+                if (u < 0.4)
+                    x = 16.0 * floor(x / 16.0 + 0.5);
+                else if (u < 0.7)
+                    x = floor(x);
+                o[a] = (float)x;
+            }
+            if (kind == 0) { /* small integer directions: diagonals, zeros */
+                int dir[3];
+                do {
+                    for (int a = 0; a < 3; ++a)
+                        dir[a] = (int)(vt_rand(&rng) % 7) - 3;
+                } while (!dir[0] && !dir[1] && !dir[2]);
+                for (int a = 0; a < 3; ++a)
+                    d[a] = (float)dir[a];
+            } else if (kind == 1) { /* aimed exactly at a cell edge or corner */
+                float p[3];
+                for (int a = 0; a < 3; ++a) {
+                    double x = vt_rand_unit(&rng) * w.size[a];
+                    p[a] = vt_rand(&rng) % 3 ? (float)(16.0 * floor(x / 16.0 + 0.5)) : (float)x;
+                    d[a] = p[a] - o[a];
+                }
+                if (!d[0] && !d[1] && !d[2])
+                    d[0] = 1.0f;
+            } else { /* random, some components zero */
+                for (int a = 0; a < 3; ++a)
+                    d[a] = vt_rand(&rng) % 5 == 0 ? 0.0f : (float)(vt_rand_unit(&rng) * 2.0 - 1.0);
+                if (!d[0] && !d[1] && !d[2])
+                    d[1] = -1.0f;
+            }
+            double len = sqrt((double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2]);
+            vis_ray r;
+            for (int a = 0; a < 3; ++a) {
+                r.o[a] = o[a];
+                r.d[a] = (float)(d[a] / len);
+                r.inv[a] = 1.0f / r.d[a];
+            }
+            r.t_near = vt_rand(&rng) % 4 ? 0.0f : (float)(vt_rand_unit(&rng) * 30.0);
+            r.t_far = vt_rand(&rng) % 3 ? INFINITY : r.t_near + (float)(vt_rand_unit(&rng) * 60.0);
+            memset(seen, 0, ncells);
+            g_dda_seen = seen;
+            g_dda_base = v.cell_map;
+            vis_hit h = {INFINITY, VIS_NO_OBJECT, 0};
+            vis_traverse_dda(&r, &s, VIS_SCENE_VIEW_ARGS(&v), &h);
+            g_dda_seen = NULL;
+            float t0, t1;
+            int in_scene = vis_clip_scene(&r, s.size, &t0, &t1);
+            for (uint32_t c = 0; c < ncells; ++c) {
+                uint32_t cc[3] = {c % v.cells[0], c / v.cells[0] % v.cells[1], c / (v.cells[0] * v.cells[1])};
+                ++checked;
+                if (seen[c] > 1)
+                    fail_msg("size %zu, ray %d o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g): cell (%u,%u,%u) visited %u "
+                             "times",
+                             si, i, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
+                             (double)r.d[2], cc[0], cc[1], cc[2], seen[c]);
+                if (!in_scene || !dda_cell_passes(&r, &s, cc, t0, t1))
+                    continue;
+                ++passing;
+                if (!seen[c])
+                    fail_msg("size %zu, ray %d o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) near %g far %g: cell (%u,%u,%u) "
+                             "passes the slab test but was not visited",
+                             si, i, (double)r.o[0], (double)r.o[1], (double)r.o[2], (double)r.d[0], (double)r.d[1],
+                             (double)r.d[2], (double)r.t_near, (double)r.t_far, cc[0], cc[1], cc[2]);
+            }
+        }
+        free(seen);
+        vis_scene_destroy(scene);
+    }
+    print_message("dda: %llu cell checks, %llu passing cells, all visited once\n", (unsigned long long)checked,
+                  (unsigned long long)passing);
     vis_context_destroy(ctx);
 }
 
@@ -918,6 +1062,7 @@ int main(void)
         cmocka_unit_test(test_edits_between_passes),
         cmocka_unit_test(test_packet_occupancy_follows_edits),
         cmocka_unit_test(test_far_origin_and_leaf_ids),
+        cmocka_unit_test(test_dda_visits_every_passing_cell),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

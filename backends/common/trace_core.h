@@ -159,6 +159,10 @@ typedef struct vis_ray_setup {
     uint32_t root;       /* root node index (0)                                            */
     uint32_t leaf_count;
     uint32_t short_stack; /* N of shortstack / ropes-shortstack, 1..VIS_MAX_SHORT_STACK       */
+    uint32_t cells[3];    /* the scene's cell grid (the DDA method, vis_traverse_dda)          */
+    uint32_t cell_map;    /* rope_index[cell_map + cell] = the leaf of cell (x + nx (y + ny z));
+                             0: the scene has no map (its leaves are not single cells)       */
+    float cell_size;      /* split planes lie on (float)i * cell_size                          */
 } vis_ray_setup;
 
 /* The scene arrays, as separate parameters because OpenCL 1.2 kernels cannot take structs
@@ -1257,6 +1261,7 @@ VIS_INLINE uint32_t vis_hit_leaf_id(const vis_ray *r, const vis_hit *h, VIS_SCEN
 #define VIS_TRAVERSAL_ID_PACKET 7u /* CPU backend only: tiles as packets (backends/cpu/packet.c) */
 
 #define VIS_TRAVERSAL_ID_CACHED_STACK 8u
+#define VIS_TRAVERSAL_ID_DDA 9u /* the cell-grid walk (vis_traverse_dda) */
 
 /* Address space of the cached stack's ring: the work-group's local memory on a device (the
  * kernel hands each work-item its slice), the caller's own array on the CPU. */
@@ -1407,6 +1412,199 @@ VIS_INLINE void vis_traverse_cached_stack(const vis_ray *r, const vis_ray_setup 
     }
 }
 
+/* ---- the cell-grid walk (3D-DDA) -----------------------------------------------------------
+ *
+ * At full depth every leaf of the fixed-depth tree is one cell of the scene's cell grid and
+ * every inner cell boundary is a split plane, so the leaves a ray visits, in order, are the
+ * cells it crosses: a 3D-DDA over the grid (Amanatides & Woo 1987; uniform sub-volumes, Lee &
+ * Han 2005, seeds/001) finds them with no tree and no stack, and a map fixed at build
+ * (vis_ray_setup.cell_map) gives each cell's leaf. The leaf itself is vis_leaf_intersect's.
+ *
+ * Exactness (docs/traversal.md, "Exactness"). A quad is taken, by every method, when its box
+ * passes the slab test within vis_t_limit's slack; its box lies in its cell, and distances
+ * are monotone in the plane coordinate, so the cell passes the same test: max(t0, entry
+ * distances) <= lim(min(t1, exit distances)), every distance (c - o[a]) * inv[a] with c =
+ * (float)i * cell_size, the split planes' own floats. The walk must visit every cell that
+ * passes (a superset only adds real hits). Call a crossing the distance at which the ray
+ * meets an inner boundary. Between crossings the walk is the plain DDA; where crossings of
+ * two or three axes follow each other within the slack (a chain: each within lim of the one
+ * before; the ray passes an edge or a corner), a cell whose entry on one axis comes after its
+ * exit on another can still pass. Such a cluster of crossings, on the axes A, leads from cell
+ * P to P + e(A), and the cells that can pass around it are P + e(S) for the subsets S of A
+ * (an axis outside A keeps its index across the cluster; one in A has crossed once): the walk
+ * visits all 2^|A| of them (the kd walk's "both" cases, here as a block). That holds while no
+ * axis crosses twice within one chain, i.e. while a cell is far wider than the slack at that
+ * distance (16 voxels against 2^-20 t: t under about 5 million voxels); a ray for which
+ * that fails is finished by the brute force (exact, slow, never met in our scenes).
+ * Termination is the stack method's: a cell is skipped once its entry lies beyond
+ * lim(best hit), and entries only grow along the walk.
+ *
+ * A ray lying in an inner boundary plane (d[a] = 0, o[a] on it) is walked once with each
+ * of the two cells it touches on that axis, as the kd walk visits both children. A leaf
+ * spanning several cells (a tree built shallower than full depth) would be visited once per
+ * cell; the host maps the method to the stack method for such scenes (cell_map = 0). */
+
+/* The distance to inner boundary b (1..n-1) of axis a: the split distance expression. */
+VIS_INLINE float vis_dda_cross(const vis_ray *r, uint32_t a, int b, float cs)
+{
+    return ((float)b * cs - r->o[a]) * r->inv[a];
+}
+
+/* The distance at which the ray leaves cell i of axis a moving by step (VIS_INF past the
+ * last inner boundary: the scene clip ends the ray there). */
+VIS_INLINE float vis_dda_exit(const vis_ray *r, uint32_t a, int i, int step, int n, float cs)
+{
+    int b = step > 0 ? i + 1 : i;
+    return b >= 1 && b <= n - 1 ? vis_dda_cross(r, a, b, cs) : VIS_INF;
+}
+
+/* A test may define VIS_DDA_VISIT(entry) before including this file to see each cell visited
+ * (its map entry, cell_map + cell; tests/test_traversal.c holds the walk to the cell test
+ * above). */
+#ifndef VIS_DDA_VISIT
+#  define VIS_DDA_VISIT(entry) ((void)0)
+#endif
+
+/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. */
+VIS_INLINE void vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    VIS_DDA_VISIT(entry);
+    const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[rope_index[entry]];
+    if (leaf->quad_count | leaf->loose_count | leaf->tri_count)
+        vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
+}
+
+/* One walk from cell m0 (the lowest cell, in the ray's direction, that can pass at t0).
+ * Returns 0 when a chain crossed an axis twice (the caller finishes the ray otherwise). The
+ * state is in scalars, axis by axis, so that it stays in registers. */
+VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int *m0, const int *step, float t0,
+                            float t1, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    float cs = s->cell_size;
+    int nx = (int)s->cells[0], ny = (int)s->cells[1], nz = (int)s->cells[2];
+    int mx = m0[0], my = m0[1], mz = m0[2];
+    int sx = step[0], sy = step[1], sz = step[2];
+    /* The cell's map entry, and what a step on each axis adds to it. */
+    uint32_t entry = s->cell_map + (uint32_t)mx + s->cells[0] * ((uint32_t)my + s->cells[1] * (uint32_t)mz);
+    uint32_t dx = (uint32_t)sx, dy = (uint32_t)sy * s->cells[0], dz = (uint32_t)sz * s->cells[0] * s->cells[1];
+    float tx = sx ? vis_dda_exit(r, 0u, mx, sx, nx, cs) : VIS_INF;
+    float ty = sy ? vis_dda_exit(r, 1u, my, sy, ny, cs) : VIS_INF;
+    float tz = sz ? vis_dda_exit(r, 2u, mz, sz, nz, cs) : VIS_INF;
+    float T = t0; /* where the current cell is entered */
+    for (;;) {
+        if (T > vis_t_limit(h->t) || T > vis_t_limit(t1))
+            return 1;
+        float e = tx < ty ? tx : ty;
+        e = tz < e ? tz : e;
+        vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h);
+        if (e == VIS_INF)
+            return 1;
+        float lim = vis_t_limit(e);
+        uint32_t set = (tx <= lim ? 1u : 0u) | (ty <= lim ? 2u : 0u) | (tz <= lim ? 4u : 0u);
+        float last = e;
+        if (set & (set - 1u)) {
+            /* The cluster: the crossings chained to e within the slack (a second round
+             * catches the third axis chained to the second), then the block around the edge
+             * or corner: every P + e(S), S a proper non-empty subset of the cluster's axes
+             * (P + e(A) is the next cell of the walk). */
+            last = (set & 1u) && tx > last ? tx : last;
+            last = (set & 2u) && ty > last ? ty : last;
+            last = (set & 4u) && tz > last ? tz : last;
+            lim = vis_t_limit(last);
+            set |= (tx <= lim ? 1u : 0u) | (ty <= lim ? 2u : 0u) | (tz <= lim ? 4u : 0u);
+            last = (set & 1u) && tx > last ? tx : last;
+            last = (set & 2u) && ty > last ? ty : last;
+            last = (set & 4u) && tz > last ? tz : last;
+            if (e <= vis_t_limit(h->t) && e <= vis_t_limit(t1))
+                for (uint32_t sub = 1u; sub < set; ++sub)
+                    if ((sub & set) == sub)
+                        vis_dda_leaf(r,
+                                     entry + ((sub & 1u) ? dx : 0u) + ((sub & 2u) ? dy : 0u) + ((sub & 4u) ? dz : 0u),
+                                     e, last, VIS_SCENE_ARGS, h);
+        }
+        lim = vis_t_limit(last);
+        if (set & 1u) {
+            mx += sx;
+            entry += dx;
+            tx = vis_dda_exit(r, 0u, mx, sx, nx, cs);
+            if (tx <= lim)
+                return 0; /* an axis crosses twice within the chain */
+        }
+        if (set & 2u) {
+            my += sy;
+            entry += dy;
+            ty = vis_dda_exit(r, 1u, my, sy, ny, cs);
+            if (ty <= lim)
+                return 0;
+        }
+        if (set & 4u) {
+            mz += sz;
+            entry += dz;
+            tz = vis_dda_exit(r, 2u, mz, sz, nz, cs);
+            if (tz <= lim)
+                return 0;
+        }
+        T = last;
+    }
+}
+
+VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS, vis_hit *h)
+{
+    if (s->cell_map == 0u) {
+        vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h); /* no map (the host never asks for it then) */
+        return;
+    }
+    float t0, t1;
+    if (!vis_clip_scene(r, s->size, &t0, &t1))
+        return;
+    float cs = s->cell_size;
+    int m0[3], step[3], alt[3];
+    for (uint32_t a = 0u; a < 3u; ++a) {
+        int n = (int)s->cells[a];
+        float o = r->o[a], d = r->d[a];
+        alt[a] = 0;
+        if (d == 0.0f) {
+            /* The cell holding o (clip_scene has it in [0, size]); on an inner boundary, both. */
+            step[a] = 0;
+            int g = vis_clamp_plane(VIS_FLOORF(o / cs), 0, n - 1);
+            while (g > 0 && o < (float)g * cs)
+                --g;
+            while (g < n - 1 && o >= (float)(g + 1) * cs)
+                ++g;
+            m0[a] = g;
+            alt[a] = g > 0 && o == (float)g * cs;
+            continue;
+        }
+        /* The first cell the ray can be in at t0 within the slack: the lowest (d > 0) or
+         * highest (d < 0) index whose exit distance e has t0 <= lim(e). A guess from the
+         * entry point, then corrected by the exit distances themselves. */
+        step[a] = d > 0.0f ? 1 : -1;
+        int g = vis_clamp_plane(VIS_FLOORF((o + t0 * d) / cs), 0, n - 1);
+        for (;;) {
+            int back = g - step[a];
+            if (back >= 0 && back <= n - 1 && t0 <= vis_t_limit(vis_dda_exit(r, a, back, step[a], n, cs)))
+                g = back;
+            else
+                break;
+        }
+        while (t0 > vis_t_limit(vis_dda_exit(r, a, g, step[a], n, cs)))
+            g += step[a]; /* the last cell's exit is VIS_INF: ends in range */
+        m0[a] = g;
+    }
+    /* Once per combination of the in-plane axes' two cells. */
+    for (uint32_t v = 0u; v < 8u; ++v) {
+        if (((v & 1u) && !alt[0]) || ((v & 2u) && !alt[1]) || ((v & 4u) && !alt[2]))
+            continue;
+        int m[3];
+        for (uint32_t a = 0u; a < 3u; ++a)
+            m[a] = m0[a] - (int)(v >> a & 1u);
+        if (!vis_dda_walk(r, s, m, step, t0, t1, VIS_SCENE_ARGS, h)) {
+            vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h);
+            return;
+        }
+    }
+}
+
 /* The ray through the method with VIS_TRAVERSAL_ID `method`. Packets are the CPU's own, and
  * the cached stack needs its caller's ring: a ray handed here with either goes through the
  * stack method, whose walk (and so whose buffers) the cached stack repeats exactly. */
@@ -1417,6 +1615,8 @@ VIS_INLINE void vis_traverse(const vis_ray *r, const vis_ray_setup *s, uint32_t 
         vis_traverse_stack(r, s, VIS_SCENE_ARGS, h);
     else if (method == VIS_TRAVERSAL_ID_BRUTEFORCE)
         vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h);
+    else if (method == VIS_TRAVERSAL_ID_DDA)
+        vis_traverse_dda(r, s, VIS_SCENE_ARGS, h);
     else if (method == VIS_TRAVERSAL_ID_ROPES || method == VIS_TRAVERSAL_ID_ROPES_SHORTSTACK)
         vis_traverse_ropes(r, s, method == VIS_TRAVERSAL_ID_ROPES ? 0u : s->short_stack, VIS_SCENE_ARGS, h);
     else

@@ -273,7 +273,7 @@ const char *vis_cl_traversal_options(uint32_t traversal)
     static const char *const opts[] = {"-DVIS_TRAVERSAL_ONLY=0u", "-DVIS_TRAVERSAL_ONLY=1u", "-DVIS_TRAVERSAL_ONLY=2u",
                                         "-DVIS_TRAVERSAL_ONLY=3u", "-DVIS_TRAVERSAL_ONLY=4u", "-DVIS_TRAVERSAL_ONLY=5u",
                                         "-DVIS_TRAVERSAL_ONLY=6u", "-DVIS_TRAVERSAL_ONLY=7u",
-                                        "-DVIS_TRAVERSAL_ONLY=8u"};
+                                        "-DVIS_TRAVERSAL_ONLY=8u", "-DVIS_TRAVERSAL_ONLY=9u"};
     return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
 }
 

@@ -341,7 +341,7 @@ static int sync_full(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v)
     if (st == VIS_OK)
         st = upload_all(u, &sc->ropes, v->ropes, v->ropes ? v->rope_count : 0, 0, "ropes");
     if (st == VIS_OK)
-        st = upload_all(u, &sc->rope_index, v->rope_index, v->rope_index ? v->node_count : 0, 0, "rope index");
+        st = upload_all(u, &sc->rope_index, v->rope_index, v->rope_index ? v->rope_index_count : 0, 0, "rope index");
     return st;
 }
 
@@ -354,7 +354,7 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
     /* Ropes are built with the tree and never change; if they appeared since the last sync
      * (built on first use), they are sent once, whole. */
     int st = VIS_OK;
-    size_t ropes = v->ropes ? v->rope_count : 0, rope_index = v->rope_index ? v->node_count : 0;
+    size_t ropes = v->ropes ? v->rope_count : 0, rope_index = v->rope_index ? v->rope_index_count : 0;
     if (ropes != sc->ropes.valid || rope_index != sc->rope_index.valid) {
         st = upload_all(u, &sc->ropes, v->ropes, ropes, 0, "ropes");
         if (st == VIS_OK)

@@ -182,7 +182,9 @@ vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vi
             out->ropes = vis_sat_add(out->ropes, e[i].count);
     }
     vis_free(ctx, e);
-    out->bytes = vis_scene_tree_bytes(out->nodes, out->leaves, out->ropes);
+    /* Every leaf one cell (full depth): the DDA method's cell map, one entry a leaf. */
+    uint64_t ncells = (uint64_t)out->cells[0] * out->cells[1] * out->cells[2];
+    out->bytes = vis_scene_tree_bytes(out->nodes, out->leaves, out->ropes, out->leaves == ncells ? out->leaves : 0);
     return VIS_OK;
 }
 
@@ -324,10 +326,35 @@ static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const
     rope_fill(rs, first + 1, rc0, c1, depth + 1, child);
 }
 
+/* The DDA method's map (trace_core.h, vis_traverse_dda): the leaf of every cell, x fastest,
+ * at rope_index[cell_map + cell]. The walk repeats build_node's splits. */
+static void fill_cell_map(vis_scene *s, uint32_t node, const uint32_t c0[3], const uint32_t c1[3])
+{
+    uint32_t info = s->nodes[node].info;
+    if ((info & 3u) == VIS_NODE_LEAF) {
+        /* Full depth: every leaf is one cell. */
+        s->rope_index[s->cell_map + c0[0] + s->cells[0] * (c0[1] + s->cells[1] * c0[2])] = info >> 2;
+        return;
+    }
+    uint32_t axis = info & 3u, first = info >> 2;
+    uint32_t mid = c0[axis] + (c1[axis] - c0[axis]) / 2;
+    uint32_t lc1[3] = {c1[0], c1[1], c1[2]};
+    uint32_t rc0[3] = {c0[0], c0[1], c0[2]};
+    lc1[axis] = mid;
+    rc0[axis] = mid;
+    fill_cell_map(s, first, c0, lc1);
+    fill_cell_map(s, first + 1, rc0, c1);
+}
+
 static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
 {
     rope_state rs = {s, NULL, 0};
-    s->rope_index = vis_calloc(s->ctx, s->node_count, sizeof *s->rope_index);
+    /* At full depth (as many leaves as cells) the cell map follows the node entries. */
+    uint64_t ncells = (uint64_t)cells[0] * cells[1] * cells[2];
+    s->cell_map = ncells == s->leaf_count ? s->node_count : 0u;
+    memcpy(s->cells, cells, sizeof s->cells);
+    s->rope_index = vis_calloc(s->ctx, (size_t)s->node_count + (s->cell_map ? s->leaf_count : 0u),
+                               sizeof *s->rope_index);
     if (!s->rope_index)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the ropes of %u nodes", s->node_count);
     /* The heights live in rope_index until rope_fill replaces each with the node's entry: it
@@ -348,6 +375,8 @@ static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
         none[f].node = VIS_NO_ROPE; /* the root's faces are the scene's */
     uint32_t zero[3] = {0, 0, 0};
     rope_fill(&rs, 0, zero, cells, 0, none);
+    if (s->cell_map)
+        fill_cell_map(s, 0, zero, cells);
     return VIS_OK;
 }
 

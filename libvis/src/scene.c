@@ -180,18 +180,20 @@ void vis_scene_desc_defaults(vis_scene_desc *desc)
 /* Per node: the node and its rope index. Per leaf: the flat leaf, its host bookkeeping and
  * its entry in the dirty list. Per rope entry: the rope node. For the default 16-voxel cells
  * the leaf headers (64 + 40 + 4 bytes) and the ropes (56 bytes per node, about two nodes per
- * leaf) make up nine tenths of an empty scene. */
-uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes)
+ * leaf) make up nine tenths of an empty scene. Per cell_map entry (one per leaf at full
+ * depth): its leaf index. */
+uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes, uint64_t cell_map)
 {
     uint64_t b = sizeof(vis_scene);
     b = vis_sat_add(b, vis_sat_mul(nodes, sizeof(vis_kd_node) + sizeof(uint32_t)));
     b = vis_sat_add(b, vis_sat_mul(leaves, sizeof(vis_flat_leaf) + sizeof(vis_leaf_host) + sizeof(uint32_t)));
+    b = vis_sat_add(b, vis_sat_mul(cell_map, sizeof(uint32_t)));
     return vis_sat_add(b, vis_sat_mul(ropes, sizeof(vis_rope_node)));
 }
 
 uint64_t vis_scene_bytes(const vis_scene *s)
 {
-    return vis_scene_tree_bytes(s->node_count, s->leaf_count, s->rope_count) +
+    return vis_scene_tree_bytes(s->node_count, s->leaf_count, s->rope_count, s->cell_map ? s->leaf_count : 0) +
            (uint64_t)s->bucket_cap * sizeof(uint32_t) + (uint64_t)s->quad_cap * sizeof *s->quads +
            (uint64_t)s->tri_cap * sizeof *s->tris +
            (uint64_t)s->object_cap * (sizeof *s->objects + sizeof *s->object_host + 1) +
@@ -1365,6 +1367,10 @@ vis_scene_view vis_scene_get_view(const vis_scene *s)
     v.ropes = s->ropes;
     v.rope_count = s->rope_count;
     v.rope_index = s->rope_index;
+    v.rope_index_count = s->node_count + (s->cell_map ? s->leaf_count : 0u);
+    memcpy(v.cells, s->cells, sizeof v.cells);
+    v.cell_map = s->cell_map;
+    v.cell_size = s->desc.cell_size;
     memcpy(v.size, s->desc.size, sizeof v.size);
     v.kd_depth = s->kd_depth;
     return v;

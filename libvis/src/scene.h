@@ -73,7 +73,10 @@ struct vis_scene {
     uint32_t leaf_count;
     vis_rope_node *ropes;     /* rope nodes (built with the tree), see trace_core.h         */
     uint32_t rope_count;
-    uint32_t *rope_index;     /* node -> rope entry or VIS_NO_ROPE                           */
+    uint32_t *rope_index;     /* node -> rope entry or VIS_NO_ROPE; at full depth, then the
+                                 cell map: rope_index[cell_map + cell] = the cell's leaf     */
+    uint32_t cells[3];        /* the cell grid the tree splits (kdtree.c)                    */
+    uint32_t cell_map;        /* node_count at full depth (every leaf one cell), else 0      */
     uint32_t *buckets;        /* per-leaf bucket tables, allocated on first use              */
     uint32_t bucket_count, bucket_cap;
 
@@ -143,7 +146,7 @@ static inline uint64_t vis_sat_mul(uint64_t a, uint64_t b) { return b && a > UIN
 
 /* Bytes of an empty scene whose tree has these counts (vis_scene_info.bytes right after
  * vis_scene_create); saturates at UINT64_MAX. */
-uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes);
+uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes, uint64_t cell_map);
 
 /* Host memory the scene holds now (vis_scene_info.bytes), from its capacities. */
 uint64_t vis_scene_bytes(const vis_scene *scene);

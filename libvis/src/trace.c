@@ -25,7 +25,7 @@ static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
         return VIS_TRAVERSAL_ID_PACKET;
     if (t == VIS_TRAVERSAL_AUTO)
         return ctx->info.kind == VIS_BACKEND_CPU ? VIS_TRAVERSAL_ID_PACKET : VIS_TRAVERSAL_ID_STACK;
-    return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6, CACHED_STACK 8 */
+    return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6, CACHED_STACK 8, DDA 9 */
 }
 
 /* The float ray setup of one view: validated camera, resolved desc (fog shortens t_far). */
@@ -43,6 +43,13 @@ vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const 
     setup->short_stack = d->short_stack;
     setup->root = 0;
     setup->leaf_count = scene->leaf_count;
+    memcpy(setup->cells, scene->cells, sizeof setup->cells);
+    setup->cell_map = scene->cell_map;
+    setup->cell_size = scene->desc.cell_size;
+    /* The cell-grid walk needs every leaf to be one cell; on a shallower tree the stack
+     * method (the same buffers) runs instead. */
+    if (setup->traversal == VIS_TRAVERSAL_ID_DDA && scene->cell_map == 0u)
+        setup->traversal = VIS_TRAVERSAL_ID_STACK;
     if (d->effects & VIS_EFFECT_FOG) {
         float fog = (float)d->fog_dist;
         if (fog < setup->t_far)

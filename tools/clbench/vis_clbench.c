@@ -111,7 +111,7 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
 {
     size_t n = (size_t)W * H;
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_DDA; ++t) {
             if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
                 continue; /* brute force: every quad per ray, tiny buffers only (packets: the CPU's
                            * tiles against the device's work-group walk, both exact) */
@@ -171,7 +171,7 @@ static void nv_verbose(void)
         size_t lens[2] = {strlen(pre), vis_kernels_source_size};
         const char *extra = getenv("VIS_OPENCL_BUILD_OPTIONS");
         /* The library's per-method programs (cl_backend.c, vis_cl_traversal_options). */
-        static const int only[] = {0, 2, 3, 4, 5, 6, 8};
+        static const int only[] = {0, 2, 3, 4, 5, 6, 8, 9};
         for (size_t m = 0; m < sizeof only / sizeof only[0]; ++m) {
             char opts[512];
             snprintf(opts, sizeof opts, "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose -DVIS_TRAVERSAL_ONLY=%du %s",
@@ -219,7 +219,7 @@ static void methods_table(vis_context *cl, vis_scene *B, const vis_camera *def, 
         {VIS_TRAVERSAL_CACHED_STACK, 2, "cached stack 2"}, {VIS_TRAVERSAL_CACHED_STACK, 3, "cached stack 3"},
         {VIS_TRAVERSAL_CACHED_STACK, 7, "cached stack 7"}, {VIS_TRAVERSAL_ROPES, 0, "rope"},
         {VIS_TRAVERSAL_ROPES_SHORTSTACK, 1, "rope stack 1"}, {VIS_TRAVERSAL_ROPES_SHORTSTACK, 2, "rope stack 2"},
-        {VIS_TRAVERSAL_ROPES_SHORTSTACK, 3, "rope stack 3"},
+        {VIS_TRAVERSAL_ROPES_SHORTSTACK, 3, "rope stack 3"}, {VIS_TRAVERSAL_DDA, 0, "dda (cell grid)"},
     };
     double *km = malloc((size_t)reps * sizeof *km);
     printf("\nmethods (Chang & Ihm Tables 3 and 5), %ux%u, kernel ms per view (median of %d), Mrays/s:\n", g_size,
@@ -566,8 +566,8 @@ int main(int argc, char **argv)
         for (size_t vi = 0; vi <= nv; ++vi) {
             const vis_camera *cam = vi == 0 ? &def : &views[vi - 1].camera;
             const char *name = vi == 0 ? "default" : views[vi - 1].name;
-            for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
-                if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || t == VIS_TRAVERSAL_PACKET || (vi > 0 && t != VIS_TRAVERSAL_STACK))
+            for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_DDA; ++t) {
+                if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || t == VIS_TRAVERSAL_PACKET || (vi > 0 && t != VIS_TRAVERSAL_STACK && t != VIS_TRAVERSAL_DDA))
                     continue;
                 vis_trace_desc td;
                 vis_trace_desc_defaults(&td);

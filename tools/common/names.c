@@ -15,6 +15,7 @@ static const vc_name traversal_names[] = {
     {"ropes-shortstack", VIS_TRAVERSAL_ROPES_SHORTSTACK},
     {"packet", VIS_TRAVERSAL_PACKET},
     {"cached-stack", VIS_TRAVERSAL_CACHED_STACK}, /* the library default ring */
+    {"dda", VIS_TRAVERSAL_DDA},
     {"shortstack:1", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 1)},
     {"shortstack:2", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 2)},
     {"shortstack:3", VC_TRAVERSAL(VIS_TRAVERSAL_SHORTSTACK, 3)},

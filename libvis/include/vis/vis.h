@@ -412,10 +412,13 @@ typedef enum vis_traversal {
                                      each work-group walks the tree once for its tile, with
                                      exact per-ray tests (docs/opencl.md; slower than STACK
                                      on the GPUs measured)                                   */
-    VIS_TRAVERSAL_CACHED_STACK = 9 /* the full stack with its top short_stack entries in a ring
+    VIS_TRAVERSAL_CACHED_STACK = 9, /* the full stack with its top short_stack entries in a ring
                                      in the GPU's local (shared) memory, the rest in private
                                      memory (Chang & Ihm 2010, section 3.1); on the CPU the
                                      same walk with the ring on the C stack                  */
+    VIS_TRAVERSAL_DDA = 10        /* no tree: a 3D-DDA over the cell grid, whose cells are the
+                                     leaves at full depth (Amanatides & Woo 1987); no stack.
+                                     A scene built shallower runs STACK instead              */
 } vis_traversal;
 
 typedef struct vis_trace_desc {
