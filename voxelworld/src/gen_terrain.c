@@ -202,16 +202,17 @@ static void carve_column(const column_plan *cp, double prof[F_COUNT][MAX_H / LAT
         tunnel_may[ly] = !(a_far || b_far);
         cavern_may[ly] = !(prof[F_CAVERN][ly] < CAVERN_FAR && prof[F_CAVERN][ly + 1] < CAVERN_FAR);
     }
-    /* Level by level (y = LAT ly + j). A level whose voxels are all stone by height, below
-     * the fold band, with no cave test that can pass (none below the ceiling, or neither
-     * field able to reach its threshold) is written without a test per voxel: the same
-     * decisions as the loop below would take. */
+    /* Level by level (y = LAT ly + j). A level whose voxels are all stone by height (y = 0
+     * always is, and is written here), below the fold band, with no cave test that can pass
+     * (none at or below the ceiling, or no tunnel field near zero and no cavern: its field
+     * too low or the level within 14 voxels of the surface) is written without a test per
+     * voxel: the same decisions as the loop below would take. */
     const int32_t fold_from = amp > 0 ? hi - BAND : INT32_MAX; /* y above this reads the fold */
-    v[0] = VWG_STONE;                                             /* y == 0 is always solid    */
+    v[0] = VWG_STONE;
     for (int32_t ly = 0, y0 = 0; y0 <= ytop; ly++, y0 += LAT) {
-        const int32_t y1 = y0 + LAT - 1;
-        if (y0 >= 1 && y1 <= hi && y1 <= fold_from &&
-            (y0 > ceil_y || (!tunnel_may[ly] && !cavern_may[ly]))) {
+        const int32_t y1 = y0 + LAT - 1, ycave = y0 > 0 ? y0 : 1; /* y = 0 has no cave test */
+        if (y1 <= hi && y1 <= fold_from &&
+            (ycave > ceil_y || (!tunnel_may[ly] && (!cavern_may[ly] || !(y0 < h - 14))))) {
             for (int32_t y = y0; y <= y1; y++)
                 v[(size_t)stride * (size_t)y] = VWG_STONE;
             continue;
