@@ -208,6 +208,7 @@ static void carve_column(const column_plan *cp, double prof[F_COUNT][MAX_H / LAT
      * too low or the level within 14 voxels of the surface) is written without a test per
      * voxel: the same decisions as the loop below would take. */
     const int32_t fold_from = amp > 0 ? hi - BAND : INT32_MAX; /* y above this reads the fold */
+    const double r_max = 0.085 + 0.03 * 1.0, tunnel_r2_max = r_max * r_max;
     v[0] = VWG_STONE;
     for (int32_t ly = 0, y0 = 0; y0 <= ytop; ly++, y0 += LAT) {
         const int32_t y1 = y0 + LAT - 1, ycave = y0 > 0 ? y0 : 1; /* y = 0 has no cave test */
@@ -229,10 +230,15 @@ static void carve_column(const column_plan *cp, double prof[F_COUNT][MAX_H / LAT
             if (solid && y <= ceil_y) {
                 int tunnel = 0;
                 if (tunnel_may[ly]) {
-                    const double a = FIELD(F_TUN_A), b = FIELD(F_TUN_B);
-                    /* Tunnels get wider with depth a little; caverns only well below ground. */
-                    const double r = 0.085 + 0.03 * clampd((h - y) / 40.0, 0.0, 1.0);
-                    tunnel = a * a + b * b < r * r;
+                    const double a = FIELD(F_TUN_A), b = FIELD(F_TUN_B), d2 = a * a + b * b;
+                    /* Tunnels get wider with depth a little; caverns only well below ground.
+                     * r is at most 0.085 + 0.03 * 1.0 (rounding is monotonic), so d2 at or
+                     * over that squared fails the test whatever the depth: the same answer
+                     * without the division. */
+                    if (d2 < tunnel_r2_max) {
+                        const double r = 0.085 + 0.03 * clampd((h - y) / 40.0, 0.0, 1.0);
+                        tunnel = d2 < r * r;
+                    }
                 }
                 if (tunnel)
                     solid = 0;
