@@ -99,13 +99,6 @@ static inline double perlin2(const vwn_noise *n, const vwn_axis *ax, const vwn_a
                       lerp(u, grad2(p[A + 1], x, y - 1), grad2(p[B + 1], x - 1, y - 1)));
 }
 
-double vwn_perlin3_axes(const vwn_noise *n, const vwn_axis *x, const vwn_axis *y, const vwn_axis *z)
-{
-    return perlin3(n, x, y, z);
-}
-
-double vwn_perlin2_axes(const vwn_noise *n, const vwn_axis *x, const vwn_axis *y) { return perlin2(n, x, y); }
-
 void vwn_perlin3_row(const vwn_noise *n, const vwn_axis *x, int count, const vwn_axis *y, const vwn_axis *z,
                      double *out)
 {

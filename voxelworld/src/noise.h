@@ -21,19 +21,17 @@ double vwn_perlin3(const vwn_noise *n, double x, double y, double z);
 double vwn_fbm2(const vwn_noise *n, double x, double y, int octaves);
 
 /* The same noise from coordinates prepared once per axis. Points of a lattice or a grid of
- * columns share their coordinate on each axis, and the work that depends on one coordinate
- * only (its cell, the offset in the cell and the offset's fade) is a third of a 3D sample and
- * half of a 2D one. The functions below do the arithmetic of the ones above, operation for
- * operation, so they return the same doubles bit for bit (vwn_perlin3 and vwn_fbm2 are
- * written on top of them). */
+ * columns share their coordinate on each axis, so the work that depends on one coordinate
+ * only (its cell, the offset in the cell and the offset's fade) can be done once per
+ * coordinate instead of once per sample. The functions below do the arithmetic of the ones
+ * above, operation for operation, so they return the same doubles bit for bit (vwn_perlin3,
+ * vwn_perlin2 and vwn_fbm2 are written on top of the same code). */
 typedef struct vwn_axis {
     int cell;       /* floor(c) & 255                                                        */
     double t, fade; /* c - floor(c), and its quintic fade                                     */
 } vwn_axis;
 
 vwn_axis vwn_axis_at(double c);
-double vwn_perlin2_axes(const vwn_noise *n, const vwn_axis *x, const vwn_axis *y);
-double vwn_perlin3_axes(const vwn_noise *n, const vwn_axis *x, const vwn_axis *y, const vwn_axis *z);
 /* vwn_perlin3 at (x[i], y, z) for i < count into out[i]. */
 void vwn_perlin3_row(const vwn_noise *n, const vwn_axis *x, int count, const vwn_axis *y, const vwn_axis *z,
                      double *out);
