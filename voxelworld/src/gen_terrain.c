@@ -43,13 +43,18 @@ typedef struct terrain {
 
 static double clampd(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
 
-static double surface_height(const terrain *t, double x, double z)
+/* The surface height from the two height fields at a column (hills: 6 octaves at 1/256,
+ * ranges: 3 octaves at 1/600). */
+static double height_of(const terrain *t, double hills, double r)
 {
-    double hills = vwn_fbm2(&t->hills, x / 256.0, z / 256.0, 6);
-    double r = vwn_fbm2(&t->ranges, x / 600.0, z / 600.0, 3);
     double ranges = r > 0 ? r * r : 0.0;
     double h = t->h * (0.40 + 0.30 * hills + 0.5 * ranges);
     return clampd(h, 2.0, t->h - 4.0);
+}
+
+static double surface_height(const terrain *t, double x, double z)
+{
+    return height_of(t, vwn_fbm2(&t->hills, x / 256.0, z / 256.0, 6), vwn_fbm2(&t->ranges, x / 600.0, z / 600.0, 3));
 }
 
 /* 3D fields sampled on the lattice; index [field][ly][lz][lx]. */
@@ -137,12 +142,9 @@ typedef struct column_plan {
 static void plan_column(const terrain *t, const vwg_column *col, const vwn_axis *hx, const vwn_axis *hz,
                         column_plan *cp)
 {
-    /* surface_height, vwn_fbm2 and the masks' fbm2 from the column's prepared axes: the
+    /* surface_height and the masks' vwn_fbm2 from the column's prepared axes (axes_2d): the
      * same operations (noise.h), so the same doubles. */
-    double hills = vwn_fbm2_axes(&t->hills, hx, hz, 6);
-    double r = vwn_fbm2_axes(&t->ranges, hx + 6, hz + 6, 3);
-    double ranges = r > 0 ? r * r : 0.0;
-    const double h = clampd(t->h * (0.40 + 0.30 * hills + 0.5 * ranges), 2.0, t->h - 4.0);
+    const double h = height_of(t, vwn_fbm2_axes(&t->hills, hx, hz, 6), vwn_fbm2_axes(&t->ranges, hx + 6, hz + 6, 3));
     double om = clampd(vwn_fbm2_axes(&t->overhang_mask, hx + 9, hz + 9, 2) * 3.0 - 0.3, 0.0, 1.0);
     double e = vwn_fbm2_axes(&t->entrance, hx + 11, hz + 11, 2);
     const int open = e > 0.22 && h > t->sea + 3;
