@@ -652,6 +652,98 @@ static void test_edit_growth_exact(void **state)
     vis_context_destroy(ctx);
 }
 
+/* world_scene_create meshes the next batch of chunks while it uploads one, on any number of
+ * meshing threads; the scene must be the one a plain loop builds, chunk by chunk in ascending
+ * order, serially: the same leaves, pools and object slots, word for word. The world has more
+ * non-empty chunks than a meshing batch (1,024), so batches overlap. */
+static void expect_same_scene(const vis_scene *a, const vis_scene *b)
+{
+    assert_int_equal(a->leaf_count, b->leaf_count);
+    assert_memory_equal(a->leaves, b->leaves, a->leaf_count * sizeof *a->leaves);
+    assert_int_equal(a->quad_used, b->quad_used);
+    assert_int_equal(a->quad_cap, b->quad_cap);
+    for (uint32_t i = 0; i < a->leaf_count; ++i) { /* the words each leaf uses (slack is not written) */
+        const vis_flat_leaf *lf = &a->leaves[i];
+        size_t words = (size_t)(lf->loose_offset - lf->table_offset) + (size_t)lf->loose_count * VIS_LOOSE_WORDS;
+        if (words)
+            assert_memory_equal(&a->quads[lf->table_offset], &b->quads[lf->table_offset], words * sizeof *a->quads);
+    }
+    assert_int_equal(a->bucket_count, b->bucket_count);
+    assert_memory_equal(a->buckets, b->buckets, a->bucket_count * sizeof *a->buckets);
+    assert_int_equal(a->object_slots, b->object_slots);
+    assert_memory_equal(a->objects, b->objects, a->object_slots * sizeof *a->objects);
+    for (uint32_t i = 0; i < a->leaf_count; ++i) {
+        assert_int_equal(a->leaf_host[i].object_count, b->leaf_host[i].object_count);
+        assert_int_equal(a->leaf_host[i].quad_cap, b->leaf_host[i].quad_cap);
+    }
+    vis_scene_info ia, ib;
+    assert_int_equal(vis_scene_get_info(a, &ia), VIS_OK);
+    assert_int_equal(vis_scene_get_info(b, &ib), VIS_OK);
+    assert_int_equal(ia.objects, ib.objects);
+    assert_int_equal(ia.quads, ib.quads);
+    assert_int_equal(ia.bytes, ib.bytes);
+    assert_int_equal(ia.edits, ib.edits);
+}
+
+static void test_world_scene_batches_equal_serial(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    vw_world *w = NULL;
+    vw_error err;
+    if (vw_world_from_spec("gen:terrain:size=320x128x320:seed=4", NULL, NULL, NULL, &w, &err) != VW_OK)
+        fail_msg("world: %s", err.message);
+    vw_world_info wi;
+    vw_world_get_info(w, &wi);
+
+    /* The oracle: one chunk at a time, meshed and set in ascending order. */
+    vis_scene_desc desc;
+    memset(&desc, 0, sizeof desc);
+    for (int a = 0; a < 3; ++a) {
+        desc.origin[a] = (double)wi.origin[a];
+        desc.size[a] = (float)wi.size[a];
+    }
+    desc.cell_size = (float)wi.chunk_size;
+    vis_scene *serial = NULL;
+    assert_int_equal(vis_scene_create(ctx, &desc, &serial), VIS_OK);
+    vw_mesh mesh = {0};
+    vis_quad *quads = NULL;
+    uint32_t nonempty = 0;
+    for (uint32_t c = 0; c < wi.chunk_count; ++c) {
+        if (vw_world_chunk_empty(w, c))
+            continue;
+        ++nonempty;
+        assert_int_equal(vw_mesh_chunk(w, c, &mesh), VW_OK);
+        if (mesh.count == 0)
+            continue;
+        quads = realloc(quads, mesh.count * sizeof *quads);
+        assert_non_null(quads);
+        world_scene_convert_quads(mesh.quads, mesh.count, quads);
+        vis_mesh vm = {quads, (uint32_t)mesh.count, NULL, 0};
+        assert_int_equal(vis_scene_set_object(serial, vw_chunk_object_id(c), &vm), VIS_OK);
+    }
+    assert_true(nonempty > 1024u); /* more than one meshing batch */
+
+    const uint32_t threads[] = {0, 1, 3};
+    for (size_t t = 0; t < sizeof threads / sizeof threads[0]; ++t) {
+        world_scene_options opt;
+        memset(&opt, 0, sizeof opt);
+        opt.mesh_threads = threads[t];
+        world_scene *ws = NULL;
+        world_scene_stats st;
+        if (world_scene_create(ctx, w, &opt, &ws, &st, &err) != 0)
+            fail_msg("scene on %u meshing threads: %s", threads[t], err.message);
+        assert_int_equal(st.chunks, nonempty);
+        expect_same_scene(serial, world_scene_scene(ws));
+        world_scene_destroy(ws);
+    }
+    free(quads);
+    vw_mesh_free(&mesh);
+    vis_scene_destroy(serial);
+    vw_world_destroy(w);
+    vis_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -665,6 +757,7 @@ int main(void)
         cmocka_unit_test(test_edits_respect_max_bytes),
         cmocka_unit_test(test_plan_matches_build),
         cmocka_unit_test(test_edit_growth_exact),
+        cmocka_unit_test(test_world_scene_batches_equal_serial),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

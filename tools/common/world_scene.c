@@ -1,6 +1,7 @@
 /* world_scene.c — chunk meshes of a voxelworld world as objects of a libvis scene. */
 #include "world_scene.h"
 
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -157,44 +158,90 @@ static int refresh_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st,
  * MB). The meshes are reused from batch to batch, so they stop allocating once grown. */
 #define MESH_BATCH 1024u
 
+/* One batch of chunks and their meshes, meshed on a thread of its own while the batch before
+ * it is uploaded. */
+typedef struct mesh_batch {
+    vw_world *world;
+    uint32_t threads;
+    uint32_t chunks[MESH_BATCH];
+    vw_mesh meshes[MESH_BATCH];
+    uint32_t n;
+    vw_status status;
+    double ms;
+} mesh_batch;
+
+static void *mesh_batch_run(void *arg)
+{
+    mesh_batch *b = arg;
+    double t0 = vc_now_ms();
+    b->status = vw_mesh_chunks(b->world, b->chunks, b->n, b->meshes, b->threads);
+    b->ms = vc_now_ms() - t0;
+    return NULL;
+}
+
+/* Fills the batch with the next non-empty chunks from *next on. */
+static void mesh_batch_collect(const world_scene *ws, mesh_batch *b, uint32_t *next)
+{
+    b->n = 0;
+    for (; *next < ws->chunk_count && b->n < MESH_BATCH; ++*next)
+        if (!vw_world_chunk_empty(ws->world, *next))
+            b->chunks[b->n++] = *next;
+}
+
 /* Meshes every non-empty chunk, a batch at a time on opt->mesh_threads threads, and uploads
- * the batch in ascending chunk order: the same calls, in the same order, as a serial loop. */
+ * the batches in ascending chunk order: the same calls, in the same order, as a serial loop,
+ * so the scene is the same. The next batch is meshed while one is uploaded (libvis's scene
+ * build is serial): on two threads the upload no longer leaves a core idle. */
 static int mesh_all(world_scene *ws, const world_scene_options *opt, world_scene_stats *st, vw_error *err)
 {
     int rc = 0;
-    vw_mesh *meshes = calloc(MESH_BATCH, sizeof *meshes);
-    uint32_t *chunks = malloc(MESH_BATCH * sizeof *chunks);
-    if (!meshes || !chunks) {
+    mesh_batch *b[2] = {calloc(1, sizeof(mesh_batch)), calloc(1, sizeof(mesh_batch))};
+    if (!b[0] || !b[1]) {
         set_error(err, "out of memory for a meshing batch");
-        rc = -1;
+        free(b[0]);
+        free(b[1]);
+        return -1;
+    }
+    for (int i = 0; i < 2; ++i) {
+        b[i]->world = ws->world;
+        b[i]->threads = opt->mesh_threads;
     }
     uint32_t next = 0, step = ws->chunk_count / 200 + 1, reported = 0;
-    while (rc == 0 && next < ws->chunk_count) {
-        uint32_t n = 0;
-        for (; next < ws->chunk_count && n < MESH_BATCH; ++next)
-            if (!vw_world_chunk_empty(ws->world, next))
-                chunks[n++] = next;
-        double t0 = vc_now_ms();
-        vw_status s = vw_mesh_chunks(ws->world, chunks, n, meshes, opt->mesh_threads);
-        st->mesh_ms += vc_now_ms() - t0;
-        if (s != VW_OK) {
-            set_error(err, "meshing %u chunks before chunk %u: %s", n, next, vw_status_string(s));
+    mesh_batch_collect(ws, b[0], &next);
+    mesh_batch_run(b[0]);
+    for (int cur = 0; b[cur]->n > 0 || next < ws->chunk_count; cur ^= 1) {
+        mesh_batch *now = b[cur], *ahead = b[cur ^ 1];
+        st->mesh_ms += now->ms;
+        if (now->status != VW_OK) {
+            set_error(err, "meshing %u chunks before chunk %u: %s", now->n, now->n ? now->chunks[now->n - 1] + 1 : next,
+                      vw_status_string(now->status));
             rc = -1;
             break;
         }
-        for (uint32_t i = 0; i < n && rc == 0; ++i) {
+        uint32_t done = next; /* chunks looked at once this batch is uploaded */
+        mesh_batch_collect(ws, ahead, &next);
+        pthread_t helper;
+        int threaded = ahead->n > 0 && pthread_create(&helper, NULL, mesh_batch_run, ahead) == 0;
+        for (uint32_t i = 0; i < now->n && rc == 0; ++i) {
             ++st->chunks;
-            rc = upload_chunk(ws, chunks[i], &meshes[i], st, err);
+            rc = upload_chunk(ws, now->chunks[i], &now->meshes[i], st, err);
         }
-        if (opt->progress && next / step > reported) {
-            reported = next / step;
-            opt->progress("meshing", (double)next / (double)ws->chunk_count, opt->progress_user);
+        if (threaded)
+            pthread_join(helper, NULL);
+        else
+            mesh_batch_run(ahead); /* no thread to spare (or nothing left): mesh it here */
+        if (opt->progress && done / step > reported) {
+            reported = done / step;
+            opt->progress("meshing", (double)done / (double)ws->chunk_count, opt->progress_user);
         }
+        if (rc != 0)
+            break;
     }
-    for (uint32_t i = 0; meshes && i < MESH_BATCH; ++i)
-        vw_mesh_free(&meshes[i]);
-    free(meshes);
-    free(chunks);
+    for (int k = 0; k < 2; ++k) {
+        for (uint32_t i = 0; i < MESH_BATCH; ++i)
+            vw_mesh_free(&b[k]->meshes[i]);
+        free(b[k]);
+    }
     return rc;
 }
 

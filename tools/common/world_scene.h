@@ -25,7 +25,8 @@ typedef struct world_scene world_scene;
 typedef struct world_scene_options {
     uint32_t kd_depth;          /* 0: the libvis default (a leaf is one chunk)               */
     uint32_t mesh_threads;      /* create meshes chunks on this many threads (vw_mesh_chunks;
-                                   0 or 1: serial); the scene is the same for any count       */
+                                   0 or 1: one), on a helper thread beside the uploads of the
+                                   batch before; the scene is the same for any count          */
     vw_progress_fn progress;    /* may be NULL; called with stage "meshing", 0..1            */
     void *progress_user;
 } world_scene_options;
@@ -36,7 +37,7 @@ typedef struct world_scene_stats {
     uint32_t objects_set;       /* vis_scene_set_object calls                                */
     uint32_t objects_removed;   /* objects removed (chunk became empty)                      */
     uint64_t quads;             /* quads handed to libvis                                    */
-    double mesh_ms;             /* in vw_mesh_chunk and the quad conversion                  */
+    double mesh_ms;             /* in vw_mesh_chunk(s) (on create, beside scene_ms: they overlap) */
     double scene_ms;            /* in vis_scene_set_object / vis_scene_remove_object         */
     double total_ms;            /* the whole call                                            */
 } world_scene_stats;

@@ -68,14 +68,18 @@ static inline double grad2(int hash, double x, double y)
     return g2x[h] * x + g2y[h] * y;
 }
 
-double vwn_perlin3(const vwn_noise *n, double x, double y, double z)
+vwn_axis vwn_axis_at(double c)
 {
-    double fx = floor(x), fy = floor(y), fz = floor(z);
-    int X = (int)fx & 255, Y = (int)fy & 255, Z = (int)fz & 255;
-    x -= fx;
-    y -= fy;
-    z -= fz;
-    double u = fade(x), v = fade(y), w = fade(z);
+    const double f = floor(c);
+    const double t = c - f;
+    vwn_axis a = {(int)f & 255, t, fade(t)};
+    return a;
+}
+
+static inline double perlin3(const vwn_noise *n, const vwn_axis *ax, const vwn_axis *ay, const vwn_axis *az)
+{
+    const double x = ax->t, y = ay->t, z = az->t, u = ax->fade, v = ay->fade, w = az->fade;
+    const int X = ax->cell, Y = ay->cell, Z = az->cell;
     const uint8_t *p = n->perm;
     int A = p[X] + Y, AA = p[A] + Z, AB = p[A + 1] + Z;
     int B = p[X + 1] + Y, BA = p[B] + Z, BB = p[B + 1] + Z;
@@ -86,31 +90,62 @@ double vwn_perlin3(const vwn_noise *n, double x, double y, double z)
                      lerp(u, grad3(p[AB + 1], x, y - 1, z - 1), grad3(p[BB + 1], x - 1, y - 1, z - 1))));
 }
 
-double vwn_perlin2(const vwn_noise *n, double x, double y)
+static inline double perlin2(const vwn_noise *n, const vwn_axis *ax, const vwn_axis *ay)
 {
-    double fx = floor(x), fy = floor(y);
-    int X = (int)fx & 255, Y = (int)fy & 255;
-    x -= fx;
-    y -= fy;
-    double u = fade(x), v = fade(y);
+    const double x = ax->t, y = ay->t, u = ax->fade, v = ay->fade;
     const uint8_t *p = n->perm;
-    int A = p[X] + Y, B = p[X + 1] + Y;
+    int A = p[ax->cell] + ay->cell, B = p[ax->cell + 1] + ay->cell;
     return lerp(v, lerp(u, grad2(p[A], x, y), grad2(p[B], x - 1, y)),
                       lerp(u, grad2(p[A + 1], x, y - 1), grad2(p[B + 1], x - 1, y - 1)));
 }
 
-double vwn_fbm2(const vwn_noise *n, double x, double y, int octaves)
+void vwn_perlin3_row(const vwn_noise *n, const vwn_axis *x, int count, const vwn_axis *y, const vwn_axis *z,
+                     double *out)
+{
+    for (int i = 0; i < count; i++)
+        out[i] = perlin3(n, &x[i], y, z);
+}
+
+double vwn_perlin3(const vwn_noise *n, double x, double y, double z)
+{
+    const vwn_axis ax = vwn_axis_at(x), ay = vwn_axis_at(y), az = vwn_axis_at(z);
+    return perlin3(n, &ax, &ay, &az);
+}
+
+double vwn_perlin2(const vwn_noise *n, double x, double y)
+{
+    const vwn_axis ax = vwn_axis_at(x), ay = vwn_axis_at(y);
+    return perlin2(n, &ax, &ay);
+}
+
+void vwn_fbm2_axes_at(double c, int octaves, int which, vwn_axis *out)
+{
+    for (int o = 0; o < octaves; o++) {
+        /* An odd offset per octave keeps the lattice points of octaves from lining up. */
+        out[o] = vwn_axis_at(which == VWN_FBM_X ? c + 17.31 * o : c - 9.71 * o);
+        c *= 2.0;
+    }
+}
+
+double vwn_fbm2_axes(const vwn_noise *n, const vwn_axis *x, const vwn_axis *y, int octaves)
 {
     double sum = 0.0, amp = 1.0, norm = 0.0;
     for (int o = 0; o < octaves; o++) {
-        /* An odd offset per octave keeps the lattice points of octaves from lining up. */
-        sum += amp * vwn_perlin2(n, x + 17.31 * o, y - 9.71 * o);
+        sum += amp * perlin2(n, &x[o], &y[o]);
         norm += amp;
         amp *= 0.5;
-        x *= 2.0;
-        y *= 2.0;
     }
     /* The sum's spread shrinks as octaves average out; 1.8 (measured over 4M samples of 6
      * octaves: extremes about +-0.98, rms 0.28) brings it back to about [-1, 1]. */
     return 1.8 * sum / norm;
+}
+
+double vwn_fbm2(const vwn_noise *n, double x, double y, int octaves)
+{
+    vwn_axis ax[VWN_FBM_MAX_OCTAVES], ay[VWN_FBM_MAX_OCTAVES];
+    if (octaves > VWN_FBM_MAX_OCTAVES)
+        octaves = VWN_FBM_MAX_OCTAVES;
+    vwn_fbm2_axes_at(x, octaves, VWN_FBM_X, ax);
+    vwn_fbm2_axes_at(y, octaves, VWN_FBM_Y, ay);
+    return vwn_fbm2_axes(n, ax, ay, octaves);
 }
