@@ -587,6 +587,33 @@ VIS_INLINE int vis_clamp_plane(float x, int lo, int hi)
     return (int)x;
 }
 
+/* Where a ray crosses a plane of the leaf, on one of the plane's axes: the packed offsets
+ * [c[0], c[1]] (relative to the leaf's corner lo) that a quad's edge offsets must reach for
+ * vis_quad_slab to be able to take it. o is the ray's origin on that axis, td its t * d there.
+ *
+ * Why it is exact (never drops a quad the slab test takes): with S = |o| + |td| + |lo| + 32,
+ * the float crossing p = (o + td) - lo is within 3u S of the exact one (u = 2^-24), a packed
+ * edge lo + k within u (|lo| + 32) of the real lo + k, and the slab test takes a quad only
+ * when the exact crossing lies within 2^-19 |td| of its edges (its entry or exit would
+ * otherwise pass the plane's distance by more than vis_t_limit's slack, its own distances
+ * being within 3u of exact). The margin m = 2^-16 S is more than all of these together, and
+ * the floor and ceil below only widen the range. A margin that is not finite passes every
+ * quad. Offsets are 0..31 (VIS_PQ_COORD_MAX); -1 and 32 stand for "before" and "past". */
+VIS_INLINE void vis_crossing_cells(float o, float td, float lo, int c[2])
+{
+    float p = (o + td) - lo;
+    float m = (VIS_FABSF(o) + VIS_FABSF(td) + VIS_FABSF(lo) + 32.0f) * 1.52587890625e-05f; /* 2^-16 */
+    if (!(m < VIS_INF)) {
+        c[0] = 0;
+        c[1] = (int)VIS_PQ_COORD_MAX;
+        return;
+    }
+    float x = p - m, y = p + m;
+    int k = vis_clamp_plane(x, 0, (int)VIS_PQ_COORD_MAX + 1); /* truncation: floor for x >= 0 */
+    c[0] = k + ((float)k < x);                                  /* ceil(x), or 0, or 33 */
+    c[1] = !(y >= 0.0f) ? -1 : vis_clamp_plane(y, 0, (int)VIS_PQ_COORD_MAX); /* floor(y) */
+}
+
 /* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
  * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
  * is the minimum over all primitives tested, whatever order they come in. */
@@ -669,18 +696,26 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
              * quad after it: the distance to u = u0 is monotone in u0. */
             uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
             uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
-            float ou = r->o[u], du = r->d[u], iu = r->inv[u], tl = vis_t_limit(t);
             float lu = lo[u], lv = lo[v];
-            for (uint32_t i = bk[b]; i < end; ++i) {
+            int cu[2] = {0, -1}, cv[2] = {0, -1};
+            uint32_t i = bk[b];
+            if (i < end) {
+                vis_crossing_cells(r->o[u], t * r->d[u], lu, cu);
+                vis_crossing_cells(r->o[v], t * r->d[v], lv, cv);
+            }
+            for (; i < end; ++i) {
                 uint32_t w = packed[i];
-                float c = lu + (float)VIS_PQ_FIELD(w, 0u);
-                if (du > 0.0f ? (c - ou) * iu > tl : du < 0.0f ? t > vis_t_limit((c - ou) * iu) : c > ou)
-                    break;
+                int u0 = (int)VIS_PQ_FIELD(w, 0u);
+                if (u0 > cu[1])
+                    break; /* this quad and the rest of the bucket start past the crossing */
+                if ((int)VIS_PQ_FIELD(w, 2u) < cu[0] || (int)VIS_PQ_FIELD(w, 1u) > cv[1] ||
+                    (int)VIS_PQ_FIELD(w, 3u) < cv[0])
+                    continue;
                 /* vis_test_quad, with what this walk already knows: the plane's distance t
                  * (vis_quad_intersect's t for each quad of the bucket), within [t_near,
                  * t_far] and no farther than the best hit. */
-                if (!vis_quad_slab(r, u, v, t, c, lv + (float)VIS_PQ_FIELD(w, 1u), lu + (float)VIS_PQ_FIELD(w, 2u),
-                                   lv + (float)VIS_PQ_FIELD(w, 3u)))
+                if (!vis_quad_slab(r, u, v, t, lu + (float)u0, lv + (float)VIS_PQ_FIELD(w, 1u),
+                                   lu + (float)VIS_PQ_FIELD(w, 2u), lv + (float)VIS_PQ_FIELD(w, 3u)))
                     continue;
                 vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], (uint32_t)a, VIS_PQ_FLAGS(w), lo[a] + (float)k[a], objects,
                                    h);
