@@ -650,6 +650,48 @@ static void test_degenerate_rays(void **state)
     vis_context_destroy(ctx);
 }
 
+/* A camera whose centre ray has a subnormal direction component (|d.y| about 1e-41) and
+ * starts exactly on a cell boundary on that axis: 1/d.y would be infinite and the offset to
+ * the boundary zero, a NaN in the walks (the cell-grid walk looped on it). Every ray the
+ * library makes takes such a component as 0 (trace_core.h, vis_dir_component), so every
+ * method sees the same parallel ray, ends, and equals the brute force. */
+static void test_subnormal_directions(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    vis_scene_desc sd;
+    vis_scene_desc_defaults(&sd);
+    sd.origin[1] = -16.0;
+    sd.size[0] = sd.size[1] = sd.size[2] = 64.0f;
+    vis_scene *scene = NULL;
+    assert_int_equal(vis_scene_create(ctx, &sd, &scene), VIS_OK);
+    const vis_quad q = {0u, 0u, 40.0f, 0.0f, 0.0f, 16.0f, 16.0f}; /* x = 40, y and z in [0, 16] */
+    const vis_mesh m = {&q, 1u, NULL, 0u};
+    assert_int_equal(vis_scene_set_object(scene, 7u, &m), VIS_OK);
+    const double ys[] = {1e-39, -1e-39, 2e-39, 0.0};
+    for (size_t yi = 0; yi < sizeof ys / sizeof ys[0]; ++yi) {
+        vis_camera cam = {{8.0, ys[yi], 8.0}, {108.0, 0.0, 8.0}, 60.0, 0.05, 0.0};
+        vis_trace_desc td;
+        vis_trace_desc_defaults(&td);
+        td.width = td.height = 3u;
+        td.traversal = VIS_TRAVERSAL_BRUTEFORCE;
+        uint32_t want[9], got[9];
+        float want_d[9], got_d[9];
+        assert_int_equal(vis_trace(ctx, scene, &cam, &td, want, 9, want_d, 9), VIS_OK);
+        if (want[4] != 7u)
+            fail_msg("eye y %g: the centre ray saw %u, not the wall 7", ys[yi], want[4]);
+        for (size_t i = 0; i <= METHOD_COUNT; ++i) {
+            td.traversal = i < METHOD_COUNT ? methods[i].traversal : VIS_TRAVERSAL_AUTO;
+            td.short_stack = i < METHOD_COUNT ? methods[i].n : 0u;
+            assert_int_equal(vis_trace(ctx, scene, &cam, &td, got, 9, got_d, 9), VIS_OK);
+            if (memcmp(got, want, sizeof want) != 0 || memcmp(got_d, want_d, sizeof want_d) != 0)
+                fail_msg("eye y %g: %s differs from the brute force", ys[yi], i < METHOD_COUNT ? methods[i].name : "auto");
+        }
+    }
+    vis_scene_destroy(scene);
+    vis_context_destroy(ctx);
+}
+
 /* Rays aimed exactly at edges and corners of the worlds' boxes -- in the checkerboard, every
  * cube edge is a chunk edge, where leaves meet -- from random eyes: built in float to pass
  * exactly through the point (o = P - k D, D integer, k dyadic) or aimed from an eye exact in
@@ -1054,6 +1096,7 @@ int main(void)
         cmocka_unit_test(test_desc_validation),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_degenerate_rays),
+        cmocka_unit_test(test_subnormal_directions),
         cmocka_unit_test(test_aimed_at_chunk_edges),
         cmocka_unit_test(test_aimed_at_lone_quad_edges),
         cmocka_unit_test(test_checkerboard_views),

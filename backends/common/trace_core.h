@@ -226,6 +226,15 @@ typedef struct vis_ray {
 
 /* ---- ray generation ----------------------------------------------------------------- */
 
+/* A direction component below the smallest normal float (|d| < 2^-126) is taken as 0 by every
+ * ray this library makes, for every method alike: its reciprocal would be infinite, and an
+ * infinite reciprocal times a zero offset is NaN (a ray starting on a cell boundary), which
+ * the tree walk and the cell-grid walk would read differently from the brute force. */
+VIS_INLINE float vis_dir_component(float d)
+{
+    return VIS_FABSF(d) < 1.17549435e-38f ? 0.0f : d;
+}
+
 VIS_INLINE void vis_ray_for_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y, vis_ray *r)
 {
     /* Pixel centre in NDC: (2x+1)/W - 1 and 1 - (2y+1)/H, exact integers then one rounding. */
@@ -239,7 +248,7 @@ VIS_INLINE void vis_ray_for_pixel(const vis_ray_setup *s, uint32_t x, uint32_t y
     float len = VIS_SQRTF(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int a = 0; a < 3; ++a) {
         r->o[a] = s->origin[a];
-        r->d[a] = d[a] / len;
+        r->d[a] = vis_dir_component(d[a] / len);
         /* 1/(+-0) = +-inf is never used: every user checks d[a] == 0 first. */
         r->inv[a] = 1.0f / r->d[a];
     }
@@ -1531,11 +1540,15 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
             return 1;
         float e = tx < ty ? tx : ty;
         e = tz < e ? tz : e;
+        if (!(e <= VIS_INF))
+            return 0; /* a NaN crossing (a ray made elsewhere with an infinite reciprocal) */
         vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h);
         if (e == VIS_INF)
             return 1;
         float lim = vis_t_limit(e);
         uint32_t set = (tx <= lim ? 1u : 0u) | (ty <= lim ? 2u : 0u) | (tz <= lim ? 4u : 0u);
+        if (set == 0u)
+            return 0; /* no axis steps: never loop in place */
         float last = e;
         if (set & (set - 1u)) {
             /* The cluster: the crossings chained to e within the slack (a second round
@@ -1749,8 +1762,8 @@ VIS_INLINE uint32_t vis_trace_secondary(const vis_ray_setup *s, uint32_t method,
     vis_ray r;
     for (int a = 0; a < 3; ++a) {
         r.o[a] = o[a];
-        r.d[a] = d[a];
-        r.inv[a] = 1.0f / d[a];
+        r.d[a] = vis_dir_component(d[a]);
+        r.inv[a] = 1.0f / r.d[a];
     }
     r.t_near = 0.0f;
     r.t_far = t_far;

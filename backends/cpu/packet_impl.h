@@ -140,9 +140,9 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
         float d1 = (s->forward[1] + nx * s->right[1]) + ny * s->up[1];
         float d2 = (s->forward[2] + nx * s->right[2]) + ny * s->up[2];
         float len = sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
-        p->d[0][i] = d0 / len;
-        p->d[1][i] = d1 / len;
-        p->d[2][i] = d2 / len;
+        p->d[0][i] = vis_dir_component(d0 / len);
+        p->d[1][i] = vis_dir_component(d1 / len);
+        p->d[2][i] = vis_dir_component(d2 / len);
     }
     for (int a = 0; a < 3; ++a)
         for (int i = 0; i < LANES; ++i)

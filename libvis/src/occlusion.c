@@ -55,7 +55,7 @@ static int segment_raw(const vis_scene_view *view, const double a[3], const doub
     vis_ray r;
     for (int i = 0; i < 3; ++i) {
         r.o[i] = (float)a[i];
-        r.d[i] = (float)(d[i] / len);
+        r.d[i] = vis_dir_component((float)(d[i] / len));
         r.inv[i] = 1.0f / r.d[i];
     }
     r.t_near = 0.0f;
