@@ -607,7 +607,8 @@ VIS_INLINE int vis_clamp_plane(float x, int lo, int hi)
  * otherwise pass the plane's distance by more than vis_t_limit's slack, its own distances
  * being within 3u of exact). The margin m = 2^-16 S is more than all of these together, and
  * the floor and ceil below only widen the range. A margin that is not finite passes every
- * quad. Offsets are 0..31 (VIS_PQ_COORD_MAX); -1 and 32 stand for "before" and "past". */
+ * quad. Offsets are 0..31 (VIS_PQ_COORD_MAX): c[1] = -1 says that every quad starts past
+ * the crossing, c[0] of 32 or 33 that every quad ends before it. */
 VIS_INLINE void vis_crossing_cells(float o, float td, float lo, int c[2])
 {
     float p = (o + td) - lo;
@@ -698,11 +699,9 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
         if (t >= r->t_near) {
             uint32_t b = (uint32_t)(base[a] + k[a]);
             uint32_t end = bk[b + 1u];
-            /* A bucket's quads are sorted by u0 (scene.c). With vis_quad_intersect's own
-             * distances (t is its t), a quad whose u0 alone puts it out -- the ray enters
-             * u >= u0 after vis_t_limit(t) (d[u] > 0), or leaves it before t by more than the
-             * slack (d[u] < 0), or a parallel ray lies below u0 -- is missed, and so is every
-             * quad after it: the distance to u = u0 is monotone in u0. */
+            /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach
+             * the crossing's range (vis_crossing_cells) is one the exact test would miss;
+             * one whose u0 starts past it ends the bucket, as every quad after it does too. */
             uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
             uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
             float lu = lo[u], lv = lo[v];
