@@ -19,6 +19,7 @@
 
 #include <cmocka.h>
 
+#include "host_memory.h"
 #include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
@@ -346,12 +347,56 @@ static void test_allocation_failures_are_reported(void **state)
     assert_true(completed);
 }
 
+/* The default allocator: every block 64-byte aligned, contents kept through growth and
+ * shrinking across the 1 MiB line where blocks become mappings that grow in place. */
+static void fill_pattern(unsigned char *p, size_t n, unsigned seed)
+{
+    for (size_t i = 0; i < n; ++i)
+        p[i] = (unsigned char)(i * 131u + seed);
+}
+
+static void check_pattern(const unsigned char *p, size_t n, unsigned seed)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (p[i] != (unsigned char)(i * 131u + seed))
+            fail_msg("byte %zu of %zu changed", i, n);
+}
+
+static void test_default_allocator_keeps_contents(void **state)
+{
+    (void)state;
+    assert_null(vis_default_alloc(64, 128, NULL)); /* alignment past 64: refused */
+    size_t sizes[] = {1, 100, 4096, 1000000, (size_t)1 << 20, 3000000, 5000000, 200000, 64, 9000000};
+    size_t n = sizeof sizes / sizeof sizes[0];
+    unsigned char *p = vis_default_alloc(sizes[0], 64, NULL);
+    assert_non_null(p);
+    fill_pattern(p, sizes[0], 7);
+    for (size_t i = 1; i < n; ++i) {
+        unsigned char *q = vis_default_realloc(p, sizes[i - 1], sizes[i]);
+        assert_non_null(q);
+        assert_int_equal((uintptr_t)q % 64u, 0);
+        size_t kept = sizes[i - 1] < sizes[i] ? sizes[i - 1] : sizes[i];
+        check_pattern(q, kept, 7);
+        fill_pattern(q, sizes[i], 7); /* the whole new size is writable */
+        p = q;
+    }
+    vis_default_free(p, NULL);
+    vis_default_free(NULL, NULL);
+    unsigned char *big = vis_default_realloc(NULL, 0, (size_t)6 << 20);
+    assert_non_null(big);
+    assert_int_equal((uintptr_t)big % 64u, 0);
+    fill_pattern(big, (size_t)6 << 20, 3);
+    check_pattern(big, (size_t)6 << 20, 3);
+    vis_default_free(big, NULL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_warm_frames_allocate_nothing),
         cmocka_unit_test(test_all_host_memory_through_the_allocator),
         cmocka_unit_test(test_allocation_failures_are_reported),
+        cmocka_unit_test(test_default_allocator_keeps_contents),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,5 +1,6 @@
 /* context.c — contexts: allocator, logger, last error, backend choice, scratch. */
 #include "context.h"
+#include "host_memory.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,19 +24,6 @@ const char *vis_status_string(vis_status status)
 
 const char *vis_version(void) { return VIS_VERSION_STRING; }
 
-static void *default_alloc(size_t size, size_t align, void *user)
-{
-    (void)user;
-    size_t rounded = (size + align - 1) / align * align;
-    return aligned_alloc(align, rounded ? rounded : align);
-}
-
-static void default_free(void *ptr, void *user)
-{
-    (void)user;
-    free(ptr);
-}
-
 void *vis_alloc(vis_context *ctx, size_t size) { return ctx->alloc.alloc(size, 64, ctx->alloc.user); }
 
 void *vis_calloc(vis_context *ctx, size_t count, size_t size)
@@ -50,6 +38,8 @@ void *vis_calloc(vis_context *ctx, size_t count, size_t size)
 
 void *vis_realloc(vis_context *ctx, void *ptr, size_t old_size, size_t new_size)
 {
+    if (ctx->alloc.alloc == vis_default_alloc)
+        return vis_default_realloc(ptr, old_size, new_size);
     void *p = vis_alloc(ctx, new_size);
     if (!p)
         return NULL;
@@ -211,8 +201,8 @@ vis_status vis_context_create(const vis_context_desc *desc, vis_context **out_co
     if (!alloc.alloc != !alloc.free)
         return VIS_ERROR_INVALID_ARGUMENT; /* both or neither */
     if (!alloc.alloc) {
-        alloc.alloc = default_alloc;
-        alloc.free = default_free;
+        alloc.alloc = vis_default_alloc;
+        alloc.free = vis_default_free;
         alloc.user = NULL;
     }
     if (d.backend != VIS_BACKEND_AUTO && d.backend != VIS_BACKEND_CPU && d.backend != VIS_BACKEND_OPENCL)

@@ -1190,6 +1190,13 @@ vis_status vis_scene_check_mesh(vis_scene *s, uint32_t id, const vis_mesh *mesh)
     return validate_mesh(s, mesh);
 }
 
+/* Widens [lo, hi] on axis a to hold [x0, x1] (finite values). */
+static inline void box_add(float *lo, float *hi, uint32_t a, float x0, float x1)
+{
+    lo[a] = x0 < lo[a] ? x0 : lo[a];
+    hi[a] = x1 > hi[a] ? x1 : hi[a];
+}
+
 vis_status vis_scene_apply_set(vis_scene *s, uint32_t id, const vis_mesh *mesh)
 {
     vis_status st = vis_scene_check_mesh(s, id, mesh);
@@ -1199,24 +1206,20 @@ vis_status vis_scene_apply_set(vis_scene *s, uint32_t id, const vis_mesh *mesh)
     if (mesh->quad_count == 0 && mesh->triangle_count == 0)
         return slot == VIS_NO_OBJECT ? VIS_OK : vis_scene_apply_remove(s, id);
 
-    /* The box and the leaves first: the budget needs them before anything changes. */
+    /* The box and the leaves first: the budget needs them before anything changes. The
+     * mesh is checked, so every coordinate is finite: plain compares, not fminf calls. */
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t i = 0; i < mesh->quad_count; ++i) {
         const vis_quad *q = &mesh->quads[i];
         uint32_t a = q->axis, u = (a + 1) % 3, v = (a + 2) % 3;
-        lo[a] = fminf(lo[a], q->plane);
-        hi[a] = fmaxf(hi[a], q->plane);
-        lo[u] = fminf(lo[u], q->u0);
-        hi[u] = fmaxf(hi[u], q->u1);
-        lo[v] = fminf(lo[v], q->v0);
-        hi[v] = fmaxf(hi[v], q->v1);
+        box_add(lo, hi, a, q->plane, q->plane);
+        box_add(lo, hi, u, q->u0, q->u1);
+        box_add(lo, hi, v, q->v0, q->v1);
     }
     for (uint32_t i = 0; i < mesh->triangle_count; ++i)
-        for (int a = 0; a < 3; ++a)
-            for (int k = 0; k < 3; ++k) {
-                lo[a] = fminf(lo[a], mesh->triangles[i].v[k][a]);
-                hi[a] = fmaxf(hi[a], mesh->triangles[i].v[k][a]);
-            }
+        for (uint32_t a = 0; a < 3; ++a)
+            for (int k = 0; k < 3; ++k)
+                box_add(lo, hi, a, mesh->triangles[i].v[k][a], mesh->triangles[i].v[k][a]);
     uint32_t leaves_buf[64];
     uint32_t n = vis_kdtree_leaves_of_box(s, lo, hi, leaves_buf, 64);
     uint32_t *leaves = leaves_buf;

@@ -101,7 +101,10 @@ static int mesh_chunk(world_scene *ws, uint32_t chunk, vw_error *err)
 }
 
 /* Hands a chunk's current mesh to libvis: replace, add, or remove. */
-static int upload_chunk(world_scene *ws, uint32_t chunk, const vw_mesh *cm, world_scene_stats *st, vw_error *err)
+/* `converted`, when not NULL, holds cm's quads already converted (a meshing batch does it on
+ * its own thread); otherwise they are converted here. */
+static int upload_chunk(world_scene *ws, uint32_t chunk, const vw_mesh *cm, const vis_quad *converted,
+                        world_scene_stats *st, vw_error *err)
 {
     uint32_t id = vw_chunk_object_id(chunk);
     size_t n = cm->count;
@@ -118,12 +121,15 @@ static int upload_chunk(world_scene *ws, uint32_t chunk, const vw_mesh *cm, worl
             ++st->objects_removed;
         }
     } else {
-        if (reserve_quads(ws, n) != 0) {
-            set_error(err, "out of memory converting %zu quads", n);
-            return -1;
+        if (!converted) {
+            if (reserve_quads(ws, n) != 0) {
+                set_error(err, "out of memory converting %zu quads", n);
+                return -1;
+            }
+            world_scene_convert_quads(cm->quads, n, ws->quads);
+            converted = ws->quads;
         }
-        world_scene_convert_quads(cm->quads, n, ws->quads);
-        vis_mesh mesh = {ws->quads, (uint32_t)n, NULL, 0};
+        vis_mesh mesh = {converted, (uint32_t)n, NULL, 0};
         t0 = vc_now_ms();
         vis_status s = vis_scene_set_object(ws->scene, id, &mesh);
         if (s != VIS_OK) {
@@ -150,7 +156,7 @@ static int refresh_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st,
         return -1;
     st->mesh_ms += vc_now_ms() - t0;
     ++st->chunks;
-    return upload_chunk(ws, chunk, &ws->mesh, st, err);
+    return upload_chunk(ws, chunk, &ws->mesh, NULL, st, err);
 }
 
 /* Chunks meshed per vw_mesh_chunks call: enough that the threads stay busy and the
@@ -165,6 +171,9 @@ typedef struct mesh_batch {
     uint32_t threads;
     uint32_t chunks[MESH_BATCH];
     vw_mesh meshes[MESH_BATCH];
+    size_t first[MESH_BATCH + 1]; /* mesh i's quads in `quads`: [first[i], first[i + 1])   */
+    vis_quad *quads;               /* every mesh's quads converted for libvis (off the main thread) */
+    size_t quad_cap;
     uint32_t n;
     vw_status status;
     double ms;
@@ -175,6 +184,23 @@ static void *mesh_batch_run(void *arg)
     mesh_batch *b = arg;
     double t0 = vc_now_ms();
     b->status = vw_mesh_chunks(b->world, b->chunks, b->n, b->meshes, b->threads);
+    b->first[0] = 0;
+    for (uint32_t i = 0; i < b->n; ++i)
+        b->first[i + 1] = b->first[i] + (b->status == VW_OK ? b->meshes[i].count : 0);
+    size_t total = b->first[b->n];
+    if (b->status == VW_OK && total > b->quad_cap) {
+        size_t cap = total + total / 4;
+        vis_quad *q = realloc(b->quads, cap * sizeof *q);
+        if (!q)
+            b->status = VW_ERROR_OUT_OF_MEMORY;
+        else {
+            b->quads = q;
+            b->quad_cap = cap;
+        }
+    }
+    if (b->status == VW_OK)
+        for (uint32_t i = 0; i < b->n; ++i)
+            world_scene_convert_quads(b->meshes[i].quads, b->meshes[i].count, b->quads + b->first[i]);
     b->ms = vc_now_ms() - t0;
     return NULL;
 }
@@ -224,7 +250,8 @@ static int mesh_all(world_scene *ws, const world_scene_options *opt, world_scene
         int threaded = ahead->n > 0 && pthread_create(&helper, NULL, mesh_batch_run, ahead) == 0;
         for (uint32_t i = 0; i < now->n && rc == 0; ++i) {
             ++st->chunks;
-            rc = upload_chunk(ws, now->chunks[i], &now->meshes[i], st, err);
+            rc = upload_chunk(ws, now->chunks[i], &now->meshes[i], now->quads ? now->quads + now->first[i] : NULL, st,
+                              err);
         }
         if (threaded)
             pthread_join(helper, NULL);
@@ -240,6 +267,7 @@ static int mesh_all(world_scene *ws, const world_scene_options *opt, world_scene
     for (int k = 0; k < 2; ++k) {
         for (uint32_t i = 0; i < MESH_BATCH; ++i)
             vw_mesh_free(&b[k]->meshes[i]);
+        free(b[k]->quads);
         free(b[k]);
     }
     return rc;
