@@ -1072,6 +1072,93 @@ static void test_edit_retraces_few(void **state)
     vis_context_destroy(ctx);
 }
 
+/* The chunk pass budget: at most chunk_pass_budget viewers traced per tick; those left wait,
+ * new viewers first, then those an edit reached, then the rest, the oldest list first, then
+ * input order; a viewer an edit reached stays due until traced even when no edit comes on the
+ * later tick; every list, once traced, is a fresh pass's. */
+static void test_chunk_pass_budget(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    uint64_t rng = 0x5eed0b0d;
+    tworld w;
+    walls_world(&w, &rng, 24);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    enum { NV = 5 };
+    vis_query_viewer v[NV + 1];
+    for (uint32_t i = 0; i < NV + 1; ++i) {
+        random_viewer(&rng, i + 1, &v[i]);
+        if (i % 2)
+            memset(v[i].dir, 0, sizeof v[i].dir); /* all around */
+    }
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.chunk_every = 100000; /* still viewers: passes only when new, edited or owed */
+    d.chunk_pass_budget = 2;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    vis_query_stats st;
+    size_t n = 0;
+    /* Tick 1: five new viewers, two traced (input order), three wait with no list. */
+    assert_int_equal(vis_query_run(q, v, NV, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 2);
+    assert_int_equal(st.chunk_passes_deferred, 3);
+    for (uint32_t i = 0; i < NV; ++i) {
+        assert_int_equal(vis_query_chunks(q, i, NULL, 0, &n), VIS_OK);
+        if (i < 2)
+            assert_list_fresh(ctx, scene, q, i, &v[i]);
+        else
+            assert_int_equal(n, 0);
+    }
+    /* Tick 2: the next two in input order. */
+    assert_int_equal(vis_query_run(q, v, NV, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 2);
+    assert_int_equal(st.chunk_passes_deferred, 1);
+    for (uint32_t i = 0; i < 4; ++i)
+        assert_list_fresh(ctx, scene, q, i, &v[i]);
+    assert_int_equal(vis_query_chunks(q, 4, NULL, 0, &n), VIS_OK);
+    assert_int_equal(n, 0);
+    /* Tick 3: a sixth viewer joins, listed first in the input: new viewers share the same
+     * class, so the older wait (viewer 5, from tick 1: chunk_tick 0 for both) goes by input
+     * order -- the newcomer at index 0 first, then viewer 5. */
+    vis_query_viewer w6[NV + 1];
+    w6[0] = v[NV];
+    memcpy(w6 + 1, v, sizeof v[0] * NV);
+    assert_int_equal(vis_query_run(q, w6, NV + 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 2);
+    assert_int_equal(st.chunk_passes_deferred, 0);
+    for (uint32_t i = 0; i < NV + 1; ++i)
+        assert_list_fresh(ctx, scene, q, i, &w6[i]);
+    /* An edit that every viewer sees (a box at each eye's side, inside the world): the
+     * edited viewers are traced two per tick over the following ticks, with no further edit,
+     * until each list is a fresh pass's again. */
+    uint32_t passes = 0, edit_passes = 0;
+    for (uint32_t i = 0; i < NV + 1; ++i) {
+        float lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            float side = w6[i].eye[k] > 32.0 ? -2.0f : 1.5f; /* towards the world's middle */
+            lo[k] = (float)w6[i].eye[k] + side;
+            hi[k] = lo[k] + 0.5f;
+        }
+        set_box(scene, 500 + i, lo, hi);
+    }
+    for (int t = 0; t < 6; ++t) {
+        assert_int_equal(vis_query_run(q, w6, NV + 1, NULL, 0, &st), VIS_OK);
+        assert_true(st.chunk_passes <= 2);
+        passes += st.chunk_passes;
+        edit_passes += st.chunk_edit_passes;
+    }
+    assert_int_equal(passes, edit_passes); /* every pass after the edit counted as an edit's */
+    assert_true(passes >= 3);              /* the all-around viewers at least: some waited */
+    assert_int_equal(st.chunk_passes_deferred, 0);
+    for (uint32_t i = 0; i < NV + 1; ++i)
+        assert_list_fresh(ctx, scene, q, i, &w6[i]);
+    vis_query_destroy(q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Random walls, still viewers (in view and all around) and random edits (boxes added, moved,
  * removed; walls cut lower): after every tick each viewer's list is a fresh pass's, some
  * viewers are spared and some traced. */
@@ -1360,7 +1447,8 @@ int main(void)
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_chunk_reuse),
-        cmocka_unit_test(test_edit_retraces_few), cmocka_unit_test(test_edit_retrace_random),
+        cmocka_unit_test(test_edit_retraces_few),
+        cmocka_unit_test(test_chunk_pass_budget), cmocka_unit_test(test_edit_retrace_random),
         cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),
     };
     const struct CMUnitTest cli_tests[] = {

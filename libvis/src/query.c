@@ -156,7 +156,8 @@ static void query_free(vis_query *q)
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
                       q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys,
                       q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals,
-                      q->chunk_setup, q->chunk_depth, q->depth, q->setups};
+                      q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->due_viewers, q->due_reason,
+                      q->due_by_input};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);
@@ -214,6 +215,9 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->chunk_depth, V * 6 * res2 * 4},
         {(void **)&q->depth, V * 6 * res2 * 4},
         {(void **)&q->setups, V * 6 * sizeof(vis_ray_setup)},
+        {(void **)&q->due_viewers, V * 4},
+        {(void **)&q->due_reason, V},
+        {(void **)&q->due_by_input, V},
     };
     uint64_t total = 0;
     for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i)
@@ -697,6 +701,7 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
         s.chunk_rays = q->chunk_rays;
         s.chunk_passes = q->chunk_passes;
         s.chunk_edit_passes = q->chunk_edit_passes;
+        s.chunk_passes_deferred = q->chunk_deferred;
         for (uint32_t i = 0; i < nv; ++i) {
             const vis_qresult *r = &q->results[i];
             s.entity_rays += r->rays;

@@ -25,6 +25,8 @@ typedef struct vis_qviewer {
     double chunk_fov;
     uint32_t chunk_faces;     /* cameras of that pass (6 all around, 1 in view); their ray   */
                               /* setups and depths are kept (chunk_setup, chunk_depth)       */
+    uint8_t chunk_owed;       /* 0, or 1 + why it was due on a tick whose chunk_pass_budget
+                                 left it untraced: due until traced (query_chunks.c)         */
 } vis_qviewer;
 
 typedef struct vis_qentity {
@@ -84,6 +86,10 @@ struct vis_query {
     vis_idmap chunk_set;      /* dedup of one viewer's pass                                 */
     uint32_t chunk_passes;
     uint64_t chunk_rays;
+    uint32_t chunk_deferred;  /* due viewers the pass budget left for a later tick           */
+    uint32_t *due_viewers;    /* max_viewers: this tick's due viewers (input indices)         */
+    uint8_t *due_reason;      /* max_viewers: why each is due, in due_viewers' order          */
+    uint8_t *due_by_input;    /* max_viewers: the same, by input index                        */
 
     /* Edits: which passes an edit can change (query_chunks.c). Each slot keeps its last pass's
      * ray setups and per-pixel hit distances; the boxes the scene changed since the last tick

@@ -73,16 +73,72 @@ static void face_camera(const vis_query_viewer *in, double range, int face, vis_
     c->fovy_deg = 90.0;
 }
 
+/* ---- the pass budget ------------------------------------------------------------------ */
+
+/* Why a viewer is due, most urgent first: it has no list yet, an edit reached its last pass,
+ * or its cadence or motion came (vis_qviewer.chunk_owed stores one of these plus one). */
+enum { DUE_NEW, DUE_EDIT, DUE_ROUTINE };
+
+/* Orders this tick's due viewers (input indices in q->due_viewers) and keeps the first
+ * chunk_pass_budget: by reason, then the oldest list first, then input order -- nothing that
+ * depends on threads or timing. Returns how many stay. */
+static uint32_t apply_pass_budget(vis_query *q, const uint8_t *reason, uint32_t n)
+{
+    uint32_t budget = q->desc.chunk_pass_budget;
+    if (budget == 0 || n <= budget)
+        return n;
+    uint64_t *key = q->keys; /* free until the entity jobs run */
+    for (uint32_t k = 0; k < n; ++k) {
+        uint32_t i = q->due_viewers[k];
+        uint64_t age = q->viewers[q->vslot[i]].chunk_tick;
+        age = age > 0xFFFFFFFFFFull ? 0xFFFFFFFFFFull : age; /* 40 bits of ticks */
+        key[k] = (uint64_t)reason[k] << 62 | age << 13 | i; /* i < VIS_QUERY_MAX_VIEWERS = 2^12 */
+    }
+    vis_sort_u64(key, n);
+    for (uint32_t k = 0; k < n; ++k)
+        q->due_viewers[k] = (uint32_t)(key[k] & 0x1FFFu);
+    return budget;
+}
+
+/* The due viewers the budget left (sorted positions ntrace..ndue) stay due, with their most
+ * urgent reason, until a later tick traces them. Only called once the tick's passes are
+ * traced: a failed tick changes nothing. */
+static void owe_deferred(vis_query *q, uint32_t ntrace, uint32_t ndue)
+{
+    for (uint32_t k = ntrace; k < ndue; ++k) {
+        uint32_t i = q->due_viewers[k];
+        q->viewers[q->vslot[i]].chunk_owed = (uint8_t)(q->due_by_input[i] + 1u);
+    }
+    q->chunk_deferred = ndue - ntrace;
+}
+
 vis_status vis_query_chunks_run(vis_query *q)
 {
-    uint32_t ncam = 0, edited_passes = 0;
+    uint32_t ndue = 0, ncam = 0, edited_passes = 0;
+    uint8_t *reason = q->due_reason;
     for (uint32_t i = 0; i < q->viewer_count; ++i) {
         const vis_query_viewer *in = &q->in_viewers[i];
         uint32_t s = q->vslot[i];
+        const vis_qviewer *v = &q->viewers[s];
         int edited = 0;
-        if (!due(q, s, in, &edited))
+        int now = due(q, s, in, &edited);
+        if (!now && !v->chunk_owed)
             continue;
-        edited_passes += (uint32_t)edited;
+        uint8_t r = v->chunk_tick == 0 ? DUE_NEW : edited ? DUE_EDIT : DUE_ROUTINE;
+        if (v->chunk_owed && v->chunk_owed - 1u < r)
+            r = (uint8_t)(v->chunk_owed - 1u);
+        reason[ndue] = r;
+        q->due_viewers[ndue++] = i;
+    }
+    /* Reasons follow the viewers through the sort: store them by input index first. */
+    for (uint32_t k = 0; k < ndue; ++k)
+        q->due_by_input[q->due_viewers[k]] = reason[k];
+    uint32_t ntrace = apply_pass_budget(q, reason, ndue);
+    for (uint32_t k = 0; k < ntrace; ++k) {
+        uint32_t i = q->due_viewers[k];
+        const vis_query_viewer *in = &q->in_viewers[i];
+        uint32_t s = q->vslot[i];
+        edited_passes += q->due_by_input[i] == DUE_EDIT;
         if (all_around(in)) {
             for (int f = 0; f < 6; ++f) {
                 face_camera(in, q->desc.chunk_range, f, &q->cameras[ncam]);
@@ -96,8 +152,11 @@ vis_status vis_query_chunks_run(vis_query *q)
     q->chunk_passes = 0;
     q->chunk_rays = 0;
     q->chunk_edit_passes = 0;
-    if (ncam == 0)
+    q->chunk_deferred = 0;
+    if (ncam == 0) {
+        owe_deferred(q, ntrace, ndue);
         return VIS_OK;
+    }
     vis_trace_desc d;
     vis_trace_desc_defaults(&d);
     d.width = d.height = q->desc.chunk_res;
@@ -156,6 +215,8 @@ vis_status vis_query_chunks_run(vis_query *q)
         memcpy(v->chunk_eye, in->eye, sizeof v->chunk_eye);
         memcpy(v->chunk_dir, in->dir, sizeof v->chunk_dir);
         v->chunk_fov = in->fov_deg;
+        v->chunk_owed = 0;
     }
+    owe_deferred(q, ntrace, ndue);
     return VIS_OK;
 }

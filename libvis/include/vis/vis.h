@@ -832,6 +832,14 @@ typedef struct vis_query_desc {
     vis_traversal chunk_traversal; /* the chunk passes' traversal; VIS_TRAVERSAL_AUTO (default):
                                   VIS_TRAVERSAL_STACK, cheaper than packets for passes this
                                   coarse (docs/server.md); every method gives the same IDs  */
+    uint32_t chunk_pass_budget;/* viewers whose chunk pass is traced per call; 0 (default):
+                                  every viewer due. Past it, due viewers wait for a later
+                                  call, keeping their last list (a new viewer has none yet:
+                                  0 chunks), and are traced first then: those with no list,
+                                  then those an edit reached, then the rest, the oldest list
+                                  first, then input order (deterministic). Bounds a tick's
+                                  chunk rays to budget x 6 chunk_res^2 (a first tick of many
+                                  new viewers, an edit near many)                           */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
@@ -899,6 +907,8 @@ typedef struct vis_query_stats {
                                   last tick reached a ray of their last pass (or every viewer
                                   with a pass when the scene's change log no longer reached
                                   back: more than 64 boxes changed)                           */
+    uint32_t chunk_passes_deferred; /* viewers due whose pass chunk_pass_budget left for a
+                                  later call                                                  */
     double ms;                 /* the call, wall clock                                         */
 } vis_query_stats;
 
