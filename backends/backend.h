@@ -61,7 +61,7 @@ VIS_CHECK_LAYOUT_(vis_effect_setup, 32);
 #undef VIS_CHECK_LAYOUT_
 
 /* Host memory of a backend comes from the context's allocator (vis_context_desc.allocator, or
- * libvis's malloc-based default); both functions are always set. Nothing in a backend calls
+ * libvis's default, libvis/src/host_memory.c); both functions are always set. Nothing in a backend calls
  * malloc/free directly. */
 static inline void *vis_host_alloc(const vis_allocator *a, size_t size)
 {

@@ -1118,9 +1118,8 @@ static void test_chunk_pass_budget(void **state)
         assert_list_fresh(ctx, scene, q, i, &v[i]);
     assert_int_equal(vis_query_chunks(q, 4, NULL, 0, &n), VIS_OK);
     assert_int_equal(n, 0);
-    /* Tick 3: a sixth viewer joins, listed first in the input: new viewers share the same
-     * class, so the older wait (viewer 5, from tick 1: chunk_tick 0 for both) goes by input
-     * order -- the newcomer at index 0 first, then viewer 5. */
+    /* Tick 3: a sixth viewer joins, listed first in the input; with viewer 5 still waiting,
+     * two are due and both traced. */
     vis_query_viewer w6[NV + 1];
     w6[0] = v[NV];
     memcpy(w6 + 1, v, sizeof v[0] * NV);
@@ -1153,6 +1152,55 @@ static void test_chunk_pass_budget(void **state)
     assert_int_equal(st.chunk_passes_deferred, 0);
     for (uint32_t i = 0; i < NV + 1; ++i)
         assert_list_fresh(ctx, scene, q, i, &w6[i]);
+    vis_query_destroy(q);
+
+    /* Order among waiting viewers, budget 1, passes when the eye moved (chunk_move 1).
+     * Age: X and Y new (X traced on tick 1, Y on tick 2); both teleport on tick 3, Y listed
+     * first: X, the older list, is traced, Y waits. */
+    d.chunk_every = 1;
+    d.chunk_move = 1.0;
+    d.chunk_pass_budget = 1;
+    vis_query_viewer x0 = v[1], y0 = v[3]; /* all around */
+    vis_query_viewer x1 = x0, y1 = y0;
+    x1.eye[0] = x0.eye[0] > 32.0 ? x0.eye[0] - 30.0 : x0.eye[0] + 30.0;
+    y1.eye[2] = y0.eye[2] > 32.0 ? y0.eye[2] - 30.0 : y0.eye[2] + 30.0;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    vis_query_viewer in2[2] = {x0, y0};
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK); /* X (input order) */
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK); /* Y, owed */
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_passes_deferred, 0);
+    in2[0] = y1;
+    in2[1] = x1;
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_passes_deferred, 1);
+    assert_list_fresh(ctx, scene, q, 1, &x1); /* X traced from its new eye */
+    assert_list_fresh(ctx, scene, q, 0, &y0); /* Y keeps the list from its old eye */
+    vis_query_destroy(q);
+
+    /* Reason: X traced on tick 1, Y on tick 2 (so X's list is the older); on tick 3 X moves
+     * (due by motion) and is listed first, and a box appears next to Y (an edit that reaches
+     * Y's pass): Y goes first and names the box, X waits. */
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    in2[0] = x0;
+    in2[1] = y0;
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    float blo[3], bhi[3];
+    for (int k = 0; k < 3; ++k) {
+        blo[k] = (float)y0.eye[k] + (y0.eye[k] > 32.0 ? -1.5f : 1.0f);
+        bhi[k] = blo[k] + 0.5f;
+    }
+    set_box(scene, 900, blo, bhi);
+    in2[0] = x1;
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_edit_passes, 1);
+    assert_int_equal(st.chunk_passes_deferred, 1);
+    assert_true(chunk_listed(q, 1, 900, NULL));
+    assert_list_fresh(ctx, scene, q, 1, &y0);
     vis_query_destroy(q);
     vis_scene_destroy(scene);
     free_world(&w);

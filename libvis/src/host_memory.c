@@ -6,8 +6,9 @@
  * over, and every copy faults in fresh pages: on gen:large that was a quarter of the build's
  * CPU time (docs/performance.md, "The build's copies"). A mapping grows with mremap, which
  * moves page-table entries instead of bytes. Blocks carry a 64-byte header that says which
- * kind they are, so free and realloc never guess. Under AddressSanitizer every block comes
- * from aligned_alloc (ASan checks heap blocks, not mappings). */
+ * kind they are, so free and realloc never guess. Under a sanitizer every block comes from
+ * aligned_alloc (below); mappings are also invisible to LeakSanitizer and Valgrind's leak
+ * check, which see the small blocks only. */
 #define _GNU_SOURCE /* mremap */
 #include "host_memory.h"
 
@@ -17,13 +18,17 @@
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <unistd.h>
 #define VIS_HAVE_MREMAP 1
 #endif
 
-#if defined(__SANITIZE_ADDRESS__)
+/* Sanitizers see heap blocks, not mappings: AddressSanitizer does not check them, and
+ * ThreadSanitizer does not follow mremap (a range a block moved out of keeps its old
+ * accesses, and reports races with whatever is mapped there next). */
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #undef VIS_HAVE_MREMAP
 #elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
 #undef VIS_HAVE_MREMAP
 #endif
 #endif
@@ -44,7 +49,8 @@ static block_header *header_of(void *ptr) { return (block_header *)((unsigned ch
 #ifdef VIS_HAVE_MREMAP
 static size_t map_length(size_t size)
 {
-    size_t page = 4096;
+    long ps = sysconf(_SC_PAGESIZE);
+    size_t page = ps > 0 ? (size_t)ps : 4096;
     if (size > SIZE_MAX - HEADER - page)
         return 0;
     return (size + HEADER + page - 1) / page * page;

@@ -82,6 +82,8 @@ enum { DUE_NEW, DUE_EDIT, DUE_ROUTINE };
 /* Orders this tick's due viewers (input indices in q->due_viewers) and keeps the first
  * chunk_pass_budget: by reason, then the oldest list first, then input order -- nothing that
  * depends on threads or timing. Returns how many stay. */
+_Static_assert(VIS_QUERY_MAX_VIEWERS <= 0x2000u, "an input index takes the key's low 13 bits");
+
 static uint32_t apply_pass_budget(vis_query *q, const uint8_t *reason, uint32_t n)
 {
     uint32_t budget = q->desc.chunk_pass_budget;
@@ -92,7 +94,7 @@ static uint32_t apply_pass_budget(vis_query *q, const uint8_t *reason, uint32_t 
         uint32_t i = q->due_viewers[k];
         uint64_t age = q->viewers[q->vslot[i]].chunk_tick;
         age = age > 0xFFFFFFFFFFull ? 0xFFFFFFFFFFull : age; /* 40 bits of ticks */
-        key[k] = (uint64_t)reason[k] << 62 | age << 13 | i; /* i < VIS_QUERY_MAX_VIEWERS = 2^12 */
+        key[k] = (uint64_t)reason[k] << 62 | age << 13 | i;
     }
     vis_sort_u64(key, n);
     for (uint32_t k = 0; k < n; ++k)

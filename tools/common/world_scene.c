@@ -161,7 +161,8 @@ static int refresh_chunk(world_scene *ws, uint32_t chunk, world_scene_stats *st,
 
 /* Chunks meshed per vw_mesh_chunks call: enough that the threads stay busy and the
  * team's start-up is noise, few enough that the meshes waiting for upload stay small (a few
- * MB). The meshes are reused from batch to batch, so they stop allocating once grown. */
+ * MB, and as much again for their quads converted for libvis). The meshes and the converted
+ * quads are reused from batch to batch, so they stop allocating once grown. */
 #define MESH_BATCH 1024u
 
 /* One batch of chunks and their meshes, meshed on a thread of its own while the batch before
@@ -200,7 +201,8 @@ static void *mesh_batch_run(void *arg)
     }
     if (b->status == VW_OK)
         for (uint32_t i = 0; i < b->n; ++i)
-            world_scene_convert_quads(b->meshes[i].quads, b->meshes[i].count, b->quads + b->first[i]);
+            if (b->meshes[i].count)
+                world_scene_convert_quads(b->meshes[i].quads, b->meshes[i].count, b->quads + b->first[i]);
     b->ms = vc_now_ms() - t0;
     return NULL;
 }

@@ -37,7 +37,8 @@ typedef struct world_scene_stats {
     uint32_t objects_set;       /* vis_scene_set_object calls                                */
     uint32_t objects_removed;   /* objects removed (chunk became empty)                      */
     uint64_t quads;             /* quads handed to libvis                                    */
-    double mesh_ms;             /* in vw_mesh_chunk(s) (on create, beside scene_ms: they overlap) */
+    double mesh_ms;             /* in vw_mesh_chunk(s) and converting the quads for libvis (on
+                                   create, beside scene_ms: they overlap)                       */
     double scene_ms;            /* in vis_scene_set_object / vis_scene_remove_object         */
     double total_ms;            /* the whole call                                            */
 } world_scene_stats;

@@ -160,7 +160,9 @@ typedef struct vis_context_desc {
     const char *opencl_device;   /* may be NULL: device selector, an index ("1") or a name
                                     substring ("NVIDIA"); NULL reads $VIS_OPENCL_DEVICE, and if
                                     that is unset takes the first GPU, else the first device */
-    vis_allocator allocator;     /* zero = malloc/free                                        */
+    vis_allocator allocator;     /* zero = the library's own: aligned_alloc, and on Linux
+                                    blocks of 1 MiB and more as anonymous mappings that grow
+                                    in place (mremap) instead of being copied                */
     vis_log_fn log;              /* may be NULL                                               */
     void *log_user;
     vis_parallel_for_fn parallel_for; /* may be NULL: the CPU backend's own pool of `threads`
@@ -798,7 +800,9 @@ VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timin
  * pass that reaches an edited object's box (its hull before and after the edit) before that
  * ray's hit -- exactly the passes whose IDs the edit can change; the others keep their lists,
  * which are what their pass would give on the edited scene. When more than 64 boxes changed
- * since the last call (the scene keeps a log of the last 64), every viewer is retraced. */
+ * since the last call (the scene keeps a log of the last 64), every viewer is retraced. With a
+ * chunk_pass_budget, "on the next call" becomes "on a later call": the viewers past the budget
+ * keep their last lists until their turn. */
 typedef struct vis_query vis_query;
 
 /* Sizes a query may be created with. */
@@ -815,7 +819,8 @@ typedef struct vis_query_desc {
                                   1..VIS_QUERY_MAX_CHUNK_RES; default 32                     */
     uint32_t chunk_every;      /* re-trace a viewer's chunks every N ticks, each viewer slot
                                   on its own phase (and at once for a new viewer, or after a
-                                  scene edit that reaches the viewer's last pass: see above);
+                                  scene edit that reaches the viewer's last pass: see above;
+                                  "at once" within chunk_pass_budget);
                                   default 1: every tick                                       */
     double chunk_range;        /* the chunk pass's far plane, in voxels from the eye (Luanti
                                   sends blocks within a range, 192 voxels by default); chunks
@@ -837,7 +842,10 @@ typedef struct vis_query_desc {
                                   call, keeping their last list (a new viewer has none yet:
                                   0 chunks), and are traced first then: those with no list,
                                   then those an edit reached, then the rest, the oldest list
-                                  first, then input order (deterministic). Bounds a tick's
+                                  first, then input order (deterministic): a waiting viewer
+                                  competes in its class, so viewers due only by cadence or
+                                  motion wait while more than the budget are new or reached by
+                                  edits on every call. Bounds a tick's
                                   chunk rays to budget x 6 chunk_res^2 (a first tick of many
                                   new viewers, an edit near many)                           */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
@@ -903,8 +911,9 @@ typedef struct vis_query_stats {
                                   swept box still lie inside the regions it covered          */
     uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
     uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
-    uint32_t chunk_edit_passes;/* of those, the viewers traced because a scene edit since the
-                                  last tick reached a ray of their last pass (or every viewer
+    uint32_t chunk_edit_passes;/* of those, the viewers traced because a scene edit (since the
+                                  last tick, or an earlier one whose pass chunk_pass_budget
+                                  left waiting) reached a ray of their last pass (or every viewer
                                   with a pass when the scene's change log no longer reached
                                   back: more than 64 boxes changed)                           */
     uint32_t chunk_passes_deferred; /* viewers due whose pass chunk_pass_budget left for a
