@@ -23,8 +23,9 @@ float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
  * and primitive tests of trace_core.h -- bit for bit the brute force's buffers. `occupied`
  * flags the kd nodes whose subtree holds a primitive (occupancy.h); `side` is
  * vis_packet_side(setup). `cost` (may be NULL) gets each pixel's traversal cost
- * (vis_trace_cost). */
-void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
+ * (vis_trace_cost). Returns the number of pixels traced one ray at a time (packets that gave
+ * up, or side 1). */
+uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                               uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
 #endif /* VIS_CPU_PACKET_H */
