@@ -11,9 +11,11 @@
  * culling, and every quad in its rectangle is tested against its rays (docs/performance.md:
  * on gen:city's overview such packets cost 4-7x their single rays). The packet walk goes near
  * side first, so the first leaf it enters tells: entered beyond that distance, the packet
- * gives up and its rays go one by one. 16x16 packets at normal image sizes keep going: there
- * giving up was a wash on gen:large's far views. Every path gives the same pixels: the brute
- * force's.
+ * gives up and its rays go one by one. 16x16 packets (normal image sizes) give up the same way
+ * past PACKET_FAR_FOOTPRINT: their work per ray grows with the square of the footprint (the
+ * leaves a tile opens grow with its area, its rays stay 256), a lone ray's hardly at all, and
+ * on gen:large's far views (about 5 voxels per pixel) the lone rays are the cheaper. Every
+ * path gives the same pixels: the brute force's.
  *
  * A ray that goes alone (a pass too wide for 4x4 packets, or a packet that gave up) walks the
  * cell grid (trace_core.h, vis_traverse_dda) where the scene has its cell map: on gen:city's
@@ -45,7 +47,9 @@ int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view,
 #  define PACKET_MAX_FOOTPRINT 3.0f
 #endif
 
-/* The same for 16x16 packets (docs/performance.md, "Far views: 16x16 packets give up too"). */
+/* The same for 16x16 packets, chosen by instruction counts (docs/performance.md, "Far views:
+ * 16x16 packets give up too"): at 4, every view measured got cheaper or stayed to the
+ * instruction; at 3 a terrain overview's grazing far tiles went alone and cost 2.4 % more. */
 #ifndef PACKET_FAR_FOOTPRINT
 #  define PACKET_FAR_FOOTPRINT 4.0f
 #endif
@@ -59,8 +63,8 @@ static float pixel_extent(const vis_ray_setup *setup)
     return fmaxf(2.0f * vec_len(setup->right) / (float)setup->width, 2.0f * vec_len(setup->up) / (float)setup->height);
 }
 
-/* 16x16 packets keep going: on gen:large's far views giving up at 3 voxels per pixel was a
- * wash (overview 166 -> 154 ms, top-down 156 -> 183 ms; docs/performance.md). */
+/* The distance past which a packet of `side` entering its first leaf gives up: where a pixel
+ * there covers the footprint limit. */
 static inline float give_up_distance(const vis_ray_setup *setup, uint32_t side)
 {
     return (side == 16u ? PACKET_FAR_FOOTPRINT : PACKET_MAX_FOOTPRINT) / pixel_extent(setup);

@@ -14,7 +14,7 @@
 uint32_t vis_packet_side(const vis_ray_setup *setup);
 
 /* The distance past which a packet of `side` that first enters a leaf gives up, its rays
- * then traced one by one (+inf for 16x16 packets, which never give up). */
+ * then traced one by one (for 16x16 packets at 512x512 and 60 degrees, 1,774 units). */
 float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
 
 /* Traces the pixels [x0, x0 + VIS_PACKET_SIDE) x [y0, y0 + VIS_PACKET_SIDE) of the view in
