@@ -22,11 +22,14 @@
 #include <cmocka.h>
 
 #include "common/trace_core.h"
+#include "cpu/occupancy.h"
+#include "cpu/packet.h"
 #include "drawlist_check.h"
 #include "ref_trace.h"
 #include "scene.h"
 #include "scene_builder.h"
 #include "test_support.h"
+#include "trace.h"
 #include "vis/vis.h"
 #include "voxelworld/vw.h"
 #include "world_scene.h"
@@ -197,6 +200,100 @@ static void test_random_worlds_match_oracle(void **state)
          * (backends/cpu/packet.c); both must still equal the brute force. */
         vis_camera far = {{24.0 - 1100.0, 900.0, 24.0 - 1000.0}, {24, 8, 24}, 8, 0, 0};
         check_one_view(ctx, scene, &w, &far, 64, 56, "random world from far away");
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
+/* ---- far tiles ------------------------------------------------------------------------ */
+
+static void *far_alloc(size_t size, size_t align, void *user)
+{
+    (void)user;
+    return aligned_alloc(align, (size + align - 1) / align * align);
+}
+
+static void far_free(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+/* A packet pass's tiles one by one (what the CPU backend does), returning how many pixels
+ * went one ray at a time; the IDs must equal vis_trace's. */
+static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t W, uint32_t H,
+                           uint32_t want_side, float *give_up)
+{
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = W, d.height = H;
+    d.traversal = VIS_TRAVERSAL_PACKET;
+    vis_ray_setup s;
+    assert_int_equal(vis_trace_make_setup(ctx, scene, cam, &d, &s), VIS_OK);
+    uint32_t side = vis_packet_side(&s);
+    assert_int_equal(side, want_side);
+    *give_up = vis_packet_give_up_t(&s, side);
+    vis_scene_view v = vis_scene_get_view(scene);
+    vis_allocator a = {far_alloc, far_free, NULL};
+    vis_occupancy occ;
+    memset(&occ, 0, sizeof occ);
+    occ.alloc = &a;
+    vis_scene_changes all;
+    memset(&all, 0, sizeof all);
+    all.full = 1;
+    assert_int_equal(vis_occupancy_sync(&occ, &v, &all), VIS_OK);
+    size_t n = (size_t)W * H;
+    uint32_t *ids = malloc(n * 4), *want = malloc(n * 4), alone = 0;
+    for (uint32_t y = 0; y < H; y += VIS_PACKET_SIDE)
+        for (uint32_t x = 0; x < W; x += VIS_PACKET_SIDE)
+            alone += vis_packet_trace_tile(&s, &v, occ.occupied, side, x, y, ids, NULL, NULL);
+    assert_int_equal(vis_trace(ctx, scene, cam, &d, want, n, NULL, 0), VIS_OK);
+    assert_memory_equal(ids, want, n * 4);
+    vis_occupancy_free(&occ);
+    free(ids), free(want);
+    return alone;
+}
+
+/* Far tiles go ray by ray (backends/cpu/packet.c): a long strip of chunks seen from above at
+ * an angle, so that the distance at which a pass's packets give up falls inside it. The near
+ * tiles enter their first leaf before it and stay packets, the far ones after it and go one
+ * ray at a time -- counted by the tile function itself -- and every pixel equals the brute
+ * force's, for 16x16 packets (128x112 at 38 degrees) and 8x8 ones (64x56). */
+static void test_far_tiles_go_ray_by_ray(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    static const struct { uint32_t w, h, side; } passes[] = {{128, 112, 16}, {64, 56, 8}};
+    for (size_t pi = 0; pi < sizeof passes / sizeof passes[0]; ++pi) {
+        uint32_t W = passes[pi].w, H = passes[pi].h;
+        /* The give-up distance depends on the camera's pixel only: ask it on an empty scene. */
+        vis_camera probe = {{0, 0, 0}, {0, 0, 1}, 38, 0, 0};
+        vis_scene *empty = make_cube_scene(ctx, 16);
+        float g;
+        rays_alone(ctx, empty, &probe, W, H, passes[pi].side, &g);
+        vis_scene_destroy(empty);
+        assert_true(isfinite(g) && g > 0.0f);
+        /* Seen from (64, 0.62 g, -0.15 g) toward (64, 0, 0.62 g), the strip's visible part lies
+         * between about 0.75 g and 1.8 g away. */
+        int nz = (int)ceilf(1.9f * g / 16.0f);
+        uint64_t rng = 777u + pi;
+        chunk_world_opts opt = chunk_world_default;
+        opt.empty = 0.2;
+        opt.max_boxes = 2;
+        opt.ties = 0;
+        tworld w;
+        random_chunk_world_opts(&w, &rng, 8, 1, nz, &opt);
+        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+        vis_camera cam = {{64, 0.62 * g, -0.15 * g}, {64, 0, 0.62 * g}, 38, 0, 0};
+        float g2;
+        uint32_t alone = rays_alone(ctx, scene, &cam, W, H, passes[pi].side, &g2);
+        assert_true(g2 == g);
+        if (alone == 0 || alone >= W * H)
+            fail_msg("%ux%u: %u of %u pixels went ray by ray; want some, not all", W, H, alone, W * H);
+        char label[96];
+        snprintf(label, sizeof label, "far tiles, %ux%u packets", passes[pi].side, passes[pi].side);
+        check_one_view(ctx, scene, &w, &cam, W, H, label);
         vis_scene_destroy(scene);
         free_world(&w);
     }
@@ -1156,6 +1253,7 @@ int main(void)
         cmocka_unit_test(test_aimed_rays),
         cmocka_unit_test(test_held_out_edge_view),
         cmocka_unit_test(test_random_worlds_match_oracle),
+        cmocka_unit_test(test_far_tiles_go_ray_by_ray),
         cmocka_unit_test(test_axis_rays_split_planes_and_corners),
         cmocka_unit_test(test_crowded_leaf_and_packing_limits),
         cmocka_unit_test(test_trace_cost),

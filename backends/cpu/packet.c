@@ -11,9 +11,11 @@
  * culling, and every quad in its rectangle is tested against its rays (docs/performance.md:
  * on gen:city's overview such packets cost 4-7x their single rays). The packet walk goes near
  * side first, so the first leaf it enters tells: entered beyond that distance, the packet
- * gives up and its rays go one by one. 16x16 packets at normal image sizes keep going: there
- * giving up was a wash on gen:large's far views. Every path gives the same pixels: the brute
- * force's.
+ * gives up and its rays go one by one. 16x16 packets (normal image sizes) give up the same way
+ * past PACKET_FAR_FOOTPRINT: their work per ray grows with the square of the footprint (the
+ * leaves a tile opens grow with its area, its rays stay 256), a lone ray's hardly at all, and
+ * on gen:large's far views (about 5 voxels per pixel) the lone rays are the cheaper. Every
+ * path gives the same pixels: the brute force's.
  *
  * A ray that goes alone (a pass too wide for 4x4 packets, or a packet that gave up) walks the
  * cell grid (trace_core.h, vis_traverse_dda) where the scene has its cell map: on gen:city's
@@ -45,6 +47,13 @@ int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view,
 #  define PACKET_MAX_FOOTPRINT 3.0f
 #endif
 
+/* The same for 16x16 packets, chosen by instruction counts (docs/performance.md, "Far views:
+ * 16x16 packets give up too"): at 4, every view measured got cheaper or stayed to the
+ * instruction; at 3 a terrain overview's grazing far tiles went alone and cost 2.4 % more. */
+#ifndef PACKET_FAR_FOOTPRINT
+#  define PACKET_FAR_FOOTPRINT 4.0f
+#endif
+
 static float vec_len(const float *v) { return sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
 
 /* A pixel's extent on the image plane at distance 1, the larger of its two sides. */
@@ -54,11 +63,11 @@ static float pixel_extent(const vis_ray_setup *setup)
     return fmaxf(2.0f * vec_len(setup->right) / (float)setup->width, 2.0f * vec_len(setup->up) / (float)setup->height);
 }
 
-/* 16x16 packets keep going: on gen:large's far views giving up at 3 voxels per pixel was a
- * wash (overview 166 -> 154 ms, top-down 156 -> 183 ms; docs/performance.md). */
+/* The distance past which a packet of `side` entering its first leaf gives up: where a pixel
+ * there covers the footprint limit. */
 static inline float give_up_distance(const vis_ray_setup *setup, uint32_t side)
 {
-    return side == 16u ? INFINITY : PACKET_MAX_FOOTPRINT / pixel_extent(setup);
+    return (side == 16u ? PACKET_FAR_FOOTPRINT : PACKET_MAX_FOOTPRINT) / pixel_extent(setup);
 }
 
 float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side) { return give_up_distance(setup, side); }
@@ -75,34 +84,51 @@ uint32_t vis_packet_side(const vis_ray_setup *setup)
 typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, uint32_t, uint32_t,
                          uint32_t *, float *, uint32_t *);
 
-void vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
+/* The pixels [x0, x1) x [y0, y1), one ray at a time. */
+static uint32_t trace_alone(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                            uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1, uint32_t *ids, float *depth,
+                            uint32_t *cost)
 {
-    packet_fn fn = side == 16u ? vis_packet_trace_16x16 : side == 8u ? vis_packet_trace_8x8
-                 : side == 4u ? vis_packet_trace_4x4 : NULL;
-    float give_up_t = give_up_distance(setup, side);
     vis_ray_setup alone = *setup; /* the rays that go alone, by the cell-grid walk */
     alone.traversal = VIS_TRAVERSAL_ID_DDA;
     int grid = setup->cell_map != 0u && cost == NULL;
+    for (uint32_t y = y0; y < y1; ++y)
+        for (uint32_t x = x0; x < x1; ++x) {
+            if (!grid) {
+                vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth, cost);
+                continue;
+            }
+            uint32_t id;
+            float t;
+            vis_trace_pixel(&alone, x, y, VIS_SCENE_VIEW_ARGS(view), &id, &t);
+            size_t at = (size_t)y * setup->width + x;
+            ids[at] = id;
+            if (depth)
+                depth[at] = t;
+        }
+    return (x1 - x0) * (y1 - y0);
+}
+
+static packet_fn packet_of(uint32_t side)
+{
+    return side == 16u ? vis_packet_trace_16x16 : side == 8u ? vis_packet_trace_8x8
+         : side == 4u ? vis_packet_trace_4x4 : NULL;
+}
+
+uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+                               uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
+{
+    packet_fn fn = packet_of(side);
+    float give_up_t = give_up_distance(setup, side);
     uint32_t x_end = x0 + VIS_PACKET_SIDE < setup->width ? x0 + VIS_PACKET_SIDE : setup->width;
     uint32_t y_end = y0 + VIS_PACKET_SIDE < setup->height ? y0 + VIS_PACKET_SIDE : setup->height;
+    uint32_t alone = 0;
     for (uint32_t ty = y0; ty < y_end; ty += side)
         for (uint32_t tx = x0; tx < x_end; tx += side) {
             if (fn && fn(setup, view, occupied, give_up_t, tx, ty, ids, depth, cost))
                 continue;
-            for (uint32_t y = ty; y < ty + side && y < y_end; ++y)
-                for (uint32_t x = tx; x < tx + side && x < x_end; ++x) {
-                    if (!grid) {
-                        vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth, cost);
-                        continue;
-                    }
-                    uint32_t id;
-                    float t;
-                    vis_trace_pixel(&alone, x, y, VIS_SCENE_VIEW_ARGS(view), &id, &t);
-                    size_t at = (size_t)y * setup->width + x;
-                    ids[at] = id;
-                    if (depth)
-                        depth[at] = t;
-                }
+            uint32_t x1 = tx + side < x_end ? tx + side : x_end, y1 = ty + side < y_end ? ty + side : y_end;
+            alone += trace_alone(setup, view, occupied, tx, ty, x1, y1, ids, depth, cost);
         }
+    return alone;
 }
