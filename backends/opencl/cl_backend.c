@@ -304,9 +304,11 @@ const char *vis_cl_traversal_options(uint32_t traversal)
     return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
 }
 
-const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal)
+const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, int batch)
 {
-    return traversal <= VIS_TRAVERSAL_ID_DDA ? b->method_options[traversal] : "";
+    if (traversal > VIS_TRAVERSAL_ID_DDA)
+        return "";
+    return batch ? b->batch_options[traversal] : b->method_options[traversal];
 }
 
 /* $VIS_OPENCL_WALK: how the per-ray kernels walk (docs/opencl.md "Persistent threads and leaf
@@ -316,9 +318,12 @@ const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal)
  *                (postpone.cl); postpone1 .. postpone4 park that many;
  *   vote         with postpone, the node loop ends once every lane of the warp holds a
  *                leaf (a warp vote in inline PTX: NVIDIA only);
- *   plain        none of these (the default).
- * Fills b->method_options; returns a vis_status value with the reason. Results never depend
- * on it (every walk gives the stack method's buffers). */
+ *   plain        none of these.
+ * A value applies to single views and batches alike. Unset (the default): on a GPU, launches
+ * of several views (batches, batch draw lists) run as persistent threads and single views
+ * plain, which measured fastest on the H200 for each; on other devices everything is plain.
+ * Fills b->method_options and b->batch_options; returns a vis_status value with the reason.
+ * Results never depend on it (every walk gives the stack method's buffers). */
 static int walk_options(vis_cl_backend *b, const char *walk, char *err, size_t err_size)
 {
     int persistent = 0, postpone = 0, vote = 0;
@@ -346,14 +351,17 @@ static int walk_options(vis_cl_backend *b, const char *walk, char *err, size_t e
         snprintf(err, err_size, "$VIS_OPENCL_WALK \"%s\": vote needs postpone and an NVIDIA device (inline PTX)", walk);
         return VIS_ERROR_UNSUPPORTED;
     }
+    int batch_persistent = walk && *walk ? persistent : b->caps.is_gpu;
     for (uint32_t t = 0; t <= VIS_TRAVERSAL_ID_DDA; ++t) {
         char pp[48] = "";
         if (postpone && t == VIS_TRAVERSAL_ID_STACK)
             snprintf(pp, sizeof pp, " -DVIS_CL_POSTPONE=%d%s", postpone, vote ? " -DVIS_CL_VOTE" : "");
         snprintf(b->method_options[t], sizeof b->method_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
                  persistent ? " -DVIS_CL_PERSISTENT" : "");
+        snprintf(b->batch_options[t], sizeof b->batch_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
+                 batch_persistent ? " -DVIS_CL_PERSISTENT" : "");
     }
-    if (!persistent)
+    if (!persistent && !batch_persistent)
         return VIS_OK;
     cl_int e = CL_SUCCESS;
     b->pt_counter = clCreateBuffer(b->context, CL_MEM_READ_WRITE, 2 * sizeof(cl_uint), NULL, &e);
@@ -373,7 +381,7 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     const vis_cl_scene *sc = scene_data;
     b->last_kernel_ms = 0.0;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, vis_cl_method_options(b, setup->traversal), &p, err, err_size);
+    int st = vis_cl_program_get(b, vis_cl_method_options(b, setup->traversal, 0), &p, err, err_size);
     if (st != VIS_OK)
         return st;
     size_t pixels = (size_t)setup->width * setup->height;
@@ -398,7 +406,8 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     return launch(b, p, p->trace, 14, setup->width, setup->height, 1, ids, depth, err, err_size);
 }
 
-/* The program of a batch: its cameras' method when they share one, else the generic one. */
+/* The program of a batch: its cameras' method when they share one, else the generic one;
+ * with the batch walk (persistent threads by default on a GPU) when it has several views. */
 int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_t count, vis_cl_program **p,
                          char *err, size_t err_size)
 {
@@ -406,7 +415,7 @@ int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_
     for (uint32_t i = 1; i < count; ++i)
         if (setups[i].traversal != traversal)
             traversal = UINT32_MAX;
-    return vis_cl_program_get(b, vis_cl_method_options(b, traversal), p, err, err_size);
+    return vis_cl_program_get(b, vis_cl_method_options(b, traversal, count > 1u), p, err, err_size);
 }
 
 static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
@@ -642,7 +651,7 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         return st;
     }
     vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
-    st = vis_cl_program_get(b, vis_cl_method_options(b, 0u), &p, err, err_size);
+    st = vis_cl_program_get(b, vis_cl_method_options(b, 0u, 0), &p, err, err_size);
     if (st == VIS_OK) { /* staged scene uploads (cl_scene.c) */
         cl_int e = CL_SUCCESS;
         b->stage_scatter = clCreateKernel(p->program, "vis_scatter_words", &e);
@@ -654,10 +663,11 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         return st;
     }
     vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu%s%s; "
-               "stack program \"%s\"",
+               "stack program \"%s\", batches \"%s\"",
                b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
                b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1],
-               b->extra_options[0] ? "; extra build options " : "", b->extra_options, b->method_options[0]);
+               b->extra_options[0] ? "; extra build options " : "", b->extra_options, b->method_options[0],
+               b->batch_options[0]);
     if (!b->caps.fp64)
         vis_cl_log(b, 2, "opencl: '%s' has no cl_khr_fp64: scenes holding triangles are refused on it", b->caps.name);
     snprintf(device_name, name_size, "%s", b->caps.name);

@@ -206,9 +206,11 @@ typedef struct vis_cl_backend {
     double last_kernel_ms;    /* from event profiling, summed over a batch's launches */
 
     /* How the per-ray kernels walk ($VIS_OPENCL_WALK, docs/opencl.md "Persistent threads and
-     * leaf postponing"): the options of each method's program (vis_cl_method_options), and
-     * the persistent kernels' tile counter (two words, zero between launches). */
+     * leaf postponing"): the options of each method's program for one view and for batches
+     * (vis_cl_method_options), and the persistent kernels' tile counter (two words, zero
+     * between launches). */
     char method_options[VIS_TRAVERSAL_ID_DDA + 1u][128];
+    char batch_options[VIS_TRAVERSAL_ID_DDA + 1u][128];
     cl_mem pt_counter;
 } vis_cl_backend;
 
@@ -270,8 +272,9 @@ void vis_cl_drawlist_release(vis_cl_backend *b);
 
 /* The program for one traversal method (-DVIS_TRAVERSAL_ONLY), "" when they differ. */
 const char *vis_cl_traversal_options(uint32_t traversal);
-/* The same with this backend's walk options ($VIS_OPENCL_WALK) added where they apply. */
-const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal);
+/* The same with this backend's walk options added where they apply: for one view, or for a
+ * launch of several (`batch`; persistent threads by default on a GPU). */
+const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, int batch);
 /* Enqueues kernel k of program p over width x height x views (vis_cl_grid's tiles; a
  * persistent program gets about as many groups as the device runs at once and its counter and
  * view count as arguments pt_arg and pt_arg + 1). ev: the launch's event. */

@@ -423,7 +423,8 @@ static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *de
 /* 7. --walks "A;B;...": how the kernels walk ($VIS_OPENCL_WALK, docs/opencl.md "Persistent
  * threads and leaf postponing"), side by side in one process. Each entry is a value of the
  * variable ("plain" for none), optionally with a work-group shape ("persistent@8x4" sets
- * $VIS_OPENCL_TILE too); both are read when a context is created, so each walk gets its own
+ * $VIS_OPENCL_TILE too; "default" leaves the variable unset); both are read when a context
+ * is created, so each walk gets its own
  * context and its own copy of the scene. First each walk's IDs and depths (object and leaf
  * IDs, the stack method) are compared with the CPU's on every path view and `ncams` random
  * cameras; then, --rounds times, every walk in turn times the stack method's kernel on the
@@ -467,7 +468,10 @@ static void walks_section(vis_context *cpu, vis_scene *A, vw_world *wa, vw_world
         char *at = strchr(walk, '@');
         if (at)
             *at++ = '\0';
-        setenv("VIS_OPENCL_WALK", walk, 1);
+        if (strcmp(walk, "default") == 0) /* the library's default: the variable unset */
+            unsetenv("VIS_OPENCL_WALK");
+        else
+            setenv("VIS_OPENCL_WALK", walk, 1);
         if (at)
             setenv("VIS_OPENCL_TILE", at, 1);
         else if (old_tile)
