@@ -812,6 +812,39 @@ static void test_build_options(void **state)
     vis_context_destroy(tuned);
 }
 
+/* test_walks sets $VIS_OPENCL_WALK and $VIS_OPENCL_TILE per context; its setup saves them and
+ * its teardown puts them back even when the test fails half-way, so that the tests after it
+ * run with the environment they were started with. */
+static struct {
+    int had_walk, had_tile;
+    char walk[128], tile[64];
+} g_walk_env;
+
+static int walk_env_save(void **state)
+{
+    (void)state;
+    const char *w = getenv("VIS_OPENCL_WALK"), *t = getenv("VIS_OPENCL_TILE");
+    g_walk_env.had_walk = w != NULL;
+    g_walk_env.had_tile = t != NULL;
+    snprintf(g_walk_env.walk, sizeof g_walk_env.walk, "%s", w ? w : "");
+    snprintf(g_walk_env.tile, sizeof g_walk_env.tile, "%s", t ? t : "");
+    return 0;
+}
+
+static int walk_env_restore(void **state)
+{
+    (void)state;
+    if (g_walk_env.had_walk)
+        setenv("VIS_OPENCL_WALK", g_walk_env.walk, 1);
+    else
+        unsetenv("VIS_OPENCL_WALK");
+    if (g_walk_env.had_tile)
+        setenv("VIS_OPENCL_TILE", g_walk_env.tile, 1);
+    else
+        unsetenv("VIS_OPENCL_TILE");
+    return 0;
+}
+
 /* $VIS_OPENCL_WALK (docs/opencl.md "Persistent threads and leaf postponing"): every walk gives
  * the CPU's buffers, single views (part-filled edge tiles), batches and device draw lists,
  * with the default and a one-warp work-group; unknown words are refused, and the warp vote
@@ -823,10 +856,6 @@ static void test_walks(void **state)
     vis_backend_info bi;
     vis_context_backend(plain, &bi);
     vis_context_destroy(plain);
-    const char *saved_walk = getenv("VIS_OPENCL_WALK"), *saved_tile = getenv("VIS_OPENCL_TILE");
-    char keep_walk[128], keep_tile[64];
-    snprintf(keep_walk, sizeof keep_walk, "%s", saved_walk ? saved_walk : "");
-    snprintf(keep_tile, sizeof keep_tile, "%s", saved_tile ? saved_tile : "");
     static const struct { const char *walk; vis_status want; } refused[] = {
         {"persistent+bogus", VIS_ERROR_INVALID_ARGUMENT}, {"postpone5", VIS_ERROR_INVALID_ARGUMENT},
         {"vote", VIS_ERROR_UNSUPPORTED}};
@@ -857,8 +886,8 @@ static void test_walks(void **state)
         setenv("VIS_OPENCL_WALK", walks[k].walk, 1);
         if (walks[k].tile)
             setenv("VIS_OPENCL_TILE", walks[k].tile, 1);
-        else if (saved_tile)
-            setenv("VIS_OPENCL_TILE", keep_tile, 1);
+        else if (g_walk_env.had_tile)
+            setenv("VIS_OPENCL_TILE", g_walk_env.tile, 1);
         else
             unsetenv("VIS_OPENCL_TILE");
         vis_status st = VIS_OK;
@@ -893,14 +922,6 @@ static void test_walks(void **state)
         pair_free(&p);
         vis_context_destroy(cl);
     }
-    if (saved_walk)
-        setenv("VIS_OPENCL_WALK", keep_walk, 1);
-    else
-        unsetenv("VIS_OPENCL_WALK");
-    if (saved_tile)
-        setenv("VIS_OPENCL_TILE", keep_tile, 1);
-    else
-        unsetenv("VIS_OPENCL_TILE");
     free_world(&w);
 }
 
@@ -1242,7 +1263,7 @@ int main(void)
         cmocka_unit_test(test_bad_selector_not_found),
         cmocka_unit_test(test_errors_and_timing),
         cmocka_unit_test(test_build_options),
-        cmocka_unit_test(test_walks),
+        cmocka_unit_test_setup_teardown(test_walks, walk_env_save, walk_env_restore),
         cmocka_unit_test(test_no_fp64_refuses_triangles),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),
