@@ -19,6 +19,10 @@
  *    per path view, kernel and end-to-end, against vis_trace + vis_drawlist_build; batches of
  *    views with draw lists as the output (vis_trace_batch_drawlist); single-voxel edits
  *    followed by the next draw-list pass, timed with their upload.
+ * 7. --walks "W;W@8x4;...": the kernels' walks ($VIS_OPENCL_WALK: plain, default, persistent,
+ *    postpone, ...) side by side, each in its own context, checked against the CPU, then timed
+ *    in --rounds alternating rounds (stack method per path view, a batch of the last --batch
+ *    count with draw lists).
  * --conformance 0 skips 1 (for large scenes), --passes 0 skips 2-4; --traversal N (the
  * vis_traversal value) is the method of 6.
  * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
