@@ -812,6 +812,119 @@ static void test_build_options(void **state)
     vis_context_destroy(tuned);
 }
 
+/* test_walks sets $VIS_OPENCL_WALK and $VIS_OPENCL_TILE per context; its setup saves them and
+ * its teardown puts them back even when the test fails half-way, so that the tests after it
+ * run with the environment they were started with. */
+static struct {
+    int had_walk, had_tile;
+    char walk[128], tile[64];
+} g_walk_env;
+
+static int walk_env_save(void **state)
+{
+    (void)state;
+    const char *w = getenv("VIS_OPENCL_WALK"), *t = getenv("VIS_OPENCL_TILE");
+    g_walk_env.had_walk = w != NULL;
+    g_walk_env.had_tile = t != NULL;
+    snprintf(g_walk_env.walk, sizeof g_walk_env.walk, "%s", w ? w : "");
+    snprintf(g_walk_env.tile, sizeof g_walk_env.tile, "%s", t ? t : "");
+    return 0;
+}
+
+static int walk_env_restore(void **state)
+{
+    (void)state;
+    if (g_walk_env.had_walk)
+        setenv("VIS_OPENCL_WALK", g_walk_env.walk, 1);
+    else
+        unsetenv("VIS_OPENCL_WALK");
+    if (g_walk_env.had_tile)
+        setenv("VIS_OPENCL_TILE", g_walk_env.tile, 1);
+    else
+        unsetenv("VIS_OPENCL_TILE");
+    return 0;
+}
+
+/* $VIS_OPENCL_WALK (docs/opencl.md "Persistent threads and leaf postponing"): every walk gives
+ * the CPU's buffers, single views (part-filled edge tiles), batches and device draw lists,
+ * with the default and a one-warp work-group; unknown words are refused, and the warp vote
+ * is refused off NVIDIA (and without postpone anywhere). */
+static void test_walks(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(plain);
+    vis_backend_info bi;
+    vis_context_backend(plain, &bi);
+    vis_context_destroy(plain);
+    static const struct { const char *walk; vis_status want; } refused[] = {
+        {"persistent+bogus", VIS_ERROR_INVALID_ARGUMENT}, {"postpone5", VIS_ERROR_INVALID_ARGUMENT},
+        {"vote", VIS_ERROR_UNSUPPORTED}};
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; ++i) {
+        setenv("VIS_OPENCL_WALK", refused[i].walk, 1);
+        vis_status st = VIS_OK;
+        vis_context *bad = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+        if (bad)
+            vis_context_destroy(bad);
+        if (st != refused[i].want)
+            fail_msg("VIS_OPENCL_WALK=%s: status %d, want %d", refused[i].walk, (int)st, (int)refused[i].want);
+    }
+    static const struct { const char *walk, *tile; } walks[] = {
+        {"persistent", NULL}, {"postpone", NULL}, {"postpone4", "8x4"}, {"persistent,postpone1", "8x4"},
+        {"persistent+postpone+vote", NULL}};
+    uint64_t rng = 4242;
+    tworld w;
+    random_chunk_world(&w, &rng, 3, 2, 3);
+    const double zero[3] = {0, 0, 0};
+    enum { N = 6, W = 37, H = 29 };
+    vis_camera cams[N];
+    for (int i = 0; i < N; ++i)
+        random_view(&cams[i], &rng, w.size, zero);
+    for (size_t k = 0; k < sizeof walks / sizeof walks[0]; ++k) {
+        int nvidia = strstr(bi.device, "NVIDIA") || strstr(bi.device, "H200") || strstr(bi.device, "GeForce");
+        if (strstr(walks[k].walk, "vote") && !nvidia)
+            continue; /* refused off NVIDIA (above) */
+        setenv("VIS_OPENCL_WALK", walks[k].walk, 1);
+        if (walks[k].tile)
+            setenv("VIS_OPENCL_TILE", walks[k].tile, 1);
+        else if (g_walk_env.had_tile)
+            setenv("VIS_OPENCL_TILE", g_walk_env.tile, 1);
+        else
+            unsetenv("VIS_OPENCL_TILE");
+        vis_status st = VIS_OK;
+        vis_context *cl = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
+        if (!cl)
+            fail_msg("VIS_OPENCL_WALK=%s: status %d: %s", walks[k].walk, (int)st, g_log);
+        pair p;
+        pair_make(&p, cl, &w, NULL, 0);
+        char what[160];
+        snprintf(what, sizeof what, "VIS_OPENCL_WALK=%s", walks[k].walk);
+        /* The stack method on every camera; persistent kernels run every method's program: all
+         * methods on one camera. */
+        for (int i = 0; i < N; ++i)
+            compare_view_sel(&p, &cams[i], W, H, i == 0 && strstr(walks[k].walk, "persistent") ? VIS_TRAVERSAL_DDA + 1u : 1u,
+                             TREE_TRAVERSALS, what);
+        size_t px = (size_t)W * H;
+        uint32_t *ref = malloc(N * px * 4), *ids = malloc(N * px * 4);
+        float *ref_d = malloc(N * px * 4), *depth = malloc(N * px * 4);
+        for (uint32_t mode = 0; mode < 2; ++mode) {
+            vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, VIS_TRAVERSAL_STACK);
+            for (int i = 0; i < N; ++i)
+                assert_int_equal(vis_trace(p.cpu, p.cpu_scene, &cams[i], &td, ref + i * px, px, ref_d + i * px, px),
+                                 VIS_OK);
+            if (vis_trace_batch(p.cl, p.cl_scene, cams, N, &td, ids, N * px, depth, N * px) != VIS_OK)
+                fail_msg("%s: batch: %s", what, vis_context_last_error(p.cl));
+            compare_buffers(ref, ref_d, ids, depth, N * px, W, what, mode, 0);
+            check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td, what);
+            /* Twice in a row: the persistent kernels' counter is back at zero after a launch. */
+            check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td, what);
+        }
+        free(ref), free(ids), free(ref_d), free(depth);
+        pair_free(&p);
+        vis_context_destroy(cl);
+    }
+    free_world(&w);
+}
+
 /* A device without double precision (pretended with $VIS_OPENCL_ASSUME_NO_FP64) traces quad
  * scenes as any other, and refuses a scene holding triangles with its reason instead of
  * tracing it differently from the CPU (the triangle test's fallback needs fp64). */
@@ -1150,6 +1263,7 @@ int main(void)
         cmocka_unit_test(test_bad_selector_not_found),
         cmocka_unit_test(test_errors_and_timing),
         cmocka_unit_test(test_build_options),
+        cmocka_unit_test_setup_teardown(test_walks, walk_env_save, walk_env_restore),
         cmocka_unit_test(test_no_fp64_refuses_triangles),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),

@@ -103,6 +103,8 @@ static void cl_destroy(void *impl)
         clReleaseMemObject(b->setups);
     if (b->dummy)
         clReleaseMemObject(b->dummy);
+    if (b->pt_counter)
+        clReleaseMemObject(b->pt_counter);
     cl_mem fx[3] = {b->fx_layers, b->fx_reflection, b->fx_shadow};
     for (int i = 0; i < 3; ++i)
         if (fx[i])
@@ -188,15 +190,40 @@ int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
     return CL_SUCCESS;
 }
 
-/* Launches `k` over width x height x views in 8x8 tiles and reads the outputs back into
- * ids/depth (views * width * height each). Adds the kernel's device time to last_kernel_ms. */
-static int launch(vis_cl_backend *b, cl_kernel k, uint32_t width, uint32_t height, uint32_t views, uint32_t *ids,
-                  float *depth, char *err, size_t err_size)
+cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel k, cl_uint pt_arg, uint32_t width,
+                           uint32_t height, uint32_t views, cl_event *ev)
 {
     size_t global[3], local[3];
     vis_cl_grid(b, width, height, views, global, local);
+    if (!p->persistent)
+        return clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, local, 0, NULL, ev);
+    /* Persistent threads: as many groups as the device could hold at once if registers
+     * allowed (2,048 work-items per compute unit, the most an NVIDIA SM runs since Maxwell),
+     * never more than there are tiles. Groups beyond what fits wait and start as others end,
+     * taking whatever tiles are left, so too many costs nothing and too few would idle SMs. */
+    size_t items = local[0] * local[1];
+    size_t tiles = global[0] / local[0] * (global[1] / local[1]) * views;
+    size_t groups = (size_t)(b->caps.compute_units ? b->caps.compute_units : 1u) * (2048u / items ? 2048u / items : 1u);
+    if (groups > tiles)
+        groups = tiles;
+    size_t pg[3] = {groups * local[0], local[1], 1};
+    cl_uint nv = views;
+    cl_int e = clSetKernelArg(k, pt_arg, sizeof(cl_mem), &b->pt_counter);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, pt_arg + 1u, sizeof nv, &nv);
+    if (e == CL_SUCCESS)
+        e = clEnqueueNDRangeKernel(b->queue, k, 3, NULL, pg, local, 0, NULL, ev);
+    return e;
+}
+
+/* Launches `k` of `p` over width x height x views (vis_cl_enqueue_pass; pt_arg: where a
+ * persistent kernel takes its counter) and reads the outputs back into ids/depth (views *
+ * width * height each). Adds the kernel's device time to last_kernel_ms. */
+static int launch(vis_cl_backend *b, const vis_cl_program *p, cl_kernel k, cl_uint pt_arg, uint32_t width,
+                  uint32_t height, uint32_t views, uint32_t *ids, float *depth, char *err, size_t err_size)
+{
     cl_event ev = NULL;
-    cl_int e = clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, local, 0, NULL, &ev);
+    cl_int e = vis_cl_enqueue_pass(b, p, k, pt_arg, width, height, views, &ev);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clEnqueueNDRangeKernel", err, err_size);
     size_t n = (size_t)width * height * views;
@@ -277,6 +304,75 @@ const char *vis_cl_traversal_options(uint32_t traversal)
     return traversal < sizeof opts / sizeof opts[0] ? opts[traversal] : "";
 }
 
+const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, int batch)
+{
+    if (traversal > VIS_TRAVERSAL_ID_DDA)
+        return "";
+    return batch ? b->batch_options[traversal] : b->method_options[traversal];
+}
+
+/* $VIS_OPENCL_WALK: how the per-ray kernels walk (docs/opencl.md "Persistent threads and leaf
+ * postponing"; Aila & Laine 2009). Words joined by '+' or ',':
+ *   persistent   every method's kernels as persistent threads (trace.cl);
+ *   postpone     the stack method's walk parks 2 non-empty leaves before testing them
+ *                (postpone.cl); postpone1 .. postpone4 park that many;
+ *   vote         with postpone, the node loop ends once every lane of the warp holds a
+ *                leaf (a warp vote in inline PTX: NVIDIA only);
+ *   plain        none of these.
+ * A value applies to single views and batches alike. Unset (the default): on a GPU, launches
+ * of several views (batches, batch draw lists) run as persistent threads and single views
+ * plain, which measured fastest on the H200 for each; on other devices everything is plain.
+ * Fills b->method_options and b->batch_options; returns a vis_status value with the reason.
+ * Results never depend on it (every walk gives the stack method's buffers). */
+static int walk_options(vis_cl_backend *b, const char *walk, char *err, size_t err_size)
+{
+    int persistent = 0, postpone = 0, vote = 0;
+    const char *p = walk ? walk : "";
+    while (*p) {
+        size_t n = strcspn(p, "+,");
+        if (n == 10 && strncmp(p, "persistent", n) == 0)
+            persistent = 1;
+        else if (n == 8 && strncmp(p, "postpone", n) == 0)
+            postpone = 2;
+        else if (n == 9 && strncmp(p, "postpone", 8) == 0 && p[8] >= '1' && p[8] <= '4')
+            postpone = p[8] - '0';
+        else if (n == 4 && strncmp(p, "vote", n) == 0)
+            vote = 1;
+        else if (!(n == 5 && strncmp(p, "plain", n) == 0) && n > 0) {
+            snprintf(err, err_size, "$VIS_OPENCL_WALK \"%s\": unknown word (persistent, postpone, postpone1..4, vote, plain)",
+                     walk);
+            return VIS_ERROR_INVALID_ARGUMENT;
+        }
+        p += n;
+        if (*p)
+            ++p;
+    }
+    if (vote && (!postpone || !strstr(b->caps.platform, "NVIDIA"))) {
+        snprintf(err, err_size, "$VIS_OPENCL_WALK \"%s\": vote needs postpone and an NVIDIA device (inline PTX)", walk);
+        return VIS_ERROR_UNSUPPORTED;
+    }
+    int batch_persistent = walk && *walk ? persistent : b->caps.is_gpu;
+    for (uint32_t t = 0; t <= VIS_TRAVERSAL_ID_DDA; ++t) {
+        char pp[48] = "";
+        if (postpone && t == VIS_TRAVERSAL_ID_STACK)
+            snprintf(pp, sizeof pp, " -DVIS_CL_POSTPONE=%d%s", postpone, vote ? " -DVIS_CL_VOTE" : "");
+        snprintf(b->method_options[t], sizeof b->method_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
+                 persistent ? " -DVIS_CL_PERSISTENT" : "");
+        snprintf(b->batch_options[t], sizeof b->batch_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
+                 batch_persistent ? " -DVIS_CL_PERSISTENT" : "");
+    }
+    if (!persistent && !batch_persistent)
+        return VIS_OK;
+    cl_int e = CL_SUCCESS;
+    b->pt_counter = clCreateBuffer(b->context, CL_MEM_READ_WRITE, 2 * sizeof(cl_uint), NULL, &e);
+    cl_uint zero = 0;
+    if (e == CL_SUCCESS)
+        e = clEnqueueFillBuffer(b->queue, b->pt_counter, &zero, sizeof zero, 0, 2 * sizeof(cl_uint), 0, NULL, NULL);
+    if (e == CL_SUCCESS)
+        e = clFinish(b->queue);
+    return e == CL_SUCCESS ? VIS_OK : vis_cl_fail(e, "the persistent threads' counter", err, err_size);
+}
+
 static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                     uint32_t *ids, float *depth, char *err, size_t err_size)
 {
@@ -285,7 +381,7 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     const vis_cl_scene *sc = scene_data;
     b->last_kernel_ms = 0.0;
     vis_cl_program *p = NULL;
-    int st = vis_cl_program_get(b, vis_cl_traversal_options(setup->traversal), &p, err, err_size);
+    int st = vis_cl_program_get(b, vis_cl_method_options(b, setup->traversal, 0), &p, err, err_size);
     if (st != VIS_OK)
         return st;
     size_t pixels = (size_t)setup->width * setup->height;
@@ -307,10 +403,11 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
         e = clSetKernelArg(p->trace, 13, vis_cl_ring_bytes(b, setup, vis_cl_grid(b, 1, 1, 1, global, local)), NULL);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
-    return launch(b, p->trace, setup->width, setup->height, 1, ids, depth, err, err_size);
+    return launch(b, p, p->trace, 14, setup->width, setup->height, 1, ids, depth, err, err_size);
 }
 
-/* The program of a batch: its cameras' method when they share one, else the generic one. */
+/* The program of a batch: its cameras' method when they share one, else the generic one;
+ * with the batch walk (persistent threads by default on a GPU) when it has several views. */
 int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_t count, vis_cl_program **p,
                          char *err, size_t err_size)
 {
@@ -318,7 +415,7 @@ int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_
     for (uint32_t i = 1; i < count; ++i)
         if (setups[i].traversal != traversal)
             traversal = UINT32_MAX;
-    return vis_cl_program_get(b, vis_cl_traversal_options(traversal), p, err, err_size);
+    return vis_cl_program_get(b, vis_cl_method_options(b, traversal, count > 1u), p, err, err_size);
 }
 
 static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setups,
@@ -372,7 +469,7 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
                                  NULL, NULL);
         if (e != CL_SUCCESS)
             return vis_cl_fail(e, "clEnqueueWriteBuffer (cameras)", err, err_size);
-        st = launch(b, p->batch, W, H, n, ids + (size_t)first * pixels, depth ? depth + (size_t)first * pixels : NULL,
+        st = launch(b, p, p->batch, 14, W, H, n, ids + (size_t)first * pixels, depth ? depth + (size_t)first * pixels : NULL,
                     err, err_size);
         if (st != VIS_OK)
             return st;
@@ -447,7 +544,7 @@ static vis_status cl_trace_effects(void *impl, void *scene_data, const vis_scene
         e = clSetKernelArg(k, 16, sizeof write_depth, &write_depth);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
-    if ((st = launch(b, k, setup->width, setup->height, 1, out->ids, out->depth, err, err_size)) != VIS_OK)
+    if ((st = launch(b, p, k, 17, setup->width, setup->height, 1, out->ids, out->depth, err, err_size)) != VIS_OK)
         return st;
     /* launch has finished the queue: the effect buffers are complete. */
     if (out->see_through)
@@ -549,8 +646,12 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         }
         snprintf(b->extra_options, sizeof b->extra_options, "%s", extra);
     }
+    if ((st = walk_options(b, getenv("VIS_OPENCL_WALK"), err, err_size)) != VIS_OK) {
+        cl_destroy(b);
+        return st;
+    }
     vis_cl_program *p = NULL; /* the default method's program: a device that cannot build fails here */
-    st = vis_cl_program_get(b, vis_cl_traversal_options(0u), &p, err, err_size);
+    st = vis_cl_program_get(b, vis_cl_method_options(b, 0u, 0), &p, err, err_size);
     if (st == VIS_OK) { /* staged scene uploads (cl_scene.c) */
         cl_int e = CL_SUCCESS;
         b->stage_scatter = clCreateKernel(p->program, "vis_scatter_words", &e);
@@ -561,10 +662,12 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         cl_destroy(b);
         return st;
     }
-    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu%s%s",
+    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu%s%s; "
+               "stack program \"%s\", batches \"%s\"",
                b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
                b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1],
-               b->extra_options[0] ? "; extra build options " : "", b->extra_options);
+               b->extra_options[0] ? "; extra build options " : "", b->extra_options, b->method_options[0],
+               b->batch_options[0]);
     if (!b->caps.fp64)
         vis_cl_log(b, 2, "opencl: '%s' has no cl_khr_fp64: scenes holding triangles are refused on it", b->caps.name);
     snprintf(device_name, name_size, "%s", b->caps.name);

@@ -245,7 +245,6 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     size_t done = 0;
     for (uint32_t first = 0; first < count; first += per) {
         uint32_t n = count - first < per ? count - first : per;
-        vis_cl_grid(b, W, H, n, global, local);
         cl_uint zero = 0, off = n; /* the launch's n heads come first, then its counts */
         e = clEnqueueWriteBuffer(b->queue, b->setups, CL_FALSE, 0, (size_t)n * sizeof *setups, setups + first, 0, NULL,
                                  NULL);
@@ -258,7 +257,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
             e = clSetKernelArg(p->compact, 5, sizeof off, &off);
         cl_event ev[2] = {NULL, NULL};
         if (e == CL_SUCCESS)
-            e = clEnqueueNDRangeKernel(b->queue, p->drawlist, 3, NULL, global, local, 0, NULL, &ev[0]);
+            e = vis_cl_enqueue_pass(b, p, p->drawlist, 19, W, H, n, &ev[0]);
         size_t cg[2] = {(slots + 63) / 64 * 64, n};
         if (e == CL_SUCCESS)
             e = clEnqueueNDRangeKernel(b->queue, p->compact, 2, NULL, cg, NULL, 0, NULL, &ev[1]);

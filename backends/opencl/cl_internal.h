@@ -138,6 +138,8 @@ typedef struct vis_cl_program {
     cl_kernel drawlist;    /* vis_trace_drawlist_kernel: the batch kernel counting pixels per key */
     cl_kernel compact;     /* vis_drawlist_compact: counts to per-view lists            */
     cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
+    int persistent;        /* built with -DVIS_CL_PERSISTENT: trace, batch and drawlist take the tile
+                              counter and the view count as their two last arguments */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -150,6 +152,7 @@ typedef struct vis_cl_device_caps {
     int fp64;                 /* CL_DEVICE_DOUBLE_FP_CONFIG != 0 (cl_khr_fp64) */
     int denorms;              /* CL_FP_DENORM in the single-precision config */
     size_t max_wg;            /* CL_DEVICE_MAX_WORK_GROUP_SIZE */
+    cl_uint compute_units;    /* CL_DEVICE_MAX_COMPUTE_UNITS (SMs on NVIDIA) */
     size_t max_item[3];       /* CL_DEVICE_MAX_WORK_ITEM_SIZES */
     cl_ulong max_alloc;       /* CL_DEVICE_MAX_MEM_ALLOC_SIZE */
     cl_ulong global_mem;
@@ -201,6 +204,14 @@ typedef struct vis_cl_backend {
     int stage_unavailable;    /* staging memory could not be made: writes per range instead */
 
     double last_kernel_ms;    /* from event profiling, summed over a batch's launches */
+
+    /* How the per-ray kernels walk ($VIS_OPENCL_WALK, docs/opencl.md "Persistent threads and
+     * leaf postponing"): the options of each method's program for one view and for batches
+     * (vis_cl_method_options), and the persistent kernels' tile counter (two words, zero
+     * between launches). */
+    char method_options[VIS_TRAVERSAL_ID_DDA + 1u][128];
+    char batch_options[VIS_TRAVERSAL_ID_DDA + 1u][128];
+    cl_mem pt_counter;
 } vis_cl_backend;
 
 /* A device array of one scene: capacity in elements, `valid` = elements in sync. */
@@ -261,6 +272,14 @@ void vis_cl_drawlist_release(vis_cl_backend *b);
 
 /* The program for one traversal method (-DVIS_TRAVERSAL_ONLY), "" when they differ. */
 const char *vis_cl_traversal_options(uint32_t traversal);
+/* The same with this backend's walk options added where they apply: for one view, or for a
+ * launch of several (`batch`; persistent threads by default on a GPU). */
+const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, int batch);
+/* Enqueues kernel k of program p over width x height x views (vis_cl_grid's tiles; a
+ * persistent program gets about as many groups as the device runs at once and its counter and
+ * view count as arguments pt_arg and pt_arg + 1). ev: the launch's event. */
+cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel k, cl_uint pt_arg, uint32_t width,
+                           uint32_t height, uint32_t views, cl_event *ev);
 /* Grows a device buffer to `need` elements of `elem` bytes (never per frame once large). */
 int vis_cl_ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t need, size_t elem, cl_mem_flags flags,
                          const char *what, char *err, size_t err_size);

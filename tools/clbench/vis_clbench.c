@@ -19,6 +19,10 @@
  *    per path view, kernel and end-to-end, against vis_trace + vis_drawlist_build; batches of
  *    views with draw lists as the output (vis_trace_batch_drawlist); single-voxel edits
  *    followed by the next draw-list pass, timed with their upload.
+ * 7. --walks "W;W@8x4;...": the kernels' walks ($VIS_OPENCL_WALK: plain, default, persistent,
+ *    postpone, ...) side by side, each in its own context, checked against the CPU, then timed
+ *    in --rounds alternating rounds (stack method per path view, a batch of the last --batch
+ *    count with draw lists).
  * --conformance 0 skips 1 (for large scenes), --passes 0 skips 2-4; --traversal N (the
  * vis_traversal value) is the method of 6.
  * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
@@ -170,12 +174,18 @@ static void nv_verbose(void)
         const char *srcs[2] = {pre, vis_kernels_source};
         size_t lens[2] = {strlen(pre), vis_kernels_source_size};
         const char *extra = getenv("VIS_OPENCL_BUILD_OPTIONS");
-        /* The library's per-method programs (cl_backend.c, vis_cl_traversal_options). */
-        static const int only[] = {0, 2, 3, 4, 5, 6, 8, 9};
+        /* The library's per-method programs (cl_backend.c, vis_cl_traversal_options), then the
+         * stack method's with the walks of $VIS_OPENCL_WALK (cl_backend.c, walk_options). */
+        static const int only[] = {0, 2, 3, 4, 5, 6, 8, 9, 0, 0, 0, 0, 0};
+        static const char *const walk[] = {"", "", "", "", "", "", "", "", "-DVIS_CL_PERSISTENT",
+                                           "-DVIS_CL_POSTPONE=1", "-DVIS_CL_POSTPONE=2",
+                                           "-DVIS_CL_POSTPONE=2 -DVIS_CL_VOTE",
+                                           "-DVIS_CL_POSTPONE=2 -DVIS_CL_PERSISTENT"};
         for (size_t m = 0; m < sizeof only / sizeof only[0]; ++m) {
             char opts[512];
-            snprintf(opts, sizeof opts, "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose -DVIS_TRAVERSAL_ONLY=%du %s",
-                     only[m], extra ? extra : "");
+            snprintf(opts, sizeof opts,
+                     "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose -DVIS_TRAVERSAL_ONLY=%du %s %s", only[m],
+                     walk[m], extra ? extra : "");
             cl_program prog = clCreateProgramWithSource(ctx, 2, srcs, lens, &e);
             e = clBuildProgram(prog, 1, &dev, opts, NULL, NULL);
             size_t n = 0;
@@ -414,10 +424,208 @@ static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *de
     free(e1), free(e2), free(km), free(tm), free(om);
 }
 
+/* 7. --walks "A;B;...": how the kernels walk ($VIS_OPENCL_WALK, docs/opencl.md "Persistent
+ * threads and leaf postponing"), side by side in one process. Each entry is a value of the
+ * variable ("plain" for none), optionally with a work-group shape ("persistent@8x4" sets
+ * $VIS_OPENCL_TILE too; "default" leaves the variable unset); both are read when a context
+ * is created, so each walk gets its own
+ * context and its own copy of the scene. First each walk's IDs and depths (object and leaf
+ * IDs, the stack method) are compared with the CPU's on every path view and `ncams` random
+ * cameras; then, --rounds times, every walk in turn times the stack method's kernel on the
+ * default view and the path views (median of reps) and a batch of `batch` path views with
+ * draw lists as the output (kernel and end to end, median of 5), its lists compared with the
+ * first walk's. Rounds alternate the walks so that drift of the machine hits them alike. */
+#define MAX_WALKS 8
+
+static void print_log(vis_log_level level, const char *message, void *user)
+{
+    (void)user;
+    if (level >= VIS_LOG_WARNING || strstr(message, "stack program"))
+        printf("  [log] %s\n", message);
+}
+#define MAX_ROUNDS 8
+
+static void walks_section(vis_context *cpu, vis_scene *A, vw_world *wa, vw_world *wb, const vis_camera *def,
+                          const vc_view *views, size_t nv, int reps, int rounds, uint32_t batch, int ncams,
+                          const char *device, const char *list, bufs *b)
+{
+    char names[MAX_WALKS][96];
+    size_t nw = 0;
+    for (const char *p = list; *p && nw < MAX_WALKS;) {
+        size_t n = strcspn(p, ";");
+        snprintf(names[nw++], sizeof names[0], "%.*s", (int)(n < 95 ? n : 95), p);
+        p += n;
+        if (*p)
+            ++p;
+    }
+    if (rounds > MAX_ROUNDS)
+        rounds = MAX_ROUNDS;
+    vis_context *ctx[MAX_WALKS];
+    world_scene *ws[MAX_WALKS];
+    const char *old_tile = getenv("VIS_OPENCL_TILE");
+    char old_tile_copy[64] = "";
+    if (old_tile)
+        snprintf(old_tile_copy, sizeof old_tile_copy, "%s", old_tile);
+    for (size_t w = 0; w < nw; ++w) {
+        char walk[96];
+        memcpy(walk, names[w], sizeof walk);
+        char *at = strchr(walk, '@');
+        if (at)
+            *at++ = '\0';
+        if (strcmp(walk, "default") == 0) /* the library's default: the variable unset */
+            unsetenv("VIS_OPENCL_WALK");
+        else
+            setenv("VIS_OPENCL_WALK", walk, 1);
+        if (at)
+            setenv("VIS_OPENCL_TILE", at, 1);
+        else if (old_tile)
+            setenv("VIS_OPENCL_TILE", old_tile_copy, 1);
+        else
+            unsetenv("VIS_OPENCL_TILE");
+        vis_context_desc d;
+        vis_context_desc_defaults(&d);
+        d.backend = VIS_BACKEND_OPENCL;
+        d.opencl_device = device;
+        vw_error werr;
+        d.log = print_log;
+        if (vis_context_create(&d, &ctx[w]) != VIS_OK) { /* e.g. the vote off NVIDIA: the others still run */
+            printf("walk %s: no context (the log line above says why); left out\n", names[w]);
+            memmove(names[w], names[w + 1], (nw - w - 1) * sizeof names[0]);
+            --nw;
+            --w;
+            continue;
+        }
+        if (world_scene_create(ctx[w], wb, NULL, &ws[w], NULL, &werr)) {
+            printf("walk %s: world_scene: %s\n", names[w], werr.message);
+            exit(2);
+        }
+    }
+    if (nw == 0)
+        return;
+    unsetenv("VIS_OPENCL_WALK");
+
+    /* Conformance of each walk against the CPU: the stack method, object and leaf IDs. */
+    uint64_t rng = 77;
+    size_t big = (size_t)512 * 512;
+    printf("\nwalks ($VIS_OPENCL_WALK), conformance against the CPU (stack method, %zu path views + %d random "
+           "cameras, object and leaf IDs, IDs and depths):\n", nv + 1, ncams);
+    for (size_t w = 0; w < nw; ++w) {
+        uint64_t bad = 0, pairs = 0;
+        rng = 77;
+        vis_scene *B = world_scene_scene(ws[w]);
+        for (int i = -1 - (int)nv; i < ncams; ++i) {
+            vis_camera c;
+            if (i < 0) {
+                size_t v = (size_t)(-1 - i);
+                c = v == 0 ? *def : views[v - 1].camera;
+            } else {
+                random_camera(wa, &rng, &c);
+            }
+            for (uint32_t mode = 0; mode < 2; ++mode) {
+                vis_trace_desc td;
+                vis_trace_desc_defaults(&td);
+                td.width = td.height = 512;
+                td.ids = (vis_id_mode)mode;
+                td.traversal = VIS_TRAVERSAL_STACK;
+                if (vis_trace(cpu, A, &c, &td, b->ia, b->n, b->da, b->n) != VIS_OK)
+                    die("cpu trace", cpu);
+                if (vis_trace(ctx[w], B, &c, &td, b->ib, b->n, b->db, b->n) != VIS_OK)
+                    die("opencl trace", ctx[w]);
+                ++pairs;
+                if (memcmp(b->ia, b->ib, big * 4) != 0 || memcmp(b->da, b->db, big * 4) != 0)
+                    ++bad;
+            }
+        }
+        printf("  %-36s %llu buffer pairs, %llu differ\n", names[w], (unsigned long long)pairs,
+               (unsigned long long)bad);
+        g_failures += bad;
+    }
+
+    /* Timing, rounds alternating the walks. */
+    double per[MAX_WALKS][MAX_ROUNDS][VC_MAX_VIEWS + 1], bk[MAX_WALKS][MAX_ROUNDS], bt[MAX_WALKS][MAX_ROUNDS];
+    double *km = malloc((size_t)reps * sizeof *km);
+    vis_camera *cams = malloc(batch * sizeof *cams);
+    size_t cap = vis_drawlist_bound(world_scene_scene(ws[0])) + 16;
+    vis_draw_entry *lists[MAX_WALKS];
+    size_t *counts = malloc(batch * sizeof *counts), totals[MAX_WALKS];
+    if (!km || !cams || !counts)
+        die("out of memory for the walks", NULL);
+    for (size_t w = 0; w < nw; ++w)
+        if (!(lists[w] = malloc(cap * batch * sizeof *lists[w])))
+            die("out of memory for the walks' lists", NULL);
+    for (uint32_t i = 0; i < batch; ++i)
+        cams[i] = views[i % nv].camera;
+    for (int r = 0; r < rounds; ++r)
+        for (size_t w = 0; w < nw; ++w) {
+            vis_scene *B = world_scene_scene(ws[w]);
+            vis_trace_desc td;
+            vis_trace_desc_defaults(&td);
+            td.width = td.height = 512;
+            td.traversal = VIS_TRAVERSAL_STACK;
+            for (size_t v = 0; v <= nv; ++v) {
+                const vis_camera *cam = v == 0 ? def : &views[v - 1].camera;
+                vis_timing tg;
+                for (int k = 0; k < 3; ++k)
+                    vis_trace(ctx[w], B, cam, &td, b->ib, b->n, NULL, 0);
+                for (int k = 0; k < reps; ++k) {
+                    if (vis_trace(ctx[w], B, cam, &td, b->ib, b->n, NULL, 0) != VIS_OK)
+                        die("trace", ctx[w]);
+                    vis_context_last_timing(ctx[w], &tg);
+                    km[k] = tg.kernel_ms;
+                }
+                per[w][r][v] = median(km, reps);
+            }
+            double k5[5], t5[5];
+            for (int k = 0; k < 6; ++k) {
+                vis_timing tg;
+                if (vis_trace_batch_drawlist(ctx[w], B, cams, batch, &td, lists[w], cap * batch, counts, batch,
+                                             &totals[w]) != VIS_OK)
+                    die("batch drawlist", ctx[w]);
+                vis_context_last_timing(ctx[w], &tg);
+                if (k) {
+                    k5[k - 1] = tg.kernel_ms;
+                    t5[k - 1] = tg.total_ms;
+                }
+            }
+            bk[w][r] = median(k5, 5);
+            bt[w][r] = median(t5, 5);
+            if (totals[w] != totals[0] || memcmp(lists[w], lists[0], totals[0] * sizeof *lists[0]) != 0) {
+                printf("MISMATCH walk %s: batch draw lists differ from walk %s\n", names[w], names[0]);
+                ++g_failures;
+            }
+        }
+    printf("\nwalks, 512x512, stack method: kernel ms per view (median of %d), per round; batch of %u path views "
+           "with draw lists (median of 5)\n", reps, batch);
+    printf("%-30s %2s", "walk", "r");
+    for (size_t v = 0; v <= nv; ++v)
+        printf(" %8.8s", v == 0 ? "default" : views[v - 1].name);
+    printf(" %8s %9s %9s %9s\n", "max ms", "med Mray", "batch kGr", "batch eGr");
+    double rays = (double)batch * 512.0 * 512.0;
+    for (size_t w = 0; w < nw; ++w)
+        for (int r = 0; r < rounds; ++r) {
+            double mr[VC_MAX_VIEWS + 1], worst = 0.0;
+            printf("%-30.30s %2d", names[w], r + 1);
+            for (size_t v = 0; v <= nv; ++v) {
+                printf(" %8.4f", per[w][r][v]);
+                worst = per[w][r][v] > worst ? per[w][r][v] : worst;
+                mr[v] = 512.0 * 512.0 / (per[w][r][v] * 1e3);
+            }
+            printf(" %8.4f %9.1f %9.3f %9.3f\n", worst, median(mr, (int)nv + 1), rays / (bk[w][r] * 1e6),
+                   rays / (bt[w][r] * 1e6));
+        }
+    for (size_t w = 0; w < nw; ++w) {
+        free(lists[w]);
+        world_scene_destroy(ws[w]);
+        vis_context_destroy(ctx[w]);
+    }
+    free(km), free(cams), free(counts);
+}
+
 int main(int argc, char **argv)
 {
     const char *spec = "gen:default", *device = NULL, *batches = "16,64,256";
-    int ncams = 100, reps = 200, conformance = 1, methods = 0, drawlist = 0, passes = 1;
+    int ncams = 100, reps = 200, conformance = 1, methods = 0, drawlist = 0, passes = 1, rounds = 3;
+    const char *walks = NULL;
     vis_traversal trav = VIS_TRAVERSAL_AUTO;
     for (int i = 1; i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--scene"))
@@ -440,6 +648,10 @@ int main(int argc, char **argv)
             methods = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--drawlist"))
             drawlist = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--walks"))
+            walks = argv[i + 1];
+        else if (!strcmp(argv[i], "--rounds") && atoi(argv[i + 1]) >= 1)
+            rounds = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--traversal"))
             trav = (vis_traversal)atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--nv-verbose") && !strcmp(argv[i + 1], "1")) {
@@ -448,7 +660,8 @@ int main(int argc, char **argv)
         }
         else {
             fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..] "
-                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--drawlist 0|1] [--traversal ENUM] [--nv-verbose 1]\n");
+                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--drawlist 0|1] [--traversal ENUM] [--nv-verbose 1] "
+                            "[--walks \"W[@WxH];...\" [--rounds N]]\n");
             return 2;
         }
     }
@@ -555,6 +768,14 @@ int main(int argc, char **argv)
     double *km = malloc((size_t)reps * sizeof *km), *tm = malloc((size_t)reps * sizeof *tm);
     vis_camera def;
     vc_camera_default(wa, &def);
+    if (walks) {
+        const char *p = batches, *last = batches;
+        while (*p) { /* the last --batch count */
+            last = p;
+            next_batch(&p);
+        }
+        walks_section(cpu, A, wa, wb, &def, views, nv, reps, rounds, next_batch(&last), ncams, device, walks, &b);
+    }
     if (methods)
         methods_table(cl, B, &def, views, nv, reps, &b);
     if (drawlist)

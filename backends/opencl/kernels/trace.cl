@@ -47,6 +47,12 @@ VIS_INLINE int vis_cl_pixel(const vis_ray_setup *s, uint x, uint y, VIS_SCENE_PA
     __local uint *flags = (__local uint *)ring;
     __local vis_tile_entry *stack = (__local vis_tile_entry *)(ring + 2); /* past 16 bytes of flags */
     return vis_trace_tile_slot(s, x, y, VIS_SCENE_ARGS, flags, stack, id, t, slot);
+#elif defined(VIS_CL_POSTPONE)
+    (void)ring;
+    if (x >= s->width || y >= s->height)
+        return 0;
+    vis_cl_pixel_postpone(s, x, y, VIS_SCENE_ARGS, id, t, slot); /* postpone.cl */
+    return 1;
 #else
     if (x >= s->width || y >= s->height)
         return 0;
@@ -55,40 +61,104 @@ VIS_INLINE int vis_cl_pixel(const vis_ray_setup *s, uint x, uint y, VIS_SCENE_PA
 #endif
 }
 
+/* ---- persistent threads (-DVIS_CL_PERSISTENT) ------------------------------------------
+ *
+ * Aila & Laine 2009, section 3: instead of one work-group per tile, launched in waves by the
+ * hardware, the host launches about as many groups as the device holds at once, and each
+ * group takes the next tile from a global counter until none is left, so that no SM idles
+ * while the last, slowest tiles of a pass run elsewhere. A tile is a group's shape of pixels
+ * (8x8 by default); tiles are numbered row by row, view after view, as the plain grid's. The
+ * counter (two words: tiles handed out, groups finished) is zero before a launch; the last
+ * group to finish zeroes it again, so the host never has to (docs/opencl.md). The kernels
+ * take the counter and the number of views as their two last arguments. */
+#if defined(VIS_CL_PERSISTENT)
+#  define VIS_CL_PT_PARAMS , __global volatile uint *pt_counter, const uint pt_views
+
+/* The group's next tile: its pixel (x, y) and view v for this work-item; 0 when every tile
+ * is taken (every item of the group gets the same answer). next: a __local word. */
+VIS_INLINE int vis_cl_next_tile(__global volatile uint *counter, __local volatile uint *next, uint width, uint height,
+                                uint views, uint *x, uint *y, uint *v)
+{
+    uint lw = (uint)get_local_size(0), lh = (uint)get_local_size(1);
+    uint tiles_x = (width + lw - 1u) / lw, tiles_y = (height + lh - 1u) / lh;
+    uint first = get_local_id(0) == 0 && get_local_id(1) == 0;
+    if (first)
+        *next = atomic_inc(&counter[0]);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    uint tile = *next;
+    barrier(CLK_LOCAL_MEM_FENCE); /* every item has read it before item 0 writes the next */
+    if (tile < tiles_x * tiles_y * views) {
+        *v = tile / (tiles_x * tiles_y);
+        tile -= *v * tiles_x * tiles_y;
+        *x = tile % tiles_x * lw + (uint)get_local_id(0);
+        *y = tile / tiles_x * lh + (uint)get_local_id(1);
+        return 1;
+    }
+    /* The last group out zeroes the counter for the next launch (the queue is in order, and
+     * a kernel sees the writes of the one before it). */
+    uint groups = (uint)(get_num_groups(0) * get_num_groups(1) * get_num_groups(2));
+    if (first && atomic_inc(&counter[1]) == groups - 1u) {
+        counter[0] = 0u;
+        counter[1] = 0u;
+    }
+    return 0;
+}
+#else
+#  define VIS_CL_PT_PARAMS
+#endif
+
+/* One pixel's outputs: IDs (and depths when write_depth) at pixel i of the buffers. */
+VIS_INLINE void vis_cl_trace_item(const vis_ray_setup *s, uint x, uint y, size_t view_base, VIS_SCENE_PARAMS,
+                                  __global uint *restrict ids, __global float *restrict depth, uint write_depth,
+                                  __local vis_stack_entry *ring)
+{
+    uint id, slot;
+    float t;
+    if (!vis_cl_pixel(s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot))
+        return;
+    size_t i = view_base + (size_t)y * s->width + x;
+    ids[i] = id;
+    if (write_depth)
+        depth[i] = t;
+}
+
 /* One view. The setup comes by value (the host's struct, byte for byte). write_depth = 0
  * when the caller asked for no depth buffer. */
 __kernel void vis_trace_kernel(const vis_ray_setup setup, VIS_CL_SCENE_PARAMS, __global uint *restrict ids,
                                __global float *restrict depth, const uint write_depth,
-                               __local vis_stack_entry *ring)
+                               __local vis_stack_entry *ring VIS_CL_PT_PARAMS)
 {
-    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1);
     vis_ray_setup s = setup;
-    uint id, slot;
-    float t;
-    if (!vis_cl_pixel(&s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot))
-        return;
-    size_t i = (size_t)y * s.width + x;
-    ids[i] = id;
-    if (write_depth)
-        depth[i] = t;
+#if defined(VIS_CL_PERSISTENT)
+    __local volatile uint next;
+    uint x, y, v;
+    while (vis_cl_next_tile(pt_counter, &next, s.width, s.height, 1u, &x, &y, &v))
+        vis_cl_trace_item(&s, x, y, 0, VIS_SCENE_ARGS, ids, depth, write_depth, ring);
+#else
+    vis_cl_trace_item(&s, (uint)get_global_id(0), (uint)get_global_id(1), 0, VIS_SCENE_ARGS, ids, depth, write_depth,
+                      ring);
+#endif
 }
 
 /* Many views of one size: the third grid dimension is the view; view v writes at
  * v * width * height. setups[v] is view v's setup. */
 __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setups, VIS_CL_SCENE_PARAMS,
                                      __global uint *restrict ids, __global float *restrict depth,
-                                     const uint write_depth, __local vis_stack_entry *ring)
+                                     const uint write_depth, __local vis_stack_entry *ring VIS_CL_PT_PARAMS)
 {
-    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
+#if defined(VIS_CL_PERSISTENT)
+    __local volatile uint next;
+    uint x, y, v;
+    while (vis_cl_next_tile(pt_counter, &next, setups[0].width, setups[0].height, pt_views, &x, &y, &v)) {
+        vis_ray_setup s = setups[v];
+        vis_cl_trace_item(&s, x, y, (size_t)v * s.height * s.width, VIS_SCENE_ARGS, ids, depth, write_depth, ring);
+    }
+#else
+    uint v = (uint)get_global_id(2);
     vis_ray_setup s = setups[v];
-    uint id, slot;
-    float t;
-    if (!vis_cl_pixel(&s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot))
-        return;
-    size_t i = ((size_t)v * s.height + y) * s.width + x;
-    ids[i] = id;
-    if (write_depth)
-        depth[i] = t;
+    vis_cl_trace_item(&s, (uint)get_global_id(0), (uint)get_global_id(1), (size_t)v * s.height * s.width,
+                      VIS_SCENE_ARGS, ids, depth, write_depth, ring);
+#endif
 }
 
 /* ---- the draw list on the device ------------------------------------------------------
@@ -107,35 +177,58 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
  * order the atomics give does not show. counts and heads are zeroed by the host before. */
 #define VIS_CL_NO_KEY 0xFFFFFFFFu
 
-__kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict setups, VIS_CL_SCENE_PARAMS,
-                                        __global uint *restrict ids, __global float *restrict depth,
-                                        const uint write_ids, const uint write_depth, __global uint *counts,
-                                        const uint counts_offset, const uint stride, __local vis_stack_entry *ring,
-                                        __local uint *keys)
+/* One pixel of the draw-list kernel; every item of the group calls it (it has a barrier). */
+VIS_INLINE void vis_cl_drawlist_item(const vis_ray_setup *s, uint x, uint y, uint v, VIS_SCENE_PARAMS,
+                                     __global uint *restrict ids, __global float *restrict depth, uint write_ids,
+                                     uint write_depth, __global uint *counts, uint counts_offset, uint stride,
+                                     __local vis_stack_entry *ring, __local uint *keys)
 {
-    uint x = (uint)get_global_id(0), y = (uint)get_global_id(1), v = (uint)get_global_id(2);
-    vis_ray_setup s = setups[v];
     uint key = VIS_CL_NO_KEY;
     uint id, slot;
     float t;
-    if (vis_cl_pixel(&s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot)) { /* no early return: every item reaches the barrier */
-        size_t i = ((size_t)v * s.height + y) * s.width + x;
+    if (vis_cl_pixel(s, x, y, VIS_SCENE_ARGS, ring, &id, &t, &slot)) { /* no early return: every item reaches the barrier */
+        size_t i = ((size_t)v * s->height + y) * s->width + x;
         if (write_ids)
             ids[i] = id;
         if (write_depth)
             depth[i] = t;
-        key = s.id_mode == 1u ? (id ? id - 1u : VIS_CL_NO_KEY) : slot;
+        key = s->id_mode == 1u ? (id ? id - 1u : VIS_CL_NO_KEY) : slot;
     }
     uint lx = (uint)get_local_id(0), lw = (uint)get_local_size(0);
     uint li = (uint)get_local_id(1) * lw + lx;
     keys[li] = key;
     barrier(CLK_LOCAL_MEM_FENCE);
-    if (key == VIS_CL_NO_KEY || (lx > 0u && keys[li - 1u] == key))
-        return; /* nothing hit, or not the first of its run */
-    uint n = 1u;
-    while (lx + n < lw && keys[li + n] == key)
-        ++n;
-    atomic_add(&counts[counts_offset + (size_t)v * stride + key], n);
+    if (key != VIS_CL_NO_KEY && !(lx > 0u && keys[li - 1u] == key)) { /* the first of its run */
+        uint n = 1u;
+        while (lx + n < lw && keys[li + n] == key)
+            ++n;
+        atomic_add(&counts[counts_offset + (size_t)v * stride + key], n);
+    }
+#if defined(VIS_CL_PERSISTENT)
+    barrier(CLK_LOCAL_MEM_FENCE); /* keys are rewritten by the group's next tile */
+#endif
+}
+
+__kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict setups, VIS_CL_SCENE_PARAMS,
+                                        __global uint *restrict ids, __global float *restrict depth,
+                                        const uint write_ids, const uint write_depth, __global uint *counts,
+                                        const uint counts_offset, const uint stride, __local vis_stack_entry *ring,
+                                        __local uint *keys VIS_CL_PT_PARAMS)
+{
+#if defined(VIS_CL_PERSISTENT)
+    __local volatile uint next;
+    uint x, y, v;
+    while (vis_cl_next_tile(pt_counter, &next, setups[0].width, setups[0].height, pt_views, &x, &y, &v)) {
+        vis_ray_setup s = setups[v];
+        vis_cl_drawlist_item(&s, x, y, v, VIS_SCENE_ARGS, ids, depth, write_ids, write_depth, counts, counts_offset,
+                             stride, ring, keys);
+    }
+#else
+    uint v = (uint)get_global_id(2);
+    vis_ray_setup s = setups[v];
+    vis_cl_drawlist_item(&s, (uint)get_global_id(0), (uint)get_global_id(1), v, VIS_SCENE_ARGS, ids, depth, write_ids,
+                         write_depth, counts, counts_offset, stride, ring, keys);
+#endif
 }
 
 __kernel void vis_drawlist_compact(const __global vis_flat_object *restrict objects,
