@@ -664,7 +664,8 @@ static void expect_same_scene(const vis_scene *a, const vis_scene *b)
     assert_int_equal(a->quad_cap, b->quad_cap);
     for (uint32_t i = 0; i < a->leaf_count; ++i) { /* the words each leaf uses (slack is not written) */
         const vis_flat_leaf *lf = &a->leaves[i];
-        size_t words = (size_t)(lf->loose_offset - lf->table_offset) + (size_t)lf->loose_count * VIS_LOOSE_WORDS;
+        size_t words = (size_t)(lf->quad_offset + lf->quad_count - lf->table_offset) +
+                       (size_t)lf->loose_count * VIS_LOOSE_WORDS;
         if (words)
             assert_memory_equal(&a->quads[lf->table_offset], &b->quads[lf->table_offset], words * sizeof *a->quads);
     }

@@ -785,6 +785,90 @@ static void test_aimed_at_lone_quad_edges(void **state)
     vis_context_destroy(ctx);
 }
 
+/* The per-ray leaf walk clips the ray to its leaf's content box, the box of the leaf's packed
+ * quads (trace_core.h, vis_leaf_intersect; scene.c, content_box), and looks for quads only
+ * there. Rays aimed at the points where the quads that bound an object's box touch its faces
+ * -- those quads' outer edges and corners, through them or from random eyes, a third of the
+ * components 0 so that some rays lie in the box's face -- take those quads only if the box is
+ * exact: a box one voxel short on any side drops such rays (before the walk, or from the planes
+ * it steps). Leaves of one chunk, of half a chunk's extent (objects over several leaves, quads
+ * reaching past their leaf) and of two chunks' (planes past offset 31, the saturated field). */
+static void box_edge_ray(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap)
+{
+    (void)lattice;
+    const tobj *o;
+    do
+        o = &w->objs[vt_rand(rng) % w->n];
+    while (o->nq == 0u);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t k = 0; k < o->nq; ++k) {
+        const vis_quad *q = &o->quads[k];
+        uint32_t a = q->axis, u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+        lo[a] = fminf(lo[a], q->plane), hi[a] = fmaxf(hi[a], q->plane);
+        lo[u] = fminf(lo[u], q->u0), hi[u] = fmaxf(hi[u], q->u1);
+        lo[v] = fminf(lo[v], q->v0), hi[v] = fmaxf(hi[v], q->v1);
+    }
+    /* a face of the box (axis b, side) and a quad that reaches it */
+    uint32_t b = (uint32_t)(vt_rand(rng) % 3u), side = (uint32_t)(vt_rand(rng) % 2u);
+    float face = side ? hi[b] : lo[b];
+    const vis_quad *q = NULL;
+    uint32_t start = (uint32_t)(vt_rand(rng) % o->nq);
+    for (uint32_t k = 0; k < o->nq && !q; ++k) {
+        const vis_quad *c = &o->quads[(start + k) % o->nq];
+        uint32_t a = c->axis, u = (a + 1u) % 3u;
+        float qlo = b == a ? c->plane : b == u ? c->u0 : c->v0;
+        float qhi = b == a ? c->plane : b == u ? c->u1 : c->v1;
+        if ((side ? qhi : qlo) == face)
+            q = c;
+    }
+    assert_non_null(q); /* the box's bound is some quad's */
+    /* a point of q on that face: a corner or a quarter point of an edge lying in it */
+    uint32_t a = q->axis, u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+    double p[3];
+    p[a] = q->plane;
+    double f = (double)(vt_rand(rng) % 5u) / 4.0;
+    int on_u = vt_rand(rng) % 2u; /* which coordinate runs along the edge, unless b fixes it */
+    if (b == u)
+        on_u = 0;
+    else if (b == v)
+        on_u = 1;
+    double ue = (vt_rand(rng) % 2u) ? q->u1 : q->u0, ve = (vt_rand(rng) % 2u) ? q->v1 : q->v0;
+    if (b == u)
+        ue = face;
+    if (b == v)
+        ve = face;
+    p[u] = on_u ? q->u0 + f * ((double)q->u1 - q->u0) : ue;
+    p[v] = on_u ? ve : q->v0 + f * ((double)q->v1 - q->v0);
+    ref_aimed_ray(rng, w->size, p, i & 1, 0.3, 4, 8, 505, r->o, r->d);
+    for (int c = 0; c < 3; ++c)
+        r->inv[c] = 1.0f / r->d[c];
+    r->t_near = 0.05f;
+    r->t_far = INFINITY;
+    snprintf(ray, cap, "ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) at (%g,%g,%g), object %u", (double)r->o[0],
+             (double)r->o[1], (double)r->o[2], (double)r->d[0], (double)r->d[1], (double)r->d[2], p[0], p[1], p[2],
+             o->id);
+}
+
+static void test_aimed_at_content_box_edges(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 6007;
+    int rays = vt_small() ? 3000 : 15000;
+    static const uint32_t depths[] = {0, 1, 5};
+    for (int wi = 0; wi < 3; ++wi) {
+        tworld w;
+        lone_quad_world(&w, &rng);
+        vis_scene *scene = make_scene(ctx, &w, NULL, depths[wi]);
+        char what[64];
+        snprintf(what, sizeof what, "content boxes, kd_depth %u", depths[wi]);
+        check_ray_stream(scene, &w, &rng, rays, box_edge_ray, 0, what);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
 /* ---- the ropes against their definition --------------------------------------------------- */
 
 typedef struct node_box {
@@ -1099,6 +1183,7 @@ int main(void)
         cmocka_unit_test(test_subnormal_directions),
         cmocka_unit_test(test_aimed_at_chunk_edges),
         cmocka_unit_test(test_aimed_at_lone_quad_edges),
+        cmocka_unit_test(test_aimed_at_content_box_edges),
         cmocka_unit_test(test_checkerboard_views),
         cmocka_unit_test(test_closed_room_ties_inside_solid),
         cmocka_unit_test(test_random_worlds),

@@ -71,10 +71,15 @@ typedef struct vis_kd_node {
  *    integer offsets in [0, 31] from the leaf's lower corner, sorted by axis then k: bucket
  *    (a, k) spans [buckets[bucket_offset + base(a) + k], ... + 1) relative to quad_offset,
  *    where base(0) = 0, base(1) = E0 + 1, base(2) = E0 + E1 + 2;
- *  - its loose quads at loose_offset (loose_count vis_flat_quad, six words each): every other
- *    quad, always tested.
+ *  - its loose quads right after them, at quad_offset + quad_count (loose_count vis_flat_quad,
+ *    six words each): every other quad, always tested.
  * Packed coordinates are exact: the scene packs a quad only when lo + offset gives back its
- * float coordinates bit for bit, so the tests see the same numbers either way. */
+ * float coordinates bit for bit, so the tests see the same numbers either way.
+ * content_box is the closed box, in the same offsets, that holds every packed quad (plane and
+ * rectangle): lo[0..2] | hi[0..2] as six 5-bit fields (VIS_BOX_FIELD), each offset capped at
+ * 31; a high field of 31 stands for "up to the leaf's last plane" (planes may lie up to E[a],
+ * rectangles up to 31), a capped low field is only lower than the truth. The per-ray leaf walk
+ * clips the ray to it (vis_leaf_intersect). 0 when the leaf has no packed quad. */
 typedef struct vis_flat_leaf {
     float lo[3];
     float hi[3];
@@ -83,8 +88,8 @@ typedef struct vis_flat_leaf {
     uint32_t bucket_offset; /* first entry of this leaf's bucket table                     */
     uint32_t dims_xy;       /* E0 | E1 << 16                                               */
     uint32_t dims_z;        /* E2                                                          */
-    uint32_t loose_offset;  /* loose quads in the quad pool (a word index)                  */
-    uint32_t loose_count;
+    uint32_t content_box;   /* box of the packed quads: offsets lo0|lo1|lo2|hi0|hi1|hi2, 5 bits each */
+    uint32_t loose_count;   /* loose quads, at quad_offset + quad_count in the quad pool    */
     uint32_t tri_offset;    /* triangles in the triangle pool                              */
     uint32_t tri_count;
     uint32_t table_offset;  /* the object table in the quad pool (a word index)             */
@@ -106,6 +111,8 @@ typedef struct vis_flat_quad {
 #define VIS_PQ_FIELD(w, i) (((w) >> (5u * (i))) & 31u) /* i: 0 u0, 1 v0, 2 u1, 3 v1 */
 #define VIS_PQ_FLAGS(w) (((w) >> 20) & 3u)
 #define VIS_PQ_TABLE(w) ((w) >> 22)
+/* Field i of a leaf's content_box: i = 0..2 the low offset on axis i, 3..5 the high one. */
+#define VIS_BOX_FIELD(b, i) (((b) >> (5u * (i))) & 31u)
 
 /* A triangle as traced (40 bytes), meta as for quads (axis bits unused). */
 typedef struct vis_flat_tri {
@@ -478,7 +485,7 @@ VIS_INLINE int vis_quad_intersect(const vis_ray *r, uint32_t axis, float plane, 
 VIS_INLINE const VIS_GLOBAL vis_flat_quad *vis_loose_quads(const VIS_GLOBAL uint32_t *quads,
                                                            const VIS_GLOBAL vis_flat_leaf *leaf)
 {
-    return (const VIS_GLOBAL vis_flat_quad *)(quads + leaf->loose_offset);
+    return (const VIS_GLOBAL vis_flat_quad *)(quads + leaf->quad_offset + leaf->quad_count);
 }
 
 /* Packed quad w of the leaf's bucket (a, k), unpacked: the numbers it was packed from. */
@@ -626,7 +633,33 @@ VIS_INLINE void vis_crossing_cells(float o, float td, float lo, int c[2])
 
 /* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
  * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
- * is the minimum over all primitives tested, whatever order they come in. */
+ * is the minimum over all primitives tested, whatever order they come in.
+ *
+ * The packed quads are looked for only where the ray crosses the leaf's content box (the box
+ * of every packed quad, vis_flat_leaf.content_box): the air above a terrain surface that the
+ * leaf also holds, and the solid below it, which holds no face, cost no plane steps (empty
+ * space skipping at the leaf's own level; Lee & Han 2005, seeds/001). [ta, tb] is narrowed by
+ * vis_slab to the box's slabs, whose bounds lo + offset are computed as the quads' own
+ * coordinates (vis_unpack_quad) and whose distances are computed as the quad test's.
+ *
+ * Why no quad the exact test takes is lost. Let a packed quad q be taken at its plane's
+ * distance t (vis_quad_slab: t_in <= lim(t_out), lim = vis_t_limit, with t_in the latest
+ * entry into the slabs of q's box [plane, plane] x [u0, u1] x [v0, v1] and t_out the earliest
+ * exit; t itself is q's entry and exit on its own axis, so t_out <= t <= t_in). q's box lies
+ * in the content box, and rounding is monotone, so on every axis the box's bound is no
+ * farther in than q's (lo + k as floats, then (c - o) * inv with the same inv), the box's entry
+ * no later than q's and its exit no earlier; a ray parallel to an axis lies in q's slab only
+ * if it lies in the box's. Hence the box's entry T_in <= t_in <= lim(t_out) <= lim(t), and
+ * t <= t_in <= lim(t_out) <= lim(T_out). The narrowed interval [max(ta, T_in), min(tb, T_out)]
+ * therefore keeps, for every such quad, whatever the caller's [ta, tb] gave: its start moves
+ * only to a distance within the slack of t, its end likewise, so the plane range below
+ * (widened by one plane on each side against exactly such rounding, as it is for the leaf's
+ * own entry and exit) still holds q's plane. The walks hand a leaf an interval that holds the
+ * distance t of every quad it must find within the same slack (ta <= lim(t), t <= lim(tb):
+ * their intervals are the leaf's slab test, docs/traversal.md "Exactness"), so when the
+ * narrowed start lies beyond lim(lim(end)) no such quad exists and the walk returns at once.
+ * The plane range of each axis is also kept inside the box's offsets on that axis, where all
+ * the non-empty buckets of that axis lie. */
 VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
                                    const VIS_GLOBAL uint32_t *buckets,
                                    const VIS_GLOBAL uint32_t *quads,
@@ -655,8 +688,20 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
     int k[3], kend[3], step[3];
     float tk[3];
     float lo[3];
+    int bl[3], bh[3];
+    uint32_t cb = leaf->content_box;
     for (int a = 0; a < 3; ++a) {
         lo[a] = leaf->lo[a];
+        bl[a] = (int)VIS_BOX_FIELD(cb, (uint32_t)a);
+        bh[a] = (int)VIS_BOX_FIELD(cb, (uint32_t)a + 3u);
+        if (bh[a] == (int)VIS_PQ_COORD_MAX && E[a] > bh[a])
+            bh[a] = E[a]; /* saturated: a plane may lie up to the leaf's last one */
+        if (!vis_slab(r, (uint32_t)a, lo[a] + (float)bl[a], lo[a] + (float)bh[a], &ta, &tb))
+            return; /* parallel to the axis, outside the box's slab */
+    }
+    if (ta > vis_t_limit(vis_t_limit(tb)))
+        return; /* the ray misses the content box */
+    for (int a = 0; a < 3; ++a) {
         tk[a] = VIS_INF;
         k[a] = 0;
         kend[a] = 0;
@@ -669,8 +714,10 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
         float xa = (r->o[a] + ta * r->d[a]) - lo[a];
         float xb = (r->o[a] + tb * r->d[a]) - lo[a];
         float x0 = xa < xb ? xa : xb, x1 = xa < xb ? xb : xa;
-        int klo = vis_clamp_plane(VIS_FLOORF(x0) - 1.0f, 0, E[a]);
-        int khi = vis_clamp_plane(VIS_CEILF(x1) + 1.0f, 0, E[a]);
+        int kh = bh[a] < E[a] ? bh[a] : E[a]; /* the box may reach past the last plane */
+        int kl = bl[a] < kh ? bl[a] : kh;
+        int klo = vis_clamp_plane(VIS_FLOORF(x0) - 1.0f, kl, kh);
+        int khi = vis_clamp_plane(VIS_CEILF(x1) + 1.0f, kl, kh);
         if (r->d[a] > 0.0f) {
             k[a] = klo;
             kend[a] = khi;

@@ -312,7 +312,8 @@ static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *
     if (st != VIS_OK)
         return st;
     /* The slot's object table, packed quads and loose quads lie one after the other. */
-    size_t q0 = lf->table_offset, q1 = (size_t)lf->loose_offset + (size_t)lf->loose_count * VIS_LOOSE_WORDS;
+    size_t q0 = lf->table_offset;
+    size_t q1 = (size_t)lf->quad_offset + lf->quad_count + (size_t)lf->loose_count * VIS_LOOSE_WORDS;
     if (q1 > q0)
         st = stage_range(u, &sc->quads, STAGE_QUADS, v->quads, q0, q1 - q0, "quads");
     if (st == VIS_OK && lf->tri_count)

@@ -648,6 +648,40 @@ static vis_status gather_leaf_alloc(const vis_scene *s, uint32_t li, uint32_t sl
     return VIS_OK;
 }
 
+/* The leaf's content box (trace_core.h, vis_flat_leaf): the closed box, in offsets from its
+ * corner, of the quads that rebuild_leaf packs (bucket[i] != UINT32_MAX), each quad's plane
+ * and rectangle exactly as packed, the offsets capped at 31 (a plane of a leaf wider than 31
+ * may lie farther: a high field of 31 reads as the leaf's last plane); 0 when none is. */
+static uint32_t content_box(const vis_flat_leaf *lf, const vis_flat_quad *q, const uint32_t *bucket, uint32_t n)
+{
+    uint32_t blo[3] = {VIS_PQ_COORD_MAX, VIS_PQ_COORD_MAX, VIS_PQ_COORD_MAX}, bhi[3] = {0, 0, 0};
+    int any = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        if (bucket[i] == UINT32_MAX)
+            continue;
+        uint32_t a = VIS_META_AXIS(q[i].meta), u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+        /* pack_quad took the quad only where these differences are whole and exact */
+        uint32_t c[3][2];
+        c[a][0] = c[a][1] = (uint32_t)(q[i].plane - lf->lo[a]);
+        c[u][0] = (uint32_t)(q[i].u0 - lf->lo[u]);
+        c[u][1] = (uint32_t)(q[i].u1 - lf->lo[u]);
+        c[v][0] = (uint32_t)(q[i].v0 - lf->lo[v]);
+        c[v][1] = (uint32_t)(q[i].v1 - lf->lo[v]);
+        for (uint32_t k = 0; k < 3u; ++k) {
+            blo[k] = c[k][0] < blo[k] ? c[k][0] : blo[k];
+            bhi[k] = c[k][1] > bhi[k] ? c[k][1] : bhi[k];
+        }
+        any = 1;
+    }
+    if (!any)
+        return 0;
+    for (uint32_t k = 0; k < 3u; ++k) { /* planes may lie past 31: capped, read back as "to the end" */
+        blo[k] = blo[k] < VIS_PQ_COORD_MAX ? blo[k] : VIS_PQ_COORD_MAX;
+        bhi[k] = bhi[k] < VIS_PQ_COORD_MAX ? bhi[k] : VIS_PQ_COORD_MAX;
+    }
+    return blo[0] | blo[1] << 5 | blo[2] << 10 | bhi[0] << 15 | bhi[1] << 20 | bhi[2] << 25;
+}
+
 /* The edit in progress (set by set_object_located around its rebuilds): the object whose
  * quads come from `mesh` rather than from its old copy or leaf. */
 typedef struct pending_edit {
@@ -742,11 +776,11 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
         for (uint32_t k = 0; k + 1 < nb; ++k)
             sort_by_u0(dst + bk[k], bk[k + 1] - bk[k]);
     }
+    lf->content_box = content_box(lf, g, gb, ng);
     vis_free(s->ctx, g);
     lf->table_offset = qoff;
     lf->quad_offset = qoff + table;
     lf->quad_count = packed;
-    lf->loose_offset = qoff + table + packed;
     lf->loose_count = nl;
 
     uint32_t t_out = 0;

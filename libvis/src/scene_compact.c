@@ -34,7 +34,6 @@ static void move_slot(vis_scene *s, uint32_t li, int tris, uint32_t to)
     uint32_t from = lh->quad_slot;
     lf->table_offset = lf->table_offset - from + to;
     lf->quad_offset = lf->quad_offset - from + to;
-    lf->loose_offset = lf->loose_offset - from + to;
     lh->quad_slot = to;
 }
 
