@@ -792,7 +792,9 @@ static void test_aimed_at_lone_quad_edges(void **state)
  * components 0 so that some rays lie in the box's face -- take those quads only if the box is
  * exact: a box one voxel short on any side drops such rays (before the walk, or from the planes
  * it steps). Leaves of one chunk, of half a chunk's extent (objects over several leaves, quads
- * reaching past their leaf) and of two chunks' (planes past offset 31, the saturated field). */
+ * reaching past their leaf) and of two chunks'. (Planes past offset 31, where the box's high
+ * field saturates, are not reached here: the objects' planes lie at offsets 0..16; other
+ * test_traversal tests fail when the saturation rule is broken.) */
 static void box_edge_ray(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap)
 {
     (void)lattice;

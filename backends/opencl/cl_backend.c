@@ -207,8 +207,13 @@ cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel
     if (groups > tiles)
         groups = tiles;
     size_t pg[3] = {groups * local[0], local[1], 1};
-    cl_uint nv = views;
-    cl_int e = clSetKernelArg(k, pt_arg, sizeof(cl_mem), &b->pt_counter);
+    cl_uint nv = views, zero[2] = {0, 0};
+    /* The last group zeroes the counter for the next launch; a launch that died part-way
+     * would leave it counting, and every later launch would find no tile and write nothing.
+     * So the host zeroes it too (8 bytes, in queue order; added after the H200 figures). */
+    cl_int e = clEnqueueFillBuffer(b->queue, b->pt_counter, zero, sizeof zero[0], 0, sizeof zero, 0, NULL, NULL);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, pt_arg, sizeof(cl_mem), &b->pt_counter);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(k, pt_arg + 1u, sizeof nv, &nv);
     if (e == CL_SUCCESS)
