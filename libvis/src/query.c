@@ -156,8 +156,7 @@ static void query_free(vis_query *q)
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
                       q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys,
                       q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals,
-                      q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->due_viewers, q->due_reason,
-                      q->due_by_input};
+                      q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->due_viewers, q->due_by_input};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);
@@ -216,7 +215,6 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->depth, V * 6 * res2 * 4},
         {(void **)&q->setups, V * 6 * sizeof(vis_ray_setup)},
         {(void **)&q->due_viewers, V * 4},
-        {(void **)&q->due_reason, V},
         {(void **)&q->due_by_input, V},
     };
     uint64_t total = 0;

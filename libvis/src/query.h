@@ -88,8 +88,7 @@ struct vis_query {
     uint64_t chunk_rays;
     uint32_t chunk_deferred;  /* due viewers the pass budget left for a later tick           */
     uint32_t *due_viewers;    /* max_viewers: this tick's due viewers (input indices)         */
-    uint8_t *due_reason;      /* max_viewers: why each is due, in due_viewers' order          */
-    uint8_t *due_by_input;    /* max_viewers: the same, by input index                        */
+    uint8_t *due_by_input;    /* max_viewers: why each due viewer is due, by input index      */
 
     /* Edits: which passes an edit can change (query_chunks.c). Each slot keeps its last pass's
      * ray setups and per-pixel hit distances; the boxes the scene changed since the last tick

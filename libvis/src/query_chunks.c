@@ -79,12 +79,13 @@ static void face_camera(const vis_query_viewer *in, double range, int face, vis_
  * or its cadence or motion came (vis_qviewer.chunk_owed stores one of these plus one). */
 enum { DUE_NEW, DUE_EDIT, DUE_ROUTINE };
 
-/* Orders this tick's due viewers (input indices in q->due_viewers) and keeps the first
+/* Orders this tick's due viewers (input indices in q->due_viewers, their reasons in
+ * q->due_by_input) and keeps the first
  * chunk_pass_budget: by reason, then the oldest list first, then input order -- nothing that
  * depends on threads or timing. Returns how many stay. */
 _Static_assert(VIS_QUERY_MAX_VIEWERS <= 0x2000u, "an input index takes the key's low 13 bits");
 
-static uint32_t apply_pass_budget(vis_query *q, const uint8_t *reason, uint32_t n)
+static uint32_t apply_pass_budget(vis_query *q, uint32_t n)
 {
     uint32_t budget = q->desc.chunk_pass_budget;
     if (budget == 0 || n <= budget)
@@ -94,7 +95,7 @@ static uint32_t apply_pass_budget(vis_query *q, const uint8_t *reason, uint32_t 
         uint32_t i = q->due_viewers[k];
         uint64_t age = q->viewers[q->vslot[i]].chunk_tick;
         age = age > 0xFFFFFFFFFFull ? 0xFFFFFFFFFFull : age; /* 40 bits of ticks */
-        key[k] = (uint64_t)reason[k] << 62 | age << 13 | i;
+        key[k] = (uint64_t)q->due_by_input[i] << 62 | age << 13 | i;
     }
     vis_sort_u64(key, n);
     for (uint32_t k = 0; k < n; ++k)
@@ -117,7 +118,6 @@ static void owe_deferred(vis_query *q, uint32_t ntrace, uint32_t ndue)
 vis_status vis_query_chunks_run(vis_query *q)
 {
     uint32_t ndue = 0, ncam = 0, edited_passes = 0;
-    uint8_t *reason = q->due_reason;
     for (uint32_t i = 0; i < q->viewer_count; ++i) {
         const vis_query_viewer *in = &q->in_viewers[i];
         uint32_t s = q->vslot[i];
@@ -129,13 +129,10 @@ vis_status vis_query_chunks_run(vis_query *q)
         uint8_t r = v->chunk_tick == 0 ? DUE_NEW : edited ? DUE_EDIT : DUE_ROUTINE;
         if (v->chunk_owed && v->chunk_owed - 1u < r)
             r = (uint8_t)(v->chunk_owed - 1u);
-        reason[ndue] = r;
+        q->due_by_input[i] = r; /* by input index: the reason follows the viewer through the sort */
         q->due_viewers[ndue++] = i;
     }
-    /* Reasons follow the viewers through the sort: store them by input index first. */
-    for (uint32_t k = 0; k < ndue; ++k)
-        q->due_by_input[q->due_viewers[k]] = reason[k];
-    uint32_t ntrace = apply_pass_budget(q, reason, ndue);
+    uint32_t ntrace = apply_pass_budget(q, ndue);
     for (uint32_t k = 0; k < ntrace; ++k) {
         uint32_t i = q->due_viewers[k];
         const vis_query_viewer *in = &q->in_viewers[i];
