@@ -69,20 +69,21 @@ void world_scene_bounds(const vw_world *world, double out_min[3], double out_max
     }
 }
 
-/* Grows the conversion buffer to hold `count` quads (the only allocation on the edit path,
- * and only until the buffer fits the largest chunk mesh). */
-static int reserve_quads(world_scene *ws, size_t count)
+/* Grows a conversion buffer to hold `count` quads (the only allocation on the edit path,
+ * and only until the buffer fits the largest chunk mesh; a meshing batch's until it fits the
+ * largest batch). */
+static int reserve_quads(vis_quad **quads, size_t *quad_cap, size_t count)
 {
-    if (count <= ws->quad_cap)
+    if (count <= *quad_cap)
         return 0;
-    size_t cap = ws->quad_cap ? ws->quad_cap : 256;
+    size_t cap = *quad_cap ? *quad_cap : 256;
     while (cap < count)
         cap *= 2;
-    vis_quad *q = realloc(ws->quads, cap * sizeof *q);
+    vis_quad *q = realloc(*quads, cap * sizeof *q);
     if (!q)
         return -1;
-    ws->quads = q;
-    ws->quad_cap = cap;
+    *quads = q;
+    *quad_cap = cap;
     return 0;
 }
 
@@ -122,7 +123,7 @@ static int upload_chunk(world_scene *ws, uint32_t chunk, const vw_mesh *cm, cons
         }
     } else {
         if (!converted) {
-            if (reserve_quads(ws, n) != 0) {
+            if (reserve_quads(&ws->quads, &ws->quad_cap, n) != 0) {
                 set_error(err, "out of memory converting %zu quads", n);
                 return -1;
             }
@@ -188,17 +189,8 @@ static void *mesh_batch_run(void *arg)
     b->first[0] = 0;
     for (uint32_t i = 0; i < b->n; ++i)
         b->first[i + 1] = b->first[i] + (b->status == VW_OK ? b->meshes[i].count : 0);
-    size_t total = b->first[b->n];
-    if (b->status == VW_OK && total > b->quad_cap) {
-        size_t cap = total + total / 4;
-        vis_quad *q = realloc(b->quads, cap * sizeof *q);
-        if (!q)
-            b->status = VW_ERROR_OUT_OF_MEMORY;
-        else {
-            b->quads = q;
-            b->quad_cap = cap;
-        }
-    }
+    if (b->status == VW_OK && reserve_quads(&b->quads, &b->quad_cap, b->first[b->n]) != 0)
+        b->status = VW_ERROR_OUT_OF_MEMORY;
     if (b->status == VW_OK)
         for (uint32_t i = 0; i < b->n; ++i)
             if (b->meshes[i].count)
