@@ -121,6 +121,28 @@ static float diagonal(const float *size)
     return sqrtf(size[0] * size[0] + size[1] * size[1] + size[2] * size[2]);
 }
 
+/* The distance from an eye outside the box [0, size] to its nearest point and to its
+ * farthest corner. */
+static double nearest_point(const double *eye, const float *size)
+{
+    double d = 0;
+    for (int a = 0; a < 3; ++a) {
+        double n = eye[a] < 0 ? 0 : eye[a] > size[a] ? size[a] : eye[a];
+        d += (n - eye[a]) * (n - eye[a]);
+    }
+    return sqrt(d);
+}
+
+static double farthest_corner(const double *eye, const float *size)
+{
+    double d = 0;
+    for (int a = 0; a < 3; ++a) {
+        double f = eye[a] < size[a] * 0.5 ? size[a] : 0;
+        d += (f - eye[a]) * (f - eye[a]);
+    }
+    return sqrt(d);
+}
+
 /* ---- generated worlds against the brute force ------------------------------------------ */
 
 typedef struct fx_counts {
@@ -195,11 +217,12 @@ static void world_against_bruteforce(vis_context *ctx, const char *spec, fx_coun
 }
 
 /* The packet instance on views of the world: 44x36 narrowed to 12, 20 and 40 degrees (16x16,
- * 8x8 and 4x4 packets; the eye inside the world, so no packet gives up), and 46 degrees from
- * outside and above a corner, where the packets whose first leaf lies past the give-up
+ * 8x8 and 4x4 packets; the eye inside the world, so no packet gives up), 46 degrees from
+ * outside and above a corner, where the 4x4 packets whose first leaf lies past the give-up
  * distance go ray by ray and the nearer ones stay packets (about 5 % of them on the terrain,
- * 40 % on the city). `packet` and `auto` against the brute force, every effect set, the fog
- * at the target's distance. */
+ * 40 % on the city), and 12 degrees from far outside, where 16x16 packets give up the same way
+ * (their own, larger distance: PACKET_FAR_FOOTPRINT). `packet` and `auto` against the brute
+ * force, every effect set, the fog at the target's distance. */
 static void world_packets_against_bruteforce(vis_context *ctx, const char *spec, fx_counts *counts)
 {
     vw_world *world = NULL;
@@ -213,7 +236,7 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
     vis_scene_get_info(scene, &info);
     const float *sz = info.size;
     const uint32_t w = 44, h = 36;
-    vis_camera cams[4] = {
+    vis_camera cams[5] = {
         {{sz[0] * 0.1, sz[1] * 0.9, sz[2] * 0.1}, {sz[0] * 0.6, sz[1] * 0.2, sz[2] * 0.7}, 12, 0.05, 0},
         {{sz[0] * 0.9, sz[1] * 0.8, sz[2] * 0.5}, {sz[0] * 0.3, sz[1] * 0.25, sz[2] * 0.45}, 20, 0.05, 0},
         {{sz[0] * 0.5, sz[1] * 0.45, sz[2] * 0.05}, {sz[0] * 0.5, sz[1] * 0.3, sz[2] * 0.95}, 40, 0.05, 0},
@@ -227,13 +250,19 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
     /* The far view: the world's nearest point lies within the give-up distance, its farthest
      * corner beyond. */
     float give_up = expect_packets(ctx, scene, &cams[3], w, h, sides[3]);
-    double near = 0, far = 0;
-    for (int a = 0; a < 3; ++a) {
-        double e = cams[3].eye[a], n = e < 0 ? 0 : e > sz[a] ? sz[a] : e, f = e < sz[a] * 0.5 ? sz[a] : 0;
-        near += (n - e) * (n - e);
-        far += (f - e) * (f - e);
-    }
-    assert_true(sqrt(near) < give_up && sqrt(far) > give_up);
+    assert_true(nearest_point(cams[3].eye, sz) < give_up && farthest_corner(cams[3].eye, sz) > give_up);
+    /* The far 16x16 view: its give-up distance depends on its pixel only, so the eye is put
+     * that far from the world's centre, above and outside a corner, looking at the centre. */
+    const double away[3] = {-0.6, 0.5, -0.6};
+    double away_len = sqrt(away[0] * away[0] + away[1] * away[1] + away[2] * away[2]);
+    cams[4] = cams[0];
+    for (int a = 0; a < 3; ++a)
+        cams[4].target[a] = sz[a] * 0.5;
+    float give_up16 = expect_packets(ctx, scene, &cams[4], w, h, 16);
+    for (int a = 0; a < 3; ++a)
+        cams[4].eye[a] = cams[4].target[a] + give_up16 * away[a] / away_len;
+    assert_true(expect_packets(ctx, scene, &cams[4], w, h, 16) == give_up16);
+    assert_true(nearest_point(cams[4].eye, sz) < give_up16 && farthest_corner(cams[4].eye, sz) > give_up16);
     static const uint32_t sets[] = {
         VIS_EFFECT_SEE_THROUGH,
         VIS_EFFECT_REFLECT,
