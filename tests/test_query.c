@@ -1406,6 +1406,63 @@ static void test_cli_simulate_replay(void **state)
     free(text);
 }
 
+/* The text of a --out file with every tick's "ms" field removed (the only field a backend
+ * may change). */
+static char *without_times(const char *path)
+{
+    char *text = vt_slurp(path);
+    char *w = text;
+    for (const char *r = text; *r;) {
+        if (!strncmp(r, "\"ms\":", 5)) {
+            r += 5;
+            while (*r && *r != ',')
+                ++r;
+            r += *r == ',';
+            continue;
+        }
+        *w++ = *r++;
+    }
+    *w = '\0';
+    return text;
+}
+
+/* `vis query --backend opencl` traces the chunk passes on the OpenCL device: the same lines as
+ * on the CPU, times aside; skipped where no OpenCL device opens (the command then says so). */
+static void test_cli_backends(void **state)
+{
+    (void)state;
+    if (!have_query())
+        skip();
+    vt_run_result r = vt_run(VIS_EXE, qdir, NULL, "query --simulate 5 --ticks 24 --edit-every 8 --scene %s --out %s",
+                             MAZE, qpath("maze_b.jsonl"));
+    vt_assert_exit(r, 0);
+    vt_run_free(&r);
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --backend cpu --json --out %s", MAZE,
+               qpath("maze_b.jsonl"), qpath("cpu.jsonl"));
+    vt_assert_exit(r, 0);
+    assert_non_null(strstr(r.out, "\"backend\":\"cpu\""));
+    vt_run_free(&r);
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --backend opencl --json --out %s", MAZE,
+               qpath("maze_b.jsonl"), qpath("cl.jsonl"));
+    if (r.code != 0) {
+        assert_non_null(strstr(r.err, "OpenCL"));
+        print_message("no OpenCL device (%s): skipped\n", r.err);
+        vt_run_free(&r);
+        skip();
+    }
+    assert_non_null(strstr(r.out, "\"backend\":\"opencl\""));
+    vt_run_free(&r);
+    char *a = without_times(qpath("cpu.jsonl")), *b = without_times(qpath("cl.jsonl"));
+    assert_non_null(strstr(a, "\"chunks\":[")); /* lists were written, and no time is left */
+    assert_null(strstr(a, "\"ms\":"));
+    assert_string_equal(a, b);
+    free(a);
+    free(b);
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --backend gpu", MAZE, qpath("maze_b.jsonl"));
+    vt_assert_exit(r, 2);
+    vt_run_free(&r);
+}
+
 static void test_cli_hostile_replay(void **state)
 {
     (void)state;
@@ -1502,6 +1559,7 @@ int main(void)
     const struct CMUnitTest cli_tests[] = {
         cmocka_unit_test(test_cli_simulate_replay),
         cmocka_unit_test(test_cli_hostile_replay),
+        cmocka_unit_test(test_cli_backends),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);
     FILE *exe = fopen(VIS_EXE, "rb");

@@ -29,6 +29,8 @@ static void usage(FILE *f)
             "a summary on stdout (one JSON object with --json).\n\n"
             "options:\n"
             "  --threads N          viewers in parallel (default 2)\n"
+            "  --backend B          auto|cpu|opencl: where the chunk passes are traced (default auto:\n"
+            "                       a GPU if OpenCL has one, else the CPU); entities always on the CPU\n"
             "  --max-viewers N      capacity, 1..4096 (default 256); --max-entities N, 1..65536 (default 1024)\n"
             "  --budget N           entity rays per tick, all viewers (default 0: no limit)\n"
             "  --viewer-budget N    entity rays per viewer per tick (default 0: no limit)\n"
@@ -75,6 +77,7 @@ typedef struct qopts {
     uint64_t budget, seed;
     double margin, peek, slack, chunk_range, chunk_move, luanti_range, tick_ms;
     int chunk_traversal;
+    int backend; /* vis_backend_kind */
     int have_simulate;
 } qopts;
 
@@ -130,6 +133,7 @@ static int parse_args(int argc, char **argv, qopts *o)
     memset(o, 0, sizeof *o);
     o->scene = "gen:default";
     o->threads = 2;
+    o->backend = VIS_BACKEND_AUTO;
     o->max_viewers = 256;
     o->max_entities = 1024;
     o->chunk_res = 32;
@@ -175,6 +179,9 @@ static int parse_args(int argc, char **argv, qopts *o)
             rc = parse_u32(a, v, 0, 1000000, &o->edit_every);
         } else if (!strcmp(a, "--threads")) {
             rc = parse_u32(a, v, 1, 256, &o->threads);
+        } else if (!strcmp(a, "--backend")) {
+            if (!v || vc_name_lookup(&vc_backends, v, &o->backend))
+                rc = (fprintf(stderr, "vis query: --backend '%s': auto, cpu or opencl\n", v ? v : ""), -1);
         } else if (!strcmp(a, "--max-viewers")) {
             rc = parse_u32(a, v, 1, VIS_QUERY_MAX_VIEWERS, &o->max_viewers);
         } else if (!strcmp(a, "--max-entities")) {
@@ -466,7 +473,7 @@ static int run_replay(const qopts *o)
     if (rc != CLI_EXIT_OK)
         return rc;
     cli_scene s;
-    rc = cli_scene_open(CMD, &world, VIS_BACKEND_CPU, o->threads, 0, NULL, &s);
+    rc = cli_scene_open(CMD, &world, (vis_backend_kind)o->backend, o->threads, 0, NULL, &s);
     if (rc != CLI_EXIT_OK) {
         cli_world_free(&world);
         return rc;
@@ -776,6 +783,10 @@ static int run_replay(const qopts *o)
         printf("{\"scene\":\"%s\",\"replay\":\"%s\",\"ticks\":%llu,\"truth_ticks\":%llu,\"threads\":%u,\"chunks\":%u,",
                o->scene, o->replay, (unsigned long long)ticks, (unsigned long long)truth_ticks, o->threads,
                wi.nonempty_chunks);
+        printf("\"backend\":\"%s\",\"device\":\"", s.backend.name);
+        for (const char *c = s.backend.device; *c; ++c) /* a driver's name: escape what JSON must */
+            printf((*c == '"' || *c == '\\') ? "\\%c" : (unsigned char)*c < 0x20 ? "?" : "%c", *c);
+        printf("\",");
         printf("\"chunk_rays_per_tick\":%.1f,", ticks ? (double)ours.chunk_rays / (double)ticks : 0.0);
         printf("\"chunk_edit_passes\":%llu,\"chunk_passes_deferred\":%llu,", (unsigned long long)edit_passes,
                (unsigned long long)deferred);
@@ -789,6 +800,7 @@ static int run_replay(const qopts *o)
         printf("vis query: %s on %s, %llu ticks (%llu with truth at %ux%u x 6), %u threads, %u non-empty chunks\n",
                o->replay, o->scene, (unsigned long long)ticks, (unsigned long long)truth_ticks, o->truth_res,
                o->truth_res, o->threads, wi.nonempty_chunks);
+        printf("  backend: %s (%s)\n", s.backend.name, s.backend.device);
         printf("  chunk passes: %.0f rays per tick, %llu passes traced because an edit reached them, %llu "
                "viewer-ticks waiting on --chunk-budget\n",
                ticks ? (double)ours.chunk_rays / (double)ticks : 0.0, (unsigned long long)edit_passes,
