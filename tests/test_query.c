@@ -773,7 +773,7 @@ static void test_chunks_match_trace(void **state)
         assert_int_equal(got[i], list[i].id);
     vis_query_destroy(q);
     /* Every traversal method names the same chunks (docs/traversal.md, "Exactness"). */
-    for (int t = VIS_TRAVERSAL_STACK; t <= VIS_TRAVERSAL_CACHED_STACK; ++t) {
+    for (int t = VIS_TRAVERSAL_STACK; t <= VIS_TRAVERSAL_DDA; ++t) {
         vis_query_desc d;
         vis_query_desc_defaults(&d);
         d.chunk_traversal = (vis_traversal)t;

@@ -145,7 +145,7 @@ vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, 
                         VIS_MAX_RESOLUTION);
     if (d.ids != VIS_IDS_OBJECT && d.ids != VIS_IDS_LEAF)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown ID mode %d", (int)d.ids);
-    if ((unsigned)d.traversal > (unsigned)VIS_TRAVERSAL_DDA)
+    if (!vis_traversal_known(d.traversal))
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "unknown traversal %d", (int)d.traversal);
     if (d.short_stack > VIS_MAX_SHORT_STACK)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "short_stack %u exceeds %u", d.short_stack,

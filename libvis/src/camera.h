@@ -23,6 +23,9 @@ vis_status vis_camera_frame_make(vis_context *ctx, const vis_camera *camera, con
 /* The float ray setup the traversal uses (see trace_core.h). */
 void vis_camera_frame_ray_setup(const vis_camera_frame *frame, vis_ray_setup *out);
 
+/* 1 when t names a traversal method of vis.h (the one place that knows the last one). */
+static inline int vis_traversal_known(vis_traversal t) { return (unsigned)t <= (unsigned)VIS_TRAVERSAL_DDA; }
+
 /* Fills a defaulted copy of a trace desc and checks it. */
 vis_status vis_trace_desc_resolve(vis_context *ctx, const vis_trace_desc *desc, vis_trace_desc *out);
 

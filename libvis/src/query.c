@@ -24,6 +24,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "camera.h"
 #include "query.h"
 #include "query_sort.h"
 
@@ -137,7 +138,7 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
                         "at most %g, chunk_move %g in [0, %g], chunk_range %g 0 or in [1, %g]",
                         d->margin, QUERY_MAX_BOX, d->peek_speed, VIS_QUERY_MAX_SPEED, d->proof_slack, QUERY_MAX_BOX,
                         d->chunk_move, QUERY_MAX_BOX, d->chunk_range, QUERY_MAX_COORD);
-    if ((unsigned)d->chunk_traversal > (unsigned)VIS_TRAVERSAL_CACHED_STACK)
+    if (!vis_traversal_known(d->chunk_traversal))
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_query_create: chunk_traversal %d is not a vis_traversal",
                         (int)d->chunk_traversal);
     return VIS_OK;
