@@ -17,14 +17,20 @@ double vis_trace_now_ms(void)
 }
 
 /* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*). AUTO is resolved here,
- * once: the CPU traces packets, a device runs the stack method per ray. PACKET is the CPU's
- * tile packets or a device's work-group tile walk (backends/opencl/kernels/tile.cl). */
+ * once: the CPU traces packets; a GPU walks the cell grid per ray (dda), which measured
+ * fastest there on the single views, batches and draw lists (docs/opencl.md, "dda as the
+ * GPU default"); other devices (PoCL) run the stack method. A scene without a cell map gets
+ * the stack method in vis_trace_make_setup. PACKET is the CPU's tile packets or a device's
+ * work-group tile walk (backends/opencl/kernels/tile.cl). */
 static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
 {
     if (t == VIS_TRAVERSAL_PACKET)
         return VIS_TRAVERSAL_ID_PACKET;
-    if (t == VIS_TRAVERSAL_AUTO)
-        return ctx->info.kind == VIS_BACKEND_CPU ? VIS_TRAVERSAL_ID_PACKET : VIS_TRAVERSAL_ID_STACK;
+    if (t == VIS_TRAVERSAL_AUTO) {
+        if (ctx->info.kind == VIS_BACKEND_CPU)
+            return VIS_TRAVERSAL_ID_PACKET;
+        return ctx->info.is_gpu ? VIS_TRAVERSAL_ID_DDA : VIS_TRAVERSAL_ID_STACK;
+    }
     return (uint32_t)t - 1u; /* STACK .. ROPES_SHORTSTACK are ids 0 .. 6, CACHED_STACK 8, DDA 9 */
 }
 

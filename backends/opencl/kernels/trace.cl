@@ -169,12 +169,12 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
  * work-group's local memory first: each run of equal keys along a row of the tile adds its
  * length with one atomic, so an object filling a tile costs one atomic per row, not per pixel.
  *
- * vis_drawlist_compact: one work-item per (object slot, view), the views' list heads in the
- * first words of `counts` (before counts_offset). Object IDs: the slot's count;
- * leaf IDs: the sum of the counts of the slot's leaves (object_leaves, the same relation
- * vis_drawlist_build expands through). A non-zero count appends (ID, count) to the view's list
- * at list[v * slots + k], k from an atomic on heads[v]; the host sorts each list by ID, so the
- * order the atomics give does not show. counts and heads are zeroed by the host before. */
+ * vis_drawlist_compact: one work-group per view, the views' list heads in the first words of
+ * `counts` (before counts_offset). Object IDs: the slot's count; leaf IDs: the sum of the
+ * counts of the slot's leaves (object_leaves, the same relation vis_drawlist_build expands
+ * through). Each non-zero count becomes (ID, count) in the view's list at list[v * slots],
+ * in slot order; the host sorts each list by ID (a list already in order is copied). counts
+ * are zeroed by the host before. */
 #define VIS_CL_NO_KEY 0xFFFFFFFFu
 
 /* One pixel of the draw-list kernel; every item of the group calls it (it has a barrier). */
@@ -231,30 +231,81 @@ __kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict s
 #endif
 }
 
+/* The pixels of object slot o in the view's counts c: the slot's own count (object IDs) or
+ * the sum over its leaves (leaf IDs); 0 for a free slot. */
+VIS_INLINE uint vis_cl_slot_pixels(const __global vis_flat_object *restrict objects,
+                                   const __global uint *restrict object_leaves, uint id_mode, const __global uint *c,
+                                   uint o)
+{
+    if (id_mode != 1u)
+        return c[o];
+    vis_flat_object ob = objects[o];
+    if (ob.id == 0u)
+        return 0u; /* a free slot */
+    uint n = 0u;
+    for (uint k = 0u; k < ob.leaf_count; ++k)
+        n += c[object_leaves[ob.leaf_offset + k]];
+    return n;
+}
+
+/* One work-group per view, `sum` its local scratch of one word per item (a power of two):
+ * each item takes a run of consecutive slots, counts its non-zero ones, the group scans the
+ * counts, and each item writes its entries at its offset: the list comes out in slot order
+ * (the order slots are allocated in, often the IDs' order, which the host then only checks),
+ * with no atomic. heads[v] is the list's length. */
 __kernel void vis_drawlist_compact(const __global vis_flat_object *restrict objects,
                                    const __global uint *restrict object_leaves, const uint slots, const uint id_mode,
                                    __global uint *counts, const uint counts_offset, const uint stride,
-                                   __global uint2 *restrict list)
+                                   __global uint2 *restrict list, __local uint *sum)
 {
-    uint o = (uint)get_global_id(0), v = (uint)get_global_id(1);
-    if (o >= slots)
-        return;
-    __global uint *heads = counts;
+    uint v = (uint)get_group_id(0), li = (uint)get_local_id(0), ln = (uint)get_local_size(0);
     const __global uint *c = counts + counts_offset + (size_t)v * stride;
-    uint n = 0u;
-    if (id_mode == 1u) {
-        vis_flat_object ob = objects[o];
-        if (ob.id == 0u)
-            return; /* a free slot */
-        for (uint k = 0u; k < ob.leaf_count; ++k)
-            n += c[object_leaves[ob.leaf_offset + k]];
-    } else {
-        n = c[o];
+    uint run = (slots + ln - 1u) / ln, lo = min(li * run, slots), hi = min(lo + run, slots);
+    uint mine = 0u;
+    for (uint o = lo; o < hi; ++o)
+        mine += vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o) != 0u;
+    sum[li] = mine;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint d = 1u; d < ln; d <<= 1) { /* inclusive scan (Hillis & Steele) */
+        uint add = li >= d ? sum[li - d] : 0u;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        sum[li] += add;
+        barrier(CLK_LOCAL_MEM_FENCE);
     }
-    if (n == 0u)
-        return;
-    uint k = atomic_inc(&heads[v]);
-    list[(size_t)v * slots + k] = (uint2)(objects[o].id, n);
+    uint at = sum[li] - mine;
+    for (uint o = lo; o < hi; ++o) {
+        uint n = vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o);
+        if (n != 0u)
+            list[(size_t)v * slots + at++] = (uint2)(objects[o].id, n);
+    }
+    if (li == ln - 1u)
+        counts[v] = sum[li]; /* the view's head */
+}
+
+/* vis_drawlist_pack: the views' lists (view v's at list[v * slots], heads[v] long) one after
+ * the other in `packed`, view v's at the sum of the heads before it, so that the host reads
+ * every list of a batch with one read instead of one read per view (cl_drawlist.c). One
+ * work-group per view, `sum` its local scratch of one word per item (a power of two); heads
+ * are clamped to slots, as the host clamps them when it finds each list. */
+__kernel void vis_drawlist_pack(__global const uint *restrict heads, const uint slots,
+                                __global const uint2 *restrict list, __global uint2 *restrict packed,
+                                __local uint *sum)
+{
+    uint v = (uint)get_group_id(0), li = (uint)get_local_id(0), ln = (uint)get_local_size(0);
+    uint s = 0u;
+    for (uint u = li; u < v; u += ln)
+        s += min(heads[u], slots);
+    sum[li] = s;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint w = ln >> 1; w > 0u; w >>= 1) {
+        if (li < w)
+            sum[li] += sum[li + w];
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    size_t at = sum[0];
+    uint h = min(heads[v], slots);
+    for (uint k = li; k < h; k += ln)
+        packed[at + k] = list[(size_t)v * slots + k];
 }
 
 #ifdef VIS_TRACE_EFFECTS
