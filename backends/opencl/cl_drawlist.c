@@ -144,10 +144,11 @@ static uint32_t views_per_launch(uint32_t count, size_t pixels, int want_pixels,
 }
 
 /* Work-items of a compact or pack group (one per view): a power of two the device runs in
- * one group, at most 64. */
+ * one group, at most 256 (a single view's compaction is one group: its items' runs of slots
+ * are walked one after the other, so shorter runs cost less latency). */
 static size_t pack_items(const vis_cl_backend *b)
 {
-    size_t n = 64;
+    size_t n = 256;
     while (n > 1 && n > b->caps.max_wg)
         n >>= 1;
     return n;
