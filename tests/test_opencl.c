@@ -694,9 +694,15 @@ static void test_drawlist_on_device(void **state)
     size_t longest = 0;
     for (uint32_t depth = 0; depth <= 3; depth += 3) {
         tworld w;
-        random_chunk_world(&w, &rng, depth ? 3 : 8, 2, depth ? 3 : 8); /* the larger: lists past 64 entries */
+        /* the larger: lists past 64 entries, and more than 256 object slots (several blocks
+         * of the device's compaction, cl_drawlist.c) */
+        random_chunk_world(&w, &rng, depth ? 3 : 16, 2, depth ? 3 : 16);
         pair p;
         pair_make(&p, cl, &w, NULL, depth);
+        vis_scene_info si;
+        assert_int_equal(vis_scene_get_info(p.cl_scene, &si), VIS_OK);
+        if (!depth)
+            assert_true(si.objects > 256u);
         enum { N = 5 };
         vis_camera cams[N];
         for (int i = 0; i < N; ++i)
@@ -717,7 +723,7 @@ static void test_drawlist_on_device(void **state)
                     longest = l > longest ? l : longest;
                 }
             for (int e = 0; e < 30; ++e)
-                random_edit(&p, &w, &rng, depth ? 3 : 8, 2);
+                random_edit(&p, &w, &rng, depth ? 3 : 16, 2);
         }
         pair_free(&p);
         free_world(&w);

@@ -5,8 +5,9 @@
  * list of a view is a few kilobytes. Per launch:
  *   1. one fill zeroes the views' list heads and pixel counts (one buffer: heads first);
  *   2. vis_trace_drawlist_kernel traces and adds each pixel to its key's count (kernels/trace.cl);
- *   3. vis_drawlist_compact turns the counts into (ID, pixels) entries, per view, in slot
- *      order (a work-group per view scans which slots have pixels; no atomics);
+ *   3. vis_drawlist_block_count and vis_drawlist_compact turn the counts into (ID, pixels)
+ *      entries, per view, in slot order (groups over blocks of slots scan which slots have
+ *      pixels; no atomics);
  *   4. one view: its head and list region are read into pinned host memory
  *      (CL_MEM_ALLOC_HOST_PTR, mapped once), with the IDs and depths only when the caller
  *      asked for them; one finish. Several views: vis_drawlist_pack puts the lists one after
@@ -36,14 +37,14 @@ void vis_cl_drawlist_release(vis_cl_backend *b)
         clEnqueueUnmapMemObject(b->queue, b->dl_pinned, b->dl_host, 0, NULL, NULL);
         clFinish(b->queue);
     }
-    cl_mem *m[] = {&b->dl_counts, &b->dl_list, &b->dl_packed, &b->dl_pinned};
+    cl_mem *m[] = {&b->dl_counts, &b->dl_list, &b->dl_packed, &b->dl_blocks, &b->dl_pinned};
     for (size_t i = 0; i < sizeof m / sizeof m[0]; ++i)
         if (*m[i]) {
             clReleaseMemObject(*m[i]);
             *m[i] = NULL;
         }
     b->dl_host = NULL;
-    b->dl_counts_cap = b->dl_list_cap = b->dl_packed_cap = b->dl_pinned_cap = 0;
+    b->dl_counts_cap = b->dl_list_cap = b->dl_packed_cap = b->dl_blocks_cap = b->dl_pinned_cap = 0;
 }
 
 /* Pinned host memory of at least `bytes`, mapped for the backend's life. */
@@ -143,12 +144,15 @@ static uint32_t views_per_launch(uint32_t count, size_t pixels, int want_pixels,
     return per < count ? (uint32_t)per : count;
 }
 
-/* Work-items of a compact or pack group (one per view): a power of two the device runs in
- * one group, at most 256 (a single view's compaction is one group: its items' runs of slots
- * are walked one after the other, so shorter runs cost less latency). */
+/* Slots each work-item of the compaction walks, one after the other (kernels/trace.cl); a
+ * group's block is pack_items() runs. */
+#define DL_COMPACT_RUN 4u
+
+/* Work-items of a compaction or pack group: a power of two the device runs in one group, at
+ * most 64 (blocks of 256 slots: gen:default's 4,371 slots are 18 blocks per view). */
 static size_t pack_items(const vis_cl_backend *b)
 {
-    size_t n = 256;
+    size_t n = 64;
     while (n > 1 && n > b->caps.max_wg)
         n >>= 1;
     return n;
@@ -197,6 +201,30 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
         e = clSetKernelArg(k, 7, sizeof(cl_mem), &b->dl_list);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(k, 8, pack_items(b) * sizeof(cl_uint), NULL);
+    cl_uint run = DL_COMPACT_RUN;
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 9, sizeof run, &run);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 10, sizeof(cl_mem), &b->dl_blocks);
+    k = p->block_count;
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 0, sizeof(cl_mem), &sc->objects.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 1, sizeof(cl_mem), &sc->object_leaves.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 2, sizeof slots, &slots);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 3, sizeof id_mode, &id_mode);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 4, sizeof(cl_mem), &b->dl_counts);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 6, sizeof stride, &stride);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 7, sizeof run, &run);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 8, sizeof(cl_mem), &b->dl_blocks);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 9, pack_items(b) * sizeof(cl_uint), NULL);
     k = p->pack;
     cl_uint list_slots = slots ? slots : 1u; /* the lists' stride: the buffers hold at least one */
     if (e == CL_SUCCESS)
@@ -273,6 +301,9 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     size_t slots = view->object_count ? view->object_count : 1u;
     size_t stride = setups[0].id_mode == 1u ? (view->leaf_count ? view->leaf_count : 1u) : slots;
     uint32_t per = views_per_launch(count, pixels, ids || depth, stride, slots);
+    size_t block = pack_items(b) * DL_COMPACT_RUN, blocks = (view->object_count + block - 1) / block;
+    if (blocks == 0)
+        blocks = 1; /* the last block writes the head, even of an empty list */
 
     /* Cameras; counts with the heads in front; lists; pinned heads + lists; IDs/depths if asked. */
     if ((st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
@@ -283,6 +314,8 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
                                    CL_MEM_READ_WRITE, "draw-list entries", err, err_size)) != VIS_OK ||
         (st = vis_cl_ensure_buffer(b, &b->dl_packed, &b->dl_packed_cap, (size_t)per * slots, sizeof(vis_draw_entry),
                                    CL_MEM_READ_WRITE, "packed draw lists", err, err_size)) != VIS_OK ||
+        (st = vis_cl_ensure_buffer(b, &b->dl_blocks, &b->dl_blocks_cap, (size_t)per * blocks, sizeof(cl_uint),
+                                   CL_MEM_READ_WRITE, "draw-list block counts", err, err_size)) != VIS_OK ||
         (st = ensure_pinned(b, per * sizeof(cl_uint) + (size_t)per * slots * sizeof(vis_draw_entry), err,
                             err_size)) != VIS_OK)
         return st;
@@ -315,18 +348,22 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
             e = clSetKernelArg(p->drawlist, 15, sizeof off, &off);
         if (e == CL_SUCCESS)
             e = clSetKernelArg(p->compact, 5, sizeof off, &off);
-        cl_event ev[3] = {NULL, NULL, NULL};
+        if (e == CL_SUCCESS)
+            e = clSetKernelArg(p->block_count, 5, sizeof off, &off);
+        cl_event ev[4] = {NULL, NULL, NULL, NULL};
         if (e == CL_SUCCESS)
             e = vis_cl_enqueue_pass(b, p, p->drawlist, 19, W, H, n, &ev[0]);
-        size_t cl_local = pack_items(b), cg = (size_t)n * cl_local; /* a group per view */
+        size_t cl_local[2] = {pack_items(b), 1}, cg[2] = {blocks * pack_items(b), n}; /* (blocks, views) */
         if (e == CL_SUCCESS)
-            e = clEnqueueNDRangeKernel(b->queue, p->compact, 1, NULL, &cg, &cl_local, 0, NULL, &ev[1]);
+            e = clEnqueueNDRangeKernel(b->queue, p->block_count, 2, NULL, cg, cl_local, 0, NULL, &ev[3]);
+        if (e == CL_SUCCESS)
+            e = clEnqueueNDRangeKernel(b->queue, p->compact, 2, NULL, cg, cl_local, 0, NULL, &ev[1]);
         if (e == CL_SUCCESS)
             e = read_back(b, p, n, slots, pixels, ids ? ids + (size_t)first * pixels : NULL,
                           depth ? depth + (size_t)first * pixels : NULL, &ev[2]);
         else
             clFinish(b->queue);
-        for (int i = 0; i < 3; ++i)
+        for (int i = 0; i < 4; ++i)
             if (ev[i]) {
                 if (e == CL_SUCCESS)
                     vis_cl_add_event_time(b, ev[i]);

@@ -169,8 +169,8 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
  * work-group's local memory first: each run of equal keys along a row of the tile adds its
  * length with one atomic, so an object filling a tile costs one atomic per row, not per pixel.
  *
- * vis_drawlist_compact: one work-group per view, the views' list heads in the first words of
- * `counts` (before counts_offset). Object IDs: the slot's count; leaf IDs: the sum of the
+ * vis_drawlist_block_count + vis_drawlist_compact (below): the views' list heads in the first
+ * words of `counts` (before counts_offset). Object IDs: the slot's count; leaf IDs: the sum of the
  * counts of the slot's leaves (object_leaves, the same relation vis_drawlist_build expands
  * through). Each non-zero count becomes (ID, count) in the view's list at list[v * slots],
  * in slot order; the host sorts each list by ID (a list already in order is copied). counts
@@ -248,38 +248,84 @@ VIS_INLINE uint vis_cl_slot_pixels(const __global vis_flat_object *restrict obje
     return n;
 }
 
-/* One work-group per view, `sum` its local scratch of one word per item (a power of two):
- * each item takes a run of consecutive slots, counts its non-zero ones, the group scans the
- * counts, and each item writes its entries at its offset: the list comes out in slot order
- * (the order slots are allocated in, often the IDs' order, which the host then only checks),
- * with no atomic. heads[v] is the list's length. */
-__kernel void vis_drawlist_compact(const __global vis_flat_object *restrict objects,
-                                   const __global uint *restrict object_leaves, const uint slots, const uint id_mode,
-                                   __global uint *counts, const uint counts_offset, const uint stride,
-                                   __global uint2 *restrict list, __local uint *sum)
+/* An inclusive scan of sum[0..ln) across the group (Hillis & Steele; ln a power of two);
+ * every item of the group calls it. */
+VIS_INLINE void vis_cl_group_scan(__local uint *sum, uint li, uint ln)
 {
-    uint v = (uint)get_group_id(0), li = (uint)get_local_id(0), ln = (uint)get_local_size(0);
-    const __global uint *c = counts + counts_offset + (size_t)v * stride;
-    uint run = (slots + ln - 1u) / ln, lo = min(li * run, slots), hi = min(lo + run, slots);
-    uint mine = 0u;
-    for (uint o = lo; o < hi; ++o)
-        mine += vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o) != 0u;
-    sum[li] = mine;
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (uint d = 1u; d < ln; d <<= 1) { /* inclusive scan (Hillis & Steele) */
+    for (uint d = 1u; d < ln; d <<= 1) {
         uint add = li >= d ? sum[li - d] : 0u;
         barrier(CLK_LOCAL_MEM_FENCE);
         sum[li] += add;
         barrier(CLK_LOCAL_MEM_FENCE);
     }
-    uint at = sum[li] - mine;
+}
+
+/* The slots with pixels in this item's run: `run` consecutive slots of the group's block
+ * (get_group_id(0); a block is get_local_size(0) runs), of view get_group_id(1). */
+VIS_INLINE uint vis_cl_run_hits(const __global vis_flat_object *restrict objects,
+                                const __global uint *restrict object_leaves, uint slots, uint id_mode,
+                                const __global uint *c, uint run, uint *lo, uint *hi)
+{
+    uint first = ((uint)get_group_id(0) * (uint)get_local_size(0) + (uint)get_local_id(0)) * run;
+    *lo = min(first, slots);
+    *hi = min(first + run, slots);
+    uint n = 0u;
+    for (uint o = *lo; o < *hi; ++o)
+        n += vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o) != 0u;
+    return n;
+}
+
+/* Ordered compaction in two kernels over a grid of (blocks of slots, views), so that a view's
+ * slots are walked by many groups (one group per view took ~60 us for 120,000 slots):
+ * vis_drawlist_block_count writes how many slots of each block have pixels
+ * (block_counts[v * blocks + block]); vis_drawlist_compact then writes a block's entries after
+ * those of the blocks before it, each item's after the items' before it (a scan in local
+ * memory), so the list comes out in slot order (the order slots are allocated in, often the
+ * IDs' order, which the host then only checks), with no atomic. The last block writes the
+ * view's head. `sum`: one local word per item, a power of two. */
+__kernel void vis_drawlist_block_count(const __global vis_flat_object *restrict objects,
+                                       const __global uint *restrict object_leaves, const uint slots,
+                                       const uint id_mode, const __global uint *counts, const uint counts_offset,
+                                       const uint stride, const uint run, __global uint *restrict block_counts,
+                                       __local uint *sum)
+{
+    uint v = (uint)get_group_id(1), li = (uint)get_local_id(0), ln = (uint)get_local_size(0), lo, hi;
+    sum[li] = vis_cl_run_hits(objects, object_leaves, slots, id_mode, counts + counts_offset + (size_t)v * stride,
+                              run, &lo, &hi);
+    vis_cl_group_scan(sum, li, ln);
+    if (li == ln - 1u)
+        block_counts[(size_t)v * get_num_groups(0) + get_group_id(0)] = sum[li];
+}
+
+__kernel void vis_drawlist_compact(const __global vis_flat_object *restrict objects,
+                                   const __global uint *restrict object_leaves, const uint slots, const uint id_mode,
+                                   __global uint *counts, const uint counts_offset, const uint stride,
+                                   __global uint2 *restrict list, __local uint *sum, const uint run,
+                                   const __global uint *restrict block_counts)
+{
+    uint v = (uint)get_group_id(1), blk = (uint)get_group_id(0), blocks = (uint)get_num_groups(0);
+    uint li = (uint)get_local_id(0), ln = (uint)get_local_size(0), lo, hi;
+    /* The entries of the blocks before this one. */
+    uint before = 0u;
+    for (uint k = li; k < blk; k += ln)
+        before += block_counts[(size_t)v * blocks + k];
+    sum[li] = before;
+    vis_cl_group_scan(sum, li, ln);
+    before = sum[ln - 1u];
+    barrier(CLK_LOCAL_MEM_FENCE); /* every item has read it before sum is reused */
+    const __global uint *c = counts + counts_offset + (size_t)v * stride;
+    uint mine = vis_cl_run_hits(objects, object_leaves, slots, id_mode, c, run, &lo, &hi);
+    sum[li] = mine;
+    vis_cl_group_scan(sum, li, ln);
+    uint at = before + sum[li] - mine;
     for (uint o = lo; o < hi; ++o) {
         uint n = vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o);
         if (n != 0u)
             list[(size_t)v * slots + at++] = (uint2)(objects[o].id, n);
     }
-    if (li == ln - 1u)
-        counts[v] = sum[li]; /* the view's head */
+    if (blk == blocks - 1u && li == ln - 1u)
+        counts[v] = before + sum[li]; /* the view's head */
 }
 
 /* vis_drawlist_pack: the views' lists (view v's at list[v * slots], heads[v] long) one after
