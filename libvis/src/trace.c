@@ -16,11 +16,14 @@ double vis_trace_now_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+vis_traversal vis_trace_auto_stack(const vis_context *ctx, vis_traversal t)
+{
+    return t == VIS_TRAVERSAL_AUTO && ctx->info.kind != VIS_BACKEND_CPU ? VIS_TRAVERSAL_STACK : t;
+}
+
 vis_traversal vis_trace_auto_for_views(const vis_context *ctx, vis_traversal t, uint32_t count)
 {
-    if (t == VIS_TRAVERSAL_AUTO && count > 1u && ctx->info.kind != VIS_BACKEND_CPU)
-        return VIS_TRAVERSAL_STACK;
-    return t;
+    return count > 1u ? vis_trace_auto_stack(ctx, t) : t;
 }
 
 /* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*). AUTO is resolved here,

@@ -396,8 +396,8 @@ typedef enum vis_id_mode {
 typedef enum vis_traversal {
     VIS_TRAVERSAL_AUTO = 0,       /* the backend's fastest (default): PACKET on the CPU;
                                      on an OpenCL GPU DDA for one view (STACK on a scene
-                                     without a cell map) and STACK for batches; STACK on
-                                     other OpenCL devices                                    */
+                                     without a cell map) and STACK for batches and effects
+                                     passes; STACK on other OpenCL devices                   */
     VIS_TRAVERSAL_STACK = 1,      /* full stack, 8-byte entries, one ray at a time            */
     VIS_TRAVERSAL_BRUTEFORCE = 2, /* no tree: every primitive of every object (the reference) */
     VIS_TRAVERSAL_RESTART = 3,    /* kd-restart (Foley & Sugerman 2005): after each leaf,
