@@ -12,7 +12,8 @@
  *      (CL_MEM_ALLOC_HOST_PTR, mapped once), with the IDs and depths only when the caller
  *      asked for them; one finish. Several views: vis_drawlist_pack puts the lists one after
  *      the other, the heads are read (one finish), then the packed lists with one read (a
- *      second finish): two round trips, where a read per view cost ~10 us each on the H200;
+ *      second finish): two round trips, where a read per view and a sort per list made most of
+ *      a 3.5 ms gap between kernel and end to end for 256 views on the H200 (docs/opencl.md);
  *   5. each list is sorted by ID from there into the caller's entries (a radix sort with as
  *      few passes as the largest ID needs; a list already in order is copied).
  * Nothing is allocated per frame once the buffers are large enough. */
