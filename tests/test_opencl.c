@@ -639,6 +639,10 @@ static void test_batch(void **state)
         if (vis_trace_batch(p.cl, p.cl_scene, cams, N, &td, ids, N * px, depth, N * px) != VIS_OK)
             fail_msg("batch: %s", vis_context_last_error(p.cl));
         compare_buffers(ref_ids, ref_depth, ids, depth, N * px, W, "opencl batch, packets", mode, 0);
+        td.traversal = VIS_TRAVERSAL_DDA; /* the cell-grid walk, the GPU default, in the batch kernel */
+        if (vis_trace_batch(p.cl, p.cl_scene, cams, N, &td, ids, N * px, depth, N * px) != VIS_OK)
+            fail_msg("batch: %s", vis_context_last_error(p.cl));
+        compare_buffers(ref_ids, ref_depth, ids, depth, N * px, W, "opencl batch, dda", mode, 0);
         td.traversal = VIS_TRAVERSAL_STACK;
         vis_timing tm;
         assert_int_equal(vis_context_last_timing(p.cl, &tm), VIS_OK);
@@ -690,9 +694,15 @@ static void test_drawlist_on_device(void **state)
     size_t longest = 0;
     for (uint32_t depth = 0; depth <= 3; depth += 3) {
         tworld w;
-        random_chunk_world(&w, &rng, depth ? 3 : 8, 2, depth ? 3 : 8); /* the larger: lists past 64 entries */
+        /* the larger: lists past 64 entries, and more than 256 object slots (several blocks
+         * of the device's compaction, cl_drawlist.c) */
+        random_chunk_world(&w, &rng, depth ? 3 : 16, 2, depth ? 3 : 16);
         pair p;
         pair_make(&p, cl, &w, NULL, depth);
+        vis_scene_info si;
+        assert_int_equal(vis_scene_get_info(p.cl_scene, &si), VIS_OK);
+        if (!depth)
+            assert_true(si.objects > 256u);
         enum { N = 5 };
         vis_camera cams[N];
         for (int i = 0; i < N; ++i)
@@ -701,9 +711,11 @@ static void test_drawlist_on_device(void **state)
         cams[0] = over; /* the whole world in view */
         for (int round = 0; round < 2; ++round) {
             for (uint32_t mode = 0; mode < 2; ++mode)
-                for (uint32_t k = 0; k < 3; ++k) {
-                    static const vis_traversal methods[3] = {VIS_TRAVERSAL_STACK, VIS_TRAVERSAL_CACHED_STACK,
-                                                             VIS_TRAVERSAL_PACKET};
+                for (uint32_t k = 0; k < 4; ++k) {
+                    /* dda: the GPU default (on the shallow tree, without a cell map, the
+                     * stack method runs in its place) */
+                    static const vis_traversal methods[4] = {VIS_TRAVERSAL_STACK, VIS_TRAVERSAL_CACHED_STACK,
+                                                             VIS_TRAVERSAL_PACKET, VIS_TRAVERSAL_DDA};
                     vis_trace_desc td = desc_make(k ? 24 : 37, k ? 16 : 29, (vis_id_mode)mode, methods[k]);
                     td.short_stack = 3;
                     size_t l = check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td,
@@ -711,7 +723,7 @@ static void test_drawlist_on_device(void **state)
                     longest = l > longest ? l : longest;
                 }
             for (int e = 0; e < 30; ++e)
-                random_edit(&p, &w, &rng, depth ? 3 : 8, 2);
+                random_edit(&p, &w, &rng, depth ? 3 : 16, 2);
         }
         pair_free(&p);
         free_world(&w);
@@ -1191,7 +1203,8 @@ static void test_aimed_cameras(void **state)
 
 /* vis_trace_effects on OpenCL equals the CPU's buffers bit for bit (the CPU's equal the
  * brute force: test_effects.c), on worlds with water and glass, for the stack method and the
- * brute force, every effect together and reflections and shadows without see-through. Small
+ * brute force and the cell-grid walk (the GPU default), every effect together and reflections
+ * and shadows without see-through. Small
  * images: every (method, effect set) is a program of its own, which PoCL builds slowly. */
 static void test_effects_bit_identical(void **state)
 {
@@ -1202,6 +1215,7 @@ static void test_effects_bit_identical(void **state)
         {VIS_TRAVERSAL_STACK, VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG},
         {VIS_TRAVERSAL_BRUTEFORCE, VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG},
         {VIS_TRAVERSAL_STACK, VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS},
+        {VIS_TRAVERSAL_DDA, VIS_EFFECT_SEE_THROUGH | VIS_EFFECT_REFLECT | VIS_EFFECT_SHADOWS | VIS_EFFECT_FOG},
     };
     enum { S = 24, N = S * S, L = 3 };
     vis_context *cpu = make_ctx(VIS_BACKEND_CPU, NULL, NULL);

@@ -495,7 +495,10 @@ static int effects_program(vis_cl_backend *b, uint32_t traversal, uint32_t effec
     int cached = 0;
     for (uint32_t i = 0; i < b->program_count && !cached; ++i)
         cached = strcmp(b->programs[i].options, opts) == 0;
-    if (!cached && (b->effect_programs >= VIS_CL_MAX_EFFECT_PROGRAMS || traversal > VIS_TRAVERSAL_ID_ROPES_SHORTSTACK))
+    /* Every per-ray method gets its own program (dda being the GPU default); the tile walk's
+     * effects are the stack method's (vis_traverse), as in the generic program. */
+    if (!cached && (b->effect_programs >= VIS_CL_MAX_EFFECT_PROGRAMS || traversal > VIS_TRAVERSAL_ID_DDA ||
+                    traversal == VIS_TRAVERSAL_ID_PACKET))
         snprintf(opts, sizeof opts, "-DVIS_TRACE_EFFECTS");
     else if (!cached)
         ++b->effect_programs; /* counted once tried: a set that fails to build fails again */

@@ -5,10 +5,17 @@
  * list of a view is a few kilobytes. Per launch:
  *   1. one fill zeroes the views' list heads and pixel counts (one buffer: heads first);
  *   2. vis_trace_drawlist_kernel traces and adds each pixel to its key's count (kernels/trace.cl);
- *   3. vis_drawlist_compact turns the counts into (ID, pixels) entries, per view;
- *   4. the heads and the lists are read into pinned host memory (CL_MEM_ALLOC_HOST_PTR,
- *      mapped once), with the IDs and depths only when the caller asked for them; one finish;
- *   5. each list is sorted by ID from there into the caller's entries (a radix sort).
+ *   3. vis_drawlist_block_count and vis_drawlist_compact turn the counts into (ID, pixels)
+ *      entries, per view, in slot order (groups over blocks of slots scan which slots have
+ *      pixels; no atomics);
+ *   4. one view: its head and list region are read into pinned host memory
+ *      (CL_MEM_ALLOC_HOST_PTR, mapped once), with the IDs and depths only when the caller
+ *      asked for them; one finish. Several views: vis_drawlist_pack puts the lists one after
+ *      the other, the heads are read (one finish), then the packed lists with one read (a
+ *      second finish): two round trips, where a read per view and a sort per list made most of
+ *      a 3.5 ms gap between kernel and end to end for 256 views on the H200 (docs/opencl.md);
+ *   5. each list is sorted by ID from there into the caller's entries (a radix sort with as
+ *      few passes as the largest ID needs; a list already in order is copied).
  * Nothing is allocated per frame once the buffers are large enough. */
 #include <stdio.h>
 #include <string.h>
@@ -31,14 +38,14 @@ void vis_cl_drawlist_release(vis_cl_backend *b)
         clEnqueueUnmapMemObject(b->queue, b->dl_pinned, b->dl_host, 0, NULL, NULL);
         clFinish(b->queue);
     }
-    cl_mem *m[] = {&b->dl_counts, &b->dl_list, &b->dl_pinned};
+    cl_mem *m[] = {&b->dl_counts, &b->dl_list, &b->dl_packed, &b->dl_blocks, &b->dl_pinned};
     for (size_t i = 0; i < sizeof m / sizeof m[0]; ++i)
         if (*m[i]) {
             clReleaseMemObject(*m[i]);
             *m[i] = NULL;
         }
     b->dl_host = NULL;
-    b->dl_counts_cap = b->dl_list_cap = b->dl_pinned_cap = 0;
+    b->dl_counts_cap = b->dl_list_cap = b->dl_packed_cap = b->dl_blocks_cap = b->dl_pinned_cap = 0;
 }
 
 /* Pinned host memory of at least `bytes`, mapped for the backend's life. */
@@ -70,10 +77,13 @@ static int ensure_pinned(vis_cl_backend *b, size_t bytes, char *err, size_t err_
     return VIS_OK;
 }
 
-/* Sorts src[0..n) by ID into dst (src is scratch: it is overwritten). LSD radix sort, three
- * passes of 11 bits: linear in n (a heap sort of a large scene's 30,000 entries took
- * milliseconds, more than the trace), no allocation, src -> dst -> src -> dst. IDs are unique,
- * so stability does not show, but the sort is stable anyway. */
+/* Sorts src[0..n) by ID into dst (src is scratch: it is overwritten). LSD radix sort: linear in
+ * n (a heap sort of a large scene's 30,000 entries took milliseconds, more than the trace), no
+ * allocation, alternating src -> dst -> src. Only the passes the largest ID needs run, with
+ * 8-bit digits for short lists (a pass clears and scans its counts, 2,048 of them at 11 bits:
+ * more work than a list of a few hundred entries; a batch sorts one list per view), and a
+ * list already in order is copied. IDs are unique, so stability does not show, but the sort
+ * is stable anyway. */
 static void radix_sort_into(vis_draw_entry *src, vis_draw_entry *dst, size_t n)
 {
     if (n < 64) { /* insertion sort, straight into dst */
@@ -86,25 +96,40 @@ static void radix_sort_into(vis_draw_entry *src, vis_draw_entry *dst, size_t n)
         }
         return;
     }
+    uint32_t bits_of_ids = src[0].id;
+    int in_order = 1;
+    for (size_t i = 1; i < n; ++i) {
+        bits_of_ids |= src[i].id;
+        in_order &= src[i - 1].id < src[i].id;
+    }
+    if (in_order) {
+        memcpy(dst, src, n * sizeof *dst);
+        return;
+    }
+    unsigned digit = n < 1024 ? 8u : 11u, width = 0;
+    while (width < 32u && (bits_of_ids >> width) != 0u)
+        ++width;
     vis_draw_entry *from = src, *to = dst;
-    for (unsigned shift = 0; shift < 33u; shift += 11u) {
-        size_t count[2048];
-        memset(count, 0, sizeof count);
+    size_t count[2048];
+    for (unsigned shift = 0; shift < width; shift += digit) {
+        uint32_t mask = (1u << digit) - 1u;
+        memset(count, 0, ((size_t)mask + 1u) * sizeof count[0]);
         for (size_t i = 0; i < n; ++i)
-            ++count[(from[i].id >> shift) & 2047u];
+            ++count[(from[i].id >> shift) & mask];
         size_t sum = 0;
-        for (unsigned b = 0; b < 2048u; ++b) {
+        for (uint32_t b = 0; b <= mask; ++b) {
             size_t c = count[b];
             count[b] = sum;
             sum += c;
         }
         for (size_t i = 0; i < n; ++i)
-            to[count[(from[i].id >> shift) & 2047u]++] = from[i];
+            to[count[(from[i].id >> shift) & mask]++] = from[i];
         vis_draw_entry *t = from;
         from = to;
         to = t;
     }
-    /* Three passes: the result is in dst. */
+    if (from != dst) /* an even number of passes: the result is in src */
+        memcpy(dst, from, n * sizeof *dst);
 }
 
 /* Views per launch: within the pixel limit for IDs/depths read back and DL_MAX_BYTES for
@@ -118,6 +143,20 @@ static uint32_t views_per_launch(uint32_t count, size_t pixels, int want_pixels,
     if (per == 0)
         per = 1;
     return per < count ? (uint32_t)per : count;
+}
+
+/* Slots each work-item of the compaction walks, one after the other (kernels/trace.cl); a
+ * group's block is pack_items() runs. */
+#define DL_COMPACT_RUN 4u
+
+/* Work-items of a compaction or pack group: a power of two the device runs in one group, at
+ * most 64 (blocks of 256 slots: gen:default's 4,371 slots are 18 blocks per view). */
+static size_t pack_items(const vis_cl_backend *b)
+{
+    size_t n = 64;
+    while (n > 1 && n > b->caps.max_wg)
+        n >>= 1;
+    return n;
 }
 
 /* The kernels' arguments that stay the same for every launch of a call (kernels/trace.cl);
@@ -161,18 +200,66 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
         e = clSetKernelArg(k, 6, sizeof stride, &stride);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(k, 7, sizeof(cl_mem), &b->dl_list);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 8, pack_items(b) * sizeof(cl_uint), NULL);
+    cl_uint run = DL_COMPACT_RUN;
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 9, sizeof run, &run);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 10, sizeof(cl_mem), &b->dl_blocks);
+    k = p->block_count;
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 0, sizeof(cl_mem), &sc->objects.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 1, sizeof(cl_mem), &sc->object_leaves.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 2, sizeof slots, &slots);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 3, sizeof id_mode, &id_mode);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 4, sizeof(cl_mem), &b->dl_counts);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 6, sizeof stride, &stride);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 7, sizeof run, &run);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 8, sizeof(cl_mem), &b->dl_blocks);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 9, pack_items(b) * sizeof(cl_uint), NULL);
+    k = p->pack;
+    cl_uint list_slots = slots ? slots : 1u; /* the lists' stride: the buffers hold at least one */
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 0, sizeof(cl_mem), &b->dl_counts);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 1, sizeof list_slots, &list_slots);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 2, sizeof(cl_mem), &b->dl_list);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 3, sizeof(cl_mem), &b->dl_packed);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 4, pack_items(b) * sizeof(cl_uint), NULL);
     return e;
 }
 
-/* Reads the launch's heads and lists (the lists whole when small, else each list's used part
- * once the heads are known), IDs and depths when asked; waits. */
-static cl_int read_back(vis_cl_backend *b, uint32_t n, size_t slots, size_t pixels, uint32_t *ids, float *depth)
+/* Reads the launch's heads and lists into pinned memory, the lists one after the other past
+ * the heads (view v's after view v-1's), and the IDs and depths when asked; waits. One view
+ * whose list region is small: heads and region in one round trip. Otherwise the pack kernel
+ * (its event in *ev) lays the lists end to end on the device, the heads come back first,
+ * then their sum of entries with one read: two round trips, whatever the number of views. */
+static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, size_t slots, size_t pixels,
+                        uint32_t *ids, float *depth, cl_event *ev)
 {
     cl_uint *heads = b->dl_host;
     vis_draw_entry *lists = (vis_draw_entry *)(heads + n);
     size_t list_bytes = (size_t)n * slots * sizeof(vis_draw_entry);
-    int whole = list_bytes <= DL_READ_WHOLE_BYTES;
-    cl_int e = clEnqueueReadBuffer(b->queue, b->dl_counts, CL_FALSE, 0, n * sizeof(cl_uint), heads, 0, NULL, NULL);
+    int whole = n == 1u && list_bytes <= DL_READ_WHOLE_BYTES;
+    cl_int e = CL_SUCCESS;
+    if (!whole) {
+        size_t local = pack_items(b), global = (size_t)n * local;
+        e = clEnqueueNDRangeKernel(b->queue, p->pack, 1, NULL, &global, &local, 0, NULL, ev);
+    }
+    if (e == CL_SUCCESS)
+        e = clEnqueueReadBuffer(b->queue, b->dl_counts, CL_FALSE, 0, n * sizeof(cl_uint), heads, 0, NULL, NULL);
     if (e == CL_SUCCESS && whole)
         e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, 0, list_bytes, lists, 0, NULL, NULL);
     if (e == CL_SUCCESS && ids)
@@ -184,12 +271,12 @@ static cl_int read_back(vis_cl_backend *b, uint32_t n, size_t slots, size_t pixe
     cl_int f = clFinish(b->queue);
     if (e != CL_SUCCESS || f != CL_SUCCESS || whole)
         return e != CL_SUCCESS ? e : f;
-    for (uint32_t v = 0; v < n && e == CL_SUCCESS; ++v) {
-        size_t h = heads[v] <= slots ? heads[v] : slots;
-        if (h)
-            e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, (size_t)v * slots * sizeof(vis_draw_entry),
-                                    h * sizeof(vis_draw_entry), lists + (size_t)v * slots, 0, NULL, NULL);
-    }
+    size_t sum = 0;
+    for (uint32_t v = 0; v < n; ++v)
+        sum += heads[v] <= slots ? heads[v] : slots; /* as the pack kernel clamps */
+    if (sum == 0)
+        return CL_SUCCESS;
+    e = clEnqueueReadBuffer(b->queue, b->dl_packed, CL_FALSE, 0, sum * sizeof(vis_draw_entry), lists, 0, NULL, NULL);
     f = clFinish(b->queue);
     return e != CL_SUCCESS ? e : f;
 }
@@ -215,6 +302,9 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     size_t slots = view->object_count ? view->object_count : 1u;
     size_t stride = setups[0].id_mode == 1u ? (view->leaf_count ? view->leaf_count : 1u) : slots;
     uint32_t per = views_per_launch(count, pixels, ids || depth, stride, slots);
+    size_t block = pack_items(b) * DL_COMPACT_RUN, blocks = (view->object_count + block - 1) / block;
+    if (blocks == 0)
+        blocks = 1; /* the last block writes the head, even of an empty list */
 
     /* Cameras; counts with the heads in front; lists; pinned heads + lists; IDs/depths if asked. */
     if ((st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
@@ -223,6 +313,10 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
                                    CL_MEM_READ_WRITE, "draw-list counts", err, err_size)) != VIS_OK ||
         (st = vis_cl_ensure_buffer(b, &b->dl_list, &b->dl_list_cap, (size_t)per * slots, sizeof(vis_draw_entry),
                                    CL_MEM_READ_WRITE, "draw-list entries", err, err_size)) != VIS_OK ||
+        (st = vis_cl_ensure_buffer(b, &b->dl_packed, &b->dl_packed_cap, (size_t)per * slots, sizeof(vis_draw_entry),
+                                   CL_MEM_READ_WRITE, "packed draw lists", err, err_size)) != VIS_OK ||
+        (st = vis_cl_ensure_buffer(b, &b->dl_blocks, &b->dl_blocks_cap, (size_t)per * blocks, sizeof(cl_uint),
+                                   CL_MEM_READ_WRITE, "draw-list block counts", err, err_size)) != VIS_OK ||
         (st = ensure_pinned(b, per * sizeof(cl_uint) + (size_t)per * slots * sizeof(vis_draw_entry), err,
                             err_size)) != VIS_OK)
         return st;
@@ -255,18 +349,22 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
             e = clSetKernelArg(p->drawlist, 15, sizeof off, &off);
         if (e == CL_SUCCESS)
             e = clSetKernelArg(p->compact, 5, sizeof off, &off);
-        cl_event ev[2] = {NULL, NULL};
+        if (e == CL_SUCCESS)
+            e = clSetKernelArg(p->block_count, 5, sizeof off, &off);
+        cl_event ev[4] = {NULL, NULL, NULL, NULL};
         if (e == CL_SUCCESS)
             e = vis_cl_enqueue_pass(b, p, p->drawlist, 19, W, H, n, &ev[0]);
-        size_t cg[2] = {(slots + 63) / 64 * 64, n};
+        size_t cl_local[2] = {pack_items(b), 1}, cg[2] = {blocks * pack_items(b), n}; /* (blocks, views) */
         if (e == CL_SUCCESS)
-            e = clEnqueueNDRangeKernel(b->queue, p->compact, 2, NULL, cg, NULL, 0, NULL, &ev[1]);
+            e = clEnqueueNDRangeKernel(b->queue, p->block_count, 2, NULL, cg, cl_local, 0, NULL, &ev[3]);
         if (e == CL_SUCCESS)
-            e = read_back(b, n, slots, pixels, ids ? ids + (size_t)first * pixels : NULL,
-                          depth ? depth + (size_t)first * pixels : NULL);
+            e = clEnqueueNDRangeKernel(b->queue, p->compact, 2, NULL, cg, cl_local, 0, NULL, &ev[1]);
+        if (e == CL_SUCCESS)
+            e = read_back(b, p, n, slots, pixels, ids ? ids + (size_t)first * pixels : NULL,
+                          depth ? depth + (size_t)first * pixels : NULL, &ev[2]);
         else
             clFinish(b->queue);
-        for (int i = 0; i < 2; ++i)
+        for (int i = 0; i < 4; ++i)
             if (ev[i]) {
                 if (e == CL_SUCCESS)
                     vis_cl_add_event_time(b, ev[i]);
@@ -285,9 +383,11 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
                      first + n < count ? " or more" : "", capacity);
             return VIS_ERROR_CAPACITY;
         }
+        size_t at = 0; /* view v's list in pinned memory: after the lists before it */
         for (uint32_t v = 0; v < n; ++v) {
             size_t h = heads[v] <= slots ? heads[v] : slots;
-            radix_sort_into(lists + (size_t)v * slots, entries + done, h);
+            radix_sort_into(lists + at, entries + done, h);
+            at += h;
             per_view[first + v] = h;
             done += h;
         }

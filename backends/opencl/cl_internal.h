@@ -137,6 +137,8 @@ typedef struct vis_cl_program {
     cl_kernel batch;       /* vis_trace_batch_kernel: many views, setups in a buffer */
     cl_kernel drawlist;    /* vis_trace_drawlist_kernel: the batch kernel counting pixels per key */
     cl_kernel compact;     /* vis_drawlist_compact: counts to per-view lists            */
+    cl_kernel block_count; /* vis_drawlist_block_count: slots with pixels per block, before compact */
+    cl_kernel pack;        /* vis_drawlist_pack: a batch's lists one after the other    */
     cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
     int persistent;        /* built with -DVIS_CL_PERSISTENT: trace, batch and drawlist take the tile
                               counter and the view count as their two last arguments */
@@ -187,9 +189,11 @@ typedef struct vis_cl_backend {
     /* The draw list on the device (cl_drawlist.c): per-key pixel counts with the views' list
      * heads in front, the lists, and pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once
      * for the backend's life) that heads and lists are read into. */
-    cl_mem dl_counts, dl_list, dl_pinned;
+    cl_mem dl_counts, dl_list, dl_packed, dl_blocks, dl_pinned;
     size_t dl_counts_cap;     /* uints of dl_counts                                      */
     size_t dl_list_cap;       /* entries (uint2) of dl_list                               */
+    size_t dl_packed_cap;     /* entries (uint2) of dl_packed: the lists, one after another */
+    size_t dl_blocks_cap;     /* uints of dl_blocks: per view, the entries of each block of slots */
     size_t dl_pinned_cap;     /* bytes of dl_pinned                                       */
     void *dl_host;            /* dl_pinned, mapped                                        */
 

@@ -76,11 +76,15 @@ static int build(vis_cl_backend *b, vis_cl_program *p, char *err, size_t err_siz
         p->drawlist = clCreateKernel(p->program, "vis_trace_drawlist_kernel", &e);
     if (e == CL_SUCCESS)
         p->compact = clCreateKernel(p->program, "vis_drawlist_compact", &e);
+    if (e == CL_SUCCESS)
+        p->block_count = clCreateKernel(p->program, "vis_drawlist_block_count", &e);
+    if (e == CL_SUCCESS)
+        p->pack = clCreateKernel(p->program, "vis_drawlist_pack", &e);
     if (e == CL_SUCCESS && strstr(p->options, "-DVIS_TRACE_EFFECTS"))
         p->effects = clCreateKernel(p->program, "vis_trace_effects_kernel", &e);
     if (e != CL_SUCCESS) {
         int st = vis_cl_fail(e, "clCreateKernel", err, err_size);
-        cl_kernel made[] = {p->trace, p->batch, p->drawlist, p->compact, p->effects};
+        cl_kernel made[] = {p->trace, p->batch, p->drawlist, p->compact, p->block_count, p->pack, p->effects};
         for (size_t i = 0; i < sizeof made / sizeof made[0]; ++i)
             if (made[i])
                 clReleaseKernel(made[i]);
@@ -132,6 +136,10 @@ void vis_cl_programs_release(vis_cl_backend *b)
             clReleaseKernel(p->drawlist);
         if (p->compact)
             clReleaseKernel(p->compact);
+        if (p->block_count)
+            clReleaseKernel(p->block_count);
+        if (p->pack)
+            clReleaseKernel(p->pack);
         if (p->effects)
             clReleaseKernel(p->effects);
         if (p->program)

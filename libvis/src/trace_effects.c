@@ -78,6 +78,7 @@ static vis_status trace_effects(vis_context *ctx, vis_scene *scene, const vis_ca
     if ((st = check_buffers(ctx, &d, b)) != VIS_OK)
         return st;
     vis_ray_setup setup;
+    d.traversal = vis_trace_auto_stack(ctx, d.traversal); /* on a device: see trace.h */
     if ((st = vis_trace_make_setup(ctx, scene, camera, &d, &setup)) != VIS_OK)
         return st;
     const vis_backend_ops *ops = ctx->backend.ops;

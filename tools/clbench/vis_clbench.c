@@ -826,7 +826,7 @@ int main(int argc, char **argv)
         }
 
         /* ---- 3. batches ---- */
-        printf("\nbatches of 512x512 views (vis_trace_batch, stack traversal, object IDs):\n");
+        printf("\nbatches of 512x512 views (vis_trace_batch, AUTO traversal, object IDs):\n");
         printf("%6s %12s %12s %14s %14s %16s\n", "views", "kernel ms", "total ms", "kernel Grays/s", "e2e Grays/s",
                "e2e+depth Grays/s");
         for (const char *p = batches; *p;) {

@@ -169,12 +169,12 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
  * work-group's local memory first: each run of equal keys along a row of the tile adds its
  * length with one atomic, so an object filling a tile costs one atomic per row, not per pixel.
  *
- * vis_drawlist_compact: one work-item per (object slot, view), the views' list heads in the
- * first words of `counts` (before counts_offset). Object IDs: the slot's count;
- * leaf IDs: the sum of the counts of the slot's leaves (object_leaves, the same relation
- * vis_drawlist_build expands through). A non-zero count appends (ID, count) to the view's list
- * at list[v * slots + k], k from an atomic on heads[v]; the host sorts each list by ID, so the
- * order the atomics give does not show. counts and heads are zeroed by the host before. */
+ * vis_drawlist_block_count + vis_drawlist_compact (below): the views' list heads in the first
+ * words of `counts` (before counts_offset). Object IDs: the slot's count; leaf IDs: the sum of the
+ * counts of the slot's leaves (object_leaves, the same relation vis_drawlist_build expands
+ * through). Each non-zero count becomes (ID, count) in the view's list at list[v * slots],
+ * in slot order; the host sorts each list by ID (a list already in order is copied). counts
+ * are zeroed by the host before. */
 #define VIS_CL_NO_KEY 0xFFFFFFFFu
 
 /* One pixel of the draw-list kernel; every item of the group calls it (it has a barrier). */
@@ -231,30 +231,127 @@ __kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict s
 #endif
 }
 
+/* The pixels of object slot o in the view's counts c: the slot's own count (object IDs) or
+ * the sum over its leaves (leaf IDs); 0 for a free slot. */
+VIS_INLINE uint vis_cl_slot_pixels(const __global vis_flat_object *restrict objects,
+                                   const __global uint *restrict object_leaves, uint id_mode, const __global uint *c,
+                                   uint o)
+{
+    if (id_mode != 1u)
+        return c[o];
+    vis_flat_object ob = objects[o];
+    if (ob.id == 0u)
+        return 0u; /* a free slot */
+    uint n = 0u;
+    for (uint k = 0u; k < ob.leaf_count; ++k)
+        n += c[object_leaves[ob.leaf_offset + k]];
+    return n;
+}
+
+/* An inclusive scan of sum[0..ln) across the group (Hillis & Steele; ln a power of two);
+ * every item of the group calls it. */
+VIS_INLINE void vis_cl_group_scan(__local uint *sum, uint li, uint ln)
+{
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint d = 1u; d < ln; d <<= 1) {
+        uint add = li >= d ? sum[li - d] : 0u;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        sum[li] += add;
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+}
+
+/* The slots with pixels in this item's run: `run` consecutive slots of the group's block
+ * (get_group_id(0); a block is get_local_size(0) runs), of view get_group_id(1). */
+VIS_INLINE uint vis_cl_run_hits(const __global vis_flat_object *restrict objects,
+                                const __global uint *restrict object_leaves, uint slots, uint id_mode,
+                                const __global uint *c, uint run, uint *lo, uint *hi)
+{
+    uint first = ((uint)get_group_id(0) * (uint)get_local_size(0) + (uint)get_local_id(0)) * run;
+    *lo = min(first, slots);
+    *hi = min(first + run, slots);
+    uint n = 0u;
+    for (uint o = *lo; o < *hi; ++o)
+        n += vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o) != 0u;
+    return n;
+}
+
+/* Ordered compaction in two kernels over a grid of (blocks of slots, views), so that a view's
+ * slots are walked by many groups (one group per view took ~60 us for 120,000 slots):
+ * vis_drawlist_block_count writes how many slots of each block have pixels
+ * (block_counts[v * blocks + block]); vis_drawlist_compact then writes a block's entries after
+ * those of the blocks before it, each item's after the items' before it (a scan in local
+ * memory), so the list comes out in slot order (the order slots are allocated in, often the
+ * IDs' order, which the host then only checks), with no atomic. The last block writes the
+ * view's head. `sum`: one local word per item, a power of two. */
+__kernel void vis_drawlist_block_count(const __global vis_flat_object *restrict objects,
+                                       const __global uint *restrict object_leaves, const uint slots,
+                                       const uint id_mode, const __global uint *counts, const uint counts_offset,
+                                       const uint stride, const uint run, __global uint *restrict block_counts,
+                                       __local uint *sum)
+{
+    uint v = (uint)get_group_id(1), li = (uint)get_local_id(0), ln = (uint)get_local_size(0), lo, hi;
+    sum[li] = vis_cl_run_hits(objects, object_leaves, slots, id_mode, counts + counts_offset + (size_t)v * stride,
+                              run, &lo, &hi);
+    vis_cl_group_scan(sum, li, ln);
+    if (li == ln - 1u)
+        block_counts[(size_t)v * get_num_groups(0) + get_group_id(0)] = sum[li];
+}
+
 __kernel void vis_drawlist_compact(const __global vis_flat_object *restrict objects,
                                    const __global uint *restrict object_leaves, const uint slots, const uint id_mode,
                                    __global uint *counts, const uint counts_offset, const uint stride,
-                                   __global uint2 *restrict list)
+                                   __global uint2 *restrict list, __local uint *sum, const uint run,
+                                   const __global uint *restrict block_counts)
 {
-    uint o = (uint)get_global_id(0), v = (uint)get_global_id(1);
-    if (o >= slots)
-        return;
-    __global uint *heads = counts;
+    uint v = (uint)get_group_id(1), blk = (uint)get_group_id(0), blocks = (uint)get_num_groups(0);
+    uint li = (uint)get_local_id(0), ln = (uint)get_local_size(0), lo, hi;
+    /* The entries of the blocks before this one. */
+    uint before = 0u;
+    for (uint k = li; k < blk; k += ln)
+        before += block_counts[(size_t)v * blocks + k];
+    sum[li] = before;
+    vis_cl_group_scan(sum, li, ln);
+    before = sum[ln - 1u];
+    barrier(CLK_LOCAL_MEM_FENCE); /* every item has read it before sum is reused */
     const __global uint *c = counts + counts_offset + (size_t)v * stride;
-    uint n = 0u;
-    if (id_mode == 1u) {
-        vis_flat_object ob = objects[o];
-        if (ob.id == 0u)
-            return; /* a free slot */
-        for (uint k = 0u; k < ob.leaf_count; ++k)
-            n += c[object_leaves[ob.leaf_offset + k]];
-    } else {
-        n = c[o];
+    uint mine = vis_cl_run_hits(objects, object_leaves, slots, id_mode, c, run, &lo, &hi);
+    sum[li] = mine;
+    vis_cl_group_scan(sum, li, ln);
+    uint at = before + sum[li] - mine;
+    for (uint o = lo; o < hi; ++o) {
+        uint n = vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o);
+        if (n != 0u)
+            list[(size_t)v * slots + at++] = (uint2)(objects[o].id, n);
     }
-    if (n == 0u)
-        return;
-    uint k = atomic_inc(&heads[v]);
-    list[(size_t)v * slots + k] = (uint2)(objects[o].id, n);
+    if (blk == blocks - 1u && li == ln - 1u)
+        counts[v] = before + sum[li]; /* the view's head */
+}
+
+/* vis_drawlist_pack: the views' lists (view v's at list[v * slots], heads[v] long) one after
+ * the other in `packed`, view v's at the sum of the heads before it, so that the host reads
+ * every list of a batch with one read instead of one read per view (cl_drawlist.c). One
+ * work-group per view, `sum` its local scratch of one word per item (a power of two); heads
+ * are clamped to slots, as the host clamps them when it finds each list. */
+__kernel void vis_drawlist_pack(__global const uint *restrict heads, const uint slots,
+                                __global const uint2 *restrict list, __global uint2 *restrict packed,
+                                __local uint *sum)
+{
+    uint v = (uint)get_group_id(0), li = (uint)get_local_id(0), ln = (uint)get_local_size(0);
+    uint s = 0u;
+    for (uint u = li; u < v; u += ln)
+        s += min(heads[u], slots);
+    sum[li] = s;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint w = ln >> 1; w > 0u; w >>= 1) {
+        if (li < w)
+            sum[li] += sum[li + w];
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    size_t at = sum[0];
+    uint h = min(heads[v], slots);
+    for (uint k = li; k < h; k += ln)
+        packed[at + k] = list[(size_t)v * slots + k];
 }
 
 #ifdef VIS_TRACE_EFFECTS
