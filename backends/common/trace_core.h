@@ -1593,13 +1593,16 @@ VIS_INLINE float vis_dda_exit(const vis_ray *r, uint32_t a, int i, int step, int
 #  define VIS_DDA_VISIT(entry) ((void)0)
 #endif
 
-/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. */
-VIS_INLINE void vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
+/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. Returns
+ * whether the leaf was tested (only then can the best hit have changed). */
+VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
 {
     VIS_DDA_VISIT(entry);
     const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[rope_index[entry]];
-    if (leaf->quad_count | leaf->loose_count | leaf->tri_count)
-        vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
+    if (!(leaf->quad_count | leaf->loose_count | leaf->tri_count))
+        return 0;
+    vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
+    return 1;
 }
 
 /* One walk from cell m0 (the lowest cell, in the ray's direction, that can pass at t0).
@@ -1619,14 +1622,19 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
     float ty = sy ? vis_dda_exit(r, 1u, my, sy, ny, cs) : VIS_INF;
     float tz = sz ? vis_dda_exit(r, 2u, mz, sz, nz, cs) : VIS_INF;
     float T = t0; /* where the current cell is entered */
+    /* The walk stops at a cell entered beyond lim(best hit) or lim(t1): one bound, renewed
+     * only where the best hit can change (after a leaf that holds primitives). */
+    float lim_t1 = vis_t_limit(t1);
+    float stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
     for (;;) {
-        if (T > vis_t_limit(h->t) || T > vis_t_limit(t1))
+        if (T > stop)
             return 1;
         float e = tx < ty ? tx : ty;
         e = tz < e ? tz : e;
         if (!(e <= VIS_INF))
             return 0; /* a NaN crossing (a ray made elsewhere with an infinite reciprocal) */
-        vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h);
+        if (vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h))
+            stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
         if (e == VIS_INF)
             return 1;
         float lim = vis_t_limit(e);
@@ -1647,12 +1655,14 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
             last = (set & 1u) && tx > last ? tx : last;
             last = (set & 2u) && ty > last ? ty : last;
             last = (set & 4u) && tz > last ? tz : last;
-            if (e <= vis_t_limit(h->t) && e <= vis_t_limit(t1))
+            if (e <= stop) {
                 for (uint32_t sub = 1u; sub < set; ++sub)
                     if ((sub & set) == sub)
                         vis_dda_leaf(r,
                                      entry + ((sub & 1u) ? dx : 0u) + ((sub & 2u) ? dy : 0u) + ((sub & 4u) ? dz : 0u),
                                      e, last, VIS_SCENE_ARGS, h);
+                stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
+            }
         }
         lim = vis_t_limit(last);
         if (set & 1u) {
