@@ -751,7 +751,6 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
     }
 }
 
-
 /* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
  * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
  * is the minimum over all primitives tested, whatever order they come in.
