@@ -871,6 +871,60 @@ static void test_aimed_at_content_box_edges(void **state)
     vis_context_destroy(ctx);
 }
 
+/* The leaf walk skips the content box's slab on an axis the box spans (the whole leaf), and
+ * returns after any slab the ray misses, the vertical one first (trace_core.h,
+ * vis_leaf_intersect). Chunks whose objects hold a wall or floor across the whole chunk (a
+ * box that spans the leaf on two or three axes) and a few small quads inside (so that the box
+ * spans it on one axis at most when the wall is missing from some): rays aimed at the box's
+ * outer edges and at the quads must equal the brute force, with leaves of one chunk, of half
+ * a chunk's extent and of two chunks'. */
+static void spanning_box_world(tworld *w, uint64_t *rng)
+{
+    chunk_world_init(w, 2, 2, 2);
+    for (uint32_t c = 0; c < 8u; ++c) {
+        float base[3] = {16.0f * (float)(c & 1u), 16.0f * (float)((c >> 1) & 1u), 16.0f * (float)(c >> 2)};
+        tobj *o = add_obj(w, 1u + c);
+        if (vt_rand(rng) % 4u != 0u) { /* a wall on a face of the chunk, or across its middle */
+            uint32_t a = (uint32_t)(vt_rand(rng) % 3u), u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+            float k = (float)(vt_rand(rng) % 3u) * 8.0f;
+            obj_quad(o, a, base[a] + k, base[u], base[v], base[u] + 16.0f, base[v] + 16.0f);
+        }
+        uint32_t n = 1u + (uint32_t)(vt_rand(rng) % 3u);
+        for (uint32_t i = 0; i < n; ++i) {
+            uint32_t a = (uint32_t)(vt_rand(rng) % 3u), u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+            float lo[3];
+            int ext[3];
+            for (int b = 0; b < 3; ++b) {
+                ext[b] = 1 + (int)(vt_rand(rng) % 3u);
+                lo[b] = base[b] + 2.0f + (float)(vt_rand(rng) % (uint64_t)(13 - ext[b]));
+            }
+            obj_quad(o, a, lo[a], lo[u], lo[v], lo[u] + (float)ext[u], lo[v] + (float)ext[v]);
+        }
+    }
+}
+
+static void test_content_box_spanning_the_leaf(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 7919;
+    int rays = vt_small() ? 2000 : 10000;
+    static const uint32_t depths[] = {0, 1, 5};
+    for (int wi = 0; wi < 3; ++wi) {
+        tworld w;
+        spanning_box_world(&w, &rng);
+        vis_scene *scene = make_scene(ctx, &w, NULL, depths[wi]);
+        char what[64];
+        snprintf(what, sizeof what, "walls, kd_depth %u", depths[wi]);
+        check_ray_stream(scene, &w, &rng, rays, box_edge_ray, 0, what);
+        check_ray_stream(scene, &w, &rng, rays, aimed_ray, 0, what);
+        check_ray_stream(scene, &w, &rng, rays / 4, grid_ray, 0, what);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
 /* ---- the ropes against their definition --------------------------------------------------- */
 
 typedef struct node_box {
@@ -1186,6 +1240,7 @@ int main(void)
         cmocka_unit_test(test_aimed_at_chunk_edges),
         cmocka_unit_test(test_aimed_at_lone_quad_edges),
         cmocka_unit_test(test_aimed_at_content_box_edges),
+        cmocka_unit_test(test_content_box_spanning_the_leaf),
         cmocka_unit_test(test_checkerboard_views),
         cmocka_unit_test(test_closed_room_ties_inside_solid),
         cmocka_unit_test(test_random_worlds),

@@ -34,6 +34,7 @@ typedef uint uint32_t;
 typedef int int32_t;
 #  define VIS_GLOBAL __global
 #  define VIS_INLINE static inline
+#  define VIS_NOINLINE static inline
 #  define VIS_INF INFINITY
 #  define VIS_FLOORF floor
 #  define VIS_CEILF ceil
@@ -44,6 +45,9 @@ typedef int int32_t;
 #  include <stdint.h>
 #  define VIS_GLOBAL
 #  define VIS_INLINE static inline
+/* A function kept out of line on the CPU, where the small part in front of it should inline
+ * into its callers (the device compiler inlines as it sees fit). */
+#  define VIS_NOINLINE static __attribute__((noinline, unused))
 #  define VIS_INF INFINITY
 #  define VIS_FLOORF floorf
 #  define VIS_CEILF ceilf
@@ -631,41 +635,10 @@ VIS_INLINE void vis_crossing_cells(float o, float td, float lo, int c[2])
     c[1] = !(y >= 0.0f) ? -1 : vis_clamp_plane(y, 0, (int)VIS_PQ_COORD_MAX); /* floor(y) */
 }
 
-/* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
- * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
- * is the minimum over all primitives tested, whatever order they come in.
- *
- * The packed quads are looked for only where the ray crosses the leaf's content box (the box
- * of every packed quad, vis_flat_leaf.content_box): the air above a terrain surface that the
- * leaf also holds, and the solid below it, which holds no face, cost no plane steps (empty
- * space skipping at the leaf's own level; Lee & Han 2005, seeds/001). [ta, tb] is narrowed by
- * vis_slab to the box's slabs, whose bounds lo + offset are computed as the quads' own
- * coordinates (vis_unpack_quad) and whose distances are computed as the quad test's.
- *
- * Why no quad the exact test takes is lost. Let a packed quad q be taken at its plane's
- * distance t (vis_quad_slab: t_in <= lim(t_out), lim = vis_t_limit, with t_in the latest
- * entry into the slabs of q's box [plane, plane] x [u0, u1] x [v0, v1] and t_out the earliest
- * exit; t itself is q's entry and exit on its own axis, so t_out <= t <= t_in). q's box lies
- * in the content box, and rounding is monotone, so on every axis the box's bound is no
- * farther in than q's (lo + k as floats, then (c - o) * inv with the same inv), the box's entry
- * no later than q's and its exit no earlier; a ray parallel to an axis lies in q's slab only
- * if it lies in the box's. Hence the box's entry T_in <= t_in <= lim(t_out) <= lim(t), and
- * t <= t_in <= lim(t_out) <= lim(T_out). The narrowed interval [max(ta, T_in), min(tb, T_out)]
- * therefore keeps, for every such quad, whatever the caller's [ta, tb] gave: its start moves
- * only to a distance within the slack of t, its end likewise, so the plane range below
- * (widened by one plane on each side against exactly such rounding, as it is for the leaf's
- * own entry and exit) still holds q's plane. The walks hand a leaf an interval that holds the
- * distance t of every quad it must find within the same slack (ta <= lim(t), t <= lim(tb):
- * their intervals are the leaf's slab test, docs/traversal.md "Exactness"), so when the
- * narrowed start lies beyond lim(lim(end)) no such quad exists and the walk returns at once.
- * The plane range of each axis is also kept inside the box's offsets on that axis, where all
- * the non-empty buckets of that axis lie. */
-VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
-                                   const VIS_GLOBAL uint32_t *buckets,
-                                   const VIS_GLOBAL uint32_t *quads,
-                                   const VIS_GLOBAL vis_flat_tri *tris,
-                                   const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
-                                   vis_hit *h)
+/* The leaf's loose quads and triangles (always tested: they are not in the content box). */
+VIS_NOINLINE void vis_leaf_loose(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                 const VIS_GLOBAL uint32_t *quads, const VIS_GLOBAL vis_flat_tri *tris,
+                                 const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
 {
     uint32_t n = leaf->loose_count;
     const VIS_GLOBAL vis_flat_quad *loose = vis_loose_quads(quads, leaf);
@@ -674,13 +647,17 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
     n = leaf->tri_count;
     for (uint32_t i = 0; i < n; ++i)
         vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
-    if (leaf->quad_count == 0u)
-        return;
+}
 
-    int E[3];
-    E[0] = (int)(leaf->dims_xy & 0xFFFFu);
-    E[1] = (int)(leaf->dims_xy >> 16);
-    E[2] = (int)leaf->dims_z;
+/* The plane walk of vis_leaf_intersect over [ta, tb] (already narrowed to the content box),
+ * with the leaf's plane counts E and the box's offsets bl, bh (bh read as the last plane when
+ * saturated). Kept out of line on the CPU so that the leaves whose box a ray misses, most of
+ * those it enters, cost no call (vis_leaf_intersect inlines into every walk). */
+VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                  const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL uint32_t *quads,
+                                  const VIS_GLOBAL vis_flat_object *objects, float ta, float tb, const int *E,
+                                  const int *bl, const int *bh, vis_hit *h)
+{
     int base[3];
     base[0] = 0;
     base[1] = E[0] + 1;
@@ -688,19 +665,8 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
     int k[3], kend[3], step[3];
     float tk[3];
     float lo[3];
-    int bl[3], bh[3];
-    uint32_t cb = leaf->content_box;
-    for (int a = 0; a < 3; ++a) {
+    for (int a = 0; a < 3; ++a)
         lo[a] = leaf->lo[a];
-        bl[a] = (int)VIS_BOX_FIELD(cb, (uint32_t)a);
-        bh[a] = (int)VIS_BOX_FIELD(cb, (uint32_t)a + 3u);
-        if (bh[a] == (int)VIS_PQ_COORD_MAX && E[a] > bh[a])
-            bh[a] = E[a]; /* saturated: a plane may lie up to the leaf's last one */
-        if (!vis_slab(r, (uint32_t)a, lo[a] + (float)bl[a], lo[a] + (float)bh[a], &ta, &tb))
-            return; /* parallel to the axis, outside the box's slab */
-    }
-    if (ta > vis_t_limit(vis_t_limit(tb)))
-        return; /* the ray misses the content box */
     for (int a = 0; a < 3; ++a) {
         tk[a] = VIS_INF;
         k[a] = 0;
@@ -783,6 +749,77 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
             tk[a] = vis_plane_t(r, a, lo[a], k[a]);
         }
     }
+}
+
+/* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
+ * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
+ * is the minimum over all primitives tested, whatever order they come in.
+ *
+ * The packed quads are looked for only where the ray crosses the leaf's content box (the box
+ * of every packed quad, vis_flat_leaf.content_box): the air above a terrain surface that the
+ * leaf also holds, and the solid below it, which holds no face, cost no plane steps (empty
+ * space skipping at the leaf's own level; Lee & Han 2005, seeds/001). [ta, tb] is narrowed by
+ * vis_slab to the box's slabs, whose bounds lo + offset are computed as the quads' own
+ * coordinates (vis_unpack_quad) and whose distances are computed as the quad test's.
+ *
+ * Why no quad the exact test takes is lost. Let a packed quad q be taken at its plane's
+ * distance t (vis_quad_slab: t_in <= lim(t_out), lim = vis_t_limit, with t_in the latest
+ * entry into the slabs of q's box [plane, plane] x [u0, u1] x [v0, v1] and t_out the earliest
+ * exit; t itself is q's entry and exit on its own axis, so t_out <= t <= t_in). q's box lies
+ * in the content box, and rounding is monotone, so on every axis the box's bound is no
+ * farther in than q's (lo + k as floats, then (c - o) * inv with the same inv), the box's entry
+ * no later than q's and its exit no earlier; a ray parallel to an axis lies in q's slab only
+ * if it lies in the box's. Hence the box's entry T_in <= t_in <= lim(t_out) <= lim(t), and
+ * t <= t_in <= lim(t_out) <= lim(T_out). The narrowed interval [max(ta, T_in), min(tb, T_out)]
+ * therefore keeps, for every such quad, whatever the caller's [ta, tb] gave: its start moves
+ * only to a distance within the slack of t, its end likewise, so the plane range below
+ * (widened by one plane on each side against exactly such rounding, as it is for the leaf's
+ * own entry and exit) still holds q's plane. The walks hand a leaf an interval that holds the
+ * distance t of every quad it must find within the same slack (ta <= lim(t), t <= lim(tb):
+ * their intervals are the leaf's slab test, docs/traversal.md "Exactness"), so when the
+ * narrowed start lies beyond lim(lim(end)) no such quad exists and the walk returns at once.
+ * The plane range of each axis is also kept inside the box's offsets on that axis, where all
+ * the non-empty buckets of that axis lie. */
+VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                   const VIS_GLOBAL uint32_t *buckets,
+                                   const VIS_GLOBAL uint32_t *quads,
+                                   const VIS_GLOBAL vis_flat_tri *tris,
+                                   const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
+                                   vis_hit *h)
+{
+    if (leaf->loose_count | leaf->tri_count)
+        vis_leaf_loose(r, leaf, quads, tris, objects, h);
+    if (leaf->quad_count == 0u)
+        return;
+    int E[3];
+    E[0] = (int)(leaf->dims_xy & 0xFFFFu);
+    E[1] = (int)(leaf->dims_xy >> 16);
+    E[2] = (int)leaf->dims_z;
+    int bl[3], bh[3];
+    uint32_t cb = leaf->content_box;
+    /* The vertical axis (y) first: in a terrain or a city most leaves a ray enters and whose
+     * box it misses it passes above (docs/performance.md, "Lone rays"), so the walk usually
+     * returns after one slab. Every narrowing only moves ta up and tb down and vis_t_limit is
+     * monotone, so a test after any axis rejects only what the test after all three would. */
+    for (int i = 0; i < 3; ++i) {
+        int a = i == 0 ? 1 : i == 1 ? 0 : 2;
+        bl[a] = (int)VIS_BOX_FIELD(cb, (uint32_t)a);
+        bh[a] = (int)VIS_BOX_FIELD(cb, (uint32_t)a + 3u);
+        if (bh[a] == (int)VIS_PQ_COORD_MAX && E[a] > bh[a])
+            bh[a] = E[a]; /* saturated: a plane may lie up to the leaf's last one */
+        /* A box that spans the whole leaf on this axis narrows nothing the walks' own
+         * interval (the leaf's slab) had not: its slab is skipped. [ta, tb] then stays a
+         * superset of the narrowed interval, which loses no quad (the argument above) and
+         * only rejects less; at street level in a city, leaves full of walls, the clip cost
+         * 8.8-9.5 % (docs/performance.md, "The per-ray leaf walk clips the ray"). */
+        if (bl[a] == 0 && bh[a] >= E[a])
+            continue;
+        float lo = leaf->lo[a];
+        if (!vis_slab(r, (uint32_t)a, lo + (float)bl[a], lo + (float)bh[a], &ta, &tb) ||
+            ta > vis_t_limit(vis_t_limit(tb)))
+            return; /* parallel to the axis outside the box's slab, or the box is missed */
+    }
+    vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
 }
 
 /* ---- traversal ---------------------------------------------------------------------- */
@@ -1555,13 +1592,16 @@ VIS_INLINE float vis_dda_exit(const vis_ray *r, uint32_t a, int i, int step, int
 #  define VIS_DDA_VISIT(entry) ((void)0)
 #endif
 
-/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. */
-VIS_INLINE void vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
+/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. Returns
+ * whether the leaf was tested (only then can the best hit have changed). */
+VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
 {
     VIS_DDA_VISIT(entry);
     const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[rope_index[entry]];
-    if (leaf->quad_count | leaf->loose_count | leaf->tri_count)
-        vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
+    if (!(leaf->quad_count | leaf->loose_count | leaf->tri_count))
+        return 0;
+    vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
+    return 1;
 }
 
 /* One walk from cell m0 (the lowest cell, in the ray's direction, that can pass at t0).
@@ -1581,14 +1621,19 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
     float ty = sy ? vis_dda_exit(r, 1u, my, sy, ny, cs) : VIS_INF;
     float tz = sz ? vis_dda_exit(r, 2u, mz, sz, nz, cs) : VIS_INF;
     float T = t0; /* where the current cell is entered */
+    /* The walk stops at a cell entered beyond lim(best hit) or lim(t1): one bound, renewed
+     * only where the best hit can change (after a leaf that holds primitives). */
+    float lim_t1 = vis_t_limit(t1);
+    float stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
     for (;;) {
-        if (T > vis_t_limit(h->t) || T > vis_t_limit(t1))
+        if (T > stop)
             return 1;
         float e = tx < ty ? tx : ty;
         e = tz < e ? tz : e;
         if (!(e <= VIS_INF))
             return 0; /* a NaN crossing (a ray made elsewhere with an infinite reciprocal) */
-        vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h);
+        if (vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h))
+            stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
         if (e == VIS_INF)
             return 1;
         float lim = vis_t_limit(e);
@@ -1609,12 +1654,14 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
             last = (set & 1u) && tx > last ? tx : last;
             last = (set & 2u) && ty > last ? ty : last;
             last = (set & 4u) && tz > last ? tz : last;
-            if (e <= vis_t_limit(h->t) && e <= vis_t_limit(t1))
+            if (e <= stop) {
                 for (uint32_t sub = 1u; sub < set; ++sub)
                     if ((sub & set) == sub)
                         vis_dda_leaf(r,
                                      entry + ((sub & 1u) ? dx : 0u) + ((sub & 2u) ? dy : 0u) + ((sub & 4u) ? dz : 0u),
                                      e, last, VIS_SCENE_ARGS, h);
+                stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
+            }
         }
         lim = vis_t_limit(last);
         if (set & 1u) {
