@@ -9,12 +9,15 @@
  * (Boulos et al. 2007, "Packet-based Whitted and distribution ray tracing"), and with them:
  *  - a kd node is skipped when its subtree holds nothing (occupancy.h), when no ray of the
  *    tile can enter its box, or when every ray already has a hit nearer than the box;
- *  - a leaf is opened only for the units (4x2 blocks of lanes) whose rays can enter its box
- *    before their own farthest hit;
+ *  - a leaf is opened only for the units (4x2 blocks of lanes) whose rays can enter its
+ *    content box (the box of its packed quads, vis_flat_leaf.content_box; the empty-space
+ *    skip at the leaf's level of Lee & Han 2005, as in trace_core.h's per-ray leaf walk)
+ *    before their own farthest hit, and its planes are walked only
+ *    inside that box, the axis the rays move along most first;
  *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
  *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
  *    which the tile's rays cross its plane; one inside is tested on the units whose own
- *    rectangles it touches.
+ *    rectangles it touches and whose rays may cross the plane before their own hits.
  * Whatever survives is tested ray by ray with exactly the arithmetic of trace_core.h
  * (vis_quad_intersect, vis_test_tri), and each ray keeps the minimum (t, ID) of what it
  * tested. The skips are conservative -- widened well past any rounding -- so a skipped
