@@ -604,8 +604,6 @@ PK_INLINE void packet_bucket(packet *p, int a, float plane, const vis_flat_leaf 
                 plane_bounds_units(p, a, pb);
                 open &= packet_plane_units(p, a, pb->c);
                 bounds = 1;
-                if (!open)
-                    break; /* every unit's rays cross this plane past their own hits */
             }
             int in[UNITS];
             for (int r = 0; r < UNITS; ++r)
