@@ -9,12 +9,15 @@
  * (Boulos et al. 2007, "Packet-based Whitted and distribution ray tracing"), and with them:
  *  - a kd node is skipped when its subtree holds nothing (occupancy.h), when no ray of the
  *    tile can enter its box, or when every ray already has a hit nearer than the box;
- *  - a leaf is opened only for the units (4x2 blocks of lanes) whose rays can enter its box
- *    before their own farthest hit;
+ *  - a leaf is opened only for the units (4x2 blocks of lanes) whose rays can enter its
+ *    content box (the box of its packed quads, vis_flat_leaf.content_box; the empty-space
+ *    skip at the leaf's level of Lee & Han 2005, as in trace_core.h's per-ray leaf walk)
+ *    before their own farthest hit, and its planes are walked only
+ *    inside that box, the axis the rays move along most first;
  *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
  *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
  *    which the tile's rays cross its plane; one inside is tested on the units whose own
- *    rectangles it touches.
+ *    rectangles it touches and whose rays may cross the plane before their own hits.
  * Whatever survives is tested ray by ray with exactly the arithmetic of trace_core.h
  * (vis_quad_intersect, vis_test_tri), and each ray keeps the minimum (t, ID) of what it
  * tested. The skips are conservative -- widened well past any rounding -- so a skipped
@@ -80,6 +83,7 @@ typedef struct packet {
     float o[3];
     float t_near, t_far;
     int sign[3];             /* +1: every ray has d > 0 on that axis, -1: every d < 0, 0: mixed */
+    int axes[3];             /* the axes by the tile's centre ray, largest |d| first         */
     float dmin[3], dmax[3];  /* direction bounds                                            */
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
@@ -236,14 +240,30 @@ PK_INLINE void packet_bounds(packet *p)
             pk_unit_bounds(r, p->unit_rlo[a][b], p->unit_rhi[a][b]);
         }
     }
+    /* A leaf's planes are walked axis by axis; the axis the rays move along most crosses the
+     * faces that most of them hit (a terrain's tops seen from above), so it goes first and
+     * its hits cut the other axes' planes short (any order gives the same minimum). */
+    float m[3];
+    for (int a = 0; a < 3; ++a)
+        m[a] = fabsf(p->d[a][LANES / 2]);
+    int first = m[1] > m[0] ? 1 : 0;
+    first = m[2] > m[first] ? 2 : first;
+    int b = first == 0 ? 1 : 0, c = 3 - first - b;
+    p->axes[0] = first;
+    p->axes[1] = m[c] > m[b] ? c : b;
+    p->axes[2] = m[c] > m[b] ? b : c;
 }
 
+/* The farthest best hit, from the units' (each the maximum of its lanes, kept by every step
+ * that changes a lane's hit): 32 values to reduce instead of 256. */
 PK_INLINE void packet_update_max_best(packet *p)
 {
     if (p->unhit > 0)
         return; /* still +inf */
-    float lo;
-    pk_bounds(p->best_t, &lo, &p->max_best);
+    float m = p->unit_best[0];
+    for (int r = 1; r < UNITS; ++r)
+        m = pk_max(m, p->unit_best[r]);
+    p->max_best = m;
 }
 
 /* Narrows [*t0, *t1] to where the tile's rays can be inside the slab [lo, hi] (widened by
@@ -385,7 +405,7 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
     }
 #endif
     for (; units; units &= units - 1u) {
-        int first = __builtin_ctz(units) * UNIT;
+        int first = __builtin_ctz(units) * UNIT, unit_hit = 0;
         if (p->counting)
             for (int i = first; i < first + UNIT; ++i)
                 ++p->tests[i];
@@ -410,9 +430,12 @@ PK_INLINE int packet_test_quad(packet *p, int a, const vis_flat_quad *q, uint32_
             p->best_prim[i] = m ? prim : bprim;
             p->best_plane[i] = m ? qplane : p->best_plane[i];
 #endif
-            any |= m;
+            unit_hit |= m;
             first_hits += m & (bt == INFINITY);
         }
+        if (!unit_hit)
+            continue; /* the unit's hits, and so its farthest, are as they were */
+        any = 1;
         float ub = p->best_t[first];
         for (int i = first + 1; i < first + UNIT; ++i)
             ub = pk_max(ub, p->best_t[i]);
@@ -502,6 +525,25 @@ typedef struct plane_bounds {
     float unit_ulo[UNITS], unit_uhi[UNITS], unit_vlo[UNITS], unit_vhi[UNITS];
 } plane_bounds;
 
+/* The units that may still take a quad on the plane c = plane - o[a] away on axis a (sign[a]
+ * != 0): a lane crosses it at t = c * inv, rounded, which lies between c * unit_imin and
+ * c * unit_imax of its unit (rounding is monotone); where that bound lies past the unit's
+ * farthest hit, or past t_far, no lane of the unit can take a quad there (the test needs t <=
+ * t_far and (t, ID) below the lane's hit, so t no farther than it). Exact: no slack needed. */
+PK_INLINE uint32_t packet_plane_units(const packet *p, int a, float c)
+{
+    int in[UNITS];
+    for (int j = 0; j < UNITS; ++j) {
+        float ta = c * p->unit_imin[a][j], tb = c * p->unit_imax[a][j];
+        float tlo = pk_min(ta, tb);
+        in[j] = (tlo <= p->unit_best[j]) & (tlo <= p->t_far);
+    }
+    uint32_t units = 0;
+    for (int j = 0; j < UNITS; ++j)
+        units |= (uint32_t)in[j] << j;
+    return units;
+}
+
 PK_INLINE void plane_bounds_make(const packet *p, int a, float c, plane_bounds *pb)
 {
     int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
@@ -540,6 +582,7 @@ PK_INLINE void packet_bucket(packet *p, int a, float plane, const vis_flat_leaf 
 {
     int bounds = 0, hit = 0;
     uint32_t crossed = 0; /* units whose crossing of this plane is computed */
+    uint32_t open = leaf_units; /* of those, units that may still beat a hit on this plane */
     int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
     float lu = leaf->lo[u], lv = leaf->lo[v];
     for (uint32_t j = first; j < end; ++j) {
@@ -559,6 +602,7 @@ PK_INLINE void packet_bucket(packet *p, int a, float plane, const vis_flat_leaf 
                 continue;
             if (!bounds) {
                 plane_bounds_units(p, a, pb);
+                open &= packet_plane_units(p, a, pb->c);
                 bounds = 1;
             }
             int in[UNITS];
@@ -568,7 +612,7 @@ PK_INLINE void packet_bucket(packet *p, int a, float plane, const vis_flat_leaf 
             uint32_t near_units = 0;
             for (int r = 0; r < UNITS; ++r)
                 near_units |= (uint32_t)in[r] << r;
-            units &= near_units;
+            units &= near_units & open;
         }
         if (!units)
             continue;
@@ -593,29 +637,60 @@ static inline int pk_plane_index(float k, int e)
     return k < (float)e ? (int)k : e;
 }
 
+/* The part of a leaf where its packed quads can be hit: the leaf's box cut to its content box
+ * (vis_flat_leaf.content_box, the box of every packed quad in the leaf's integer offsets),
+ * as floats lo + offset, which are the quads' own coordinates (vis_unpack_quad), and the
+ * range [kl[a], kh[a]] of planes on each axis that can hold a non-empty bucket. A high field
+ * of 31 reads as "up to the leaf's last plane" (trace_core.h). Quads may reach past their
+ * leaf, but a lane that takes one outside the leaf's box takes it in the neighbour that holds
+ * it too (the walk visits that leaf for the lane), so the cut box serves the whole leaf. */
+PK_INLINE void packet_content_box(const vis_flat_leaf *leaf, const int *E, float *lo, float *hi, int *kl, int *kh)
+{
+    uint32_t cb = leaf->content_box;
+    for (int a = 0; a < 3; ++a) {
+        int bl = (int)VIS_BOX_FIELD(cb, (uint32_t)a), bh = (int)VIS_BOX_FIELD(cb, (uint32_t)a + 3u);
+        if (bh == (int)VIS_PQ_COORD_MAX && E[a] > bh)
+            bh = E[a]; /* saturated */
+        lo[a] = leaf->lo[a] + (float)bl;
+        hi[a] = pk_min(leaf->hi[a], leaf->lo[a] + (float)bh);
+        kh[a] = bh < E[a] ? bh : E[a];
+        kl[a] = bl < kh[a] ? bl : kh[a];
+    }
+}
+
 PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
 {
-    /* The units that can still take a quad here; the others are done before this leaf. */
-    uint32_t leaf_units = packet_box_units(p, leaf->lo, leaf->hi);
-    if (!leaf_units)
-        return;
     const uint32_t *quads = view->quads;
     const vis_flat_object *objects = view->objects;
-    const vis_flat_quad *loose = vis_loose_quads(quads, leaf);
-    for (uint32_t i = 0; i < leaf->loose_count; ++i)
-        packet_loose_quad(p, &loose[i], objects);
-    for (uint32_t i = 0; i < leaf->tri_count; ++i)
-        packet_triangle(p, &view->tris[leaf->tri_offset + i], objects);
+    if (leaf->loose_count != 0u || leaf->tri_count != 0u) {
+        /* Loose quads and triangles lie anywhere in the leaf: its whole box decides. */
+        if (!packet_box_units(p, leaf->lo, leaf->hi))
+            return;
+        const vis_flat_quad *loose = vis_loose_quads(quads, leaf);
+        for (uint32_t i = 0; i < leaf->loose_count; ++i)
+            packet_loose_quad(p, &loose[i], objects);
+        for (uint32_t i = 0; i < leaf->tri_count; ++i)
+            packet_triangle(p, &view->tris[leaf->tri_offset + i], objects);
+    }
     if (leaf->quad_count == 0u)
         return;
     int E[3] = {(int)(leaf->dims_xy & 0xFFFFu), (int)(leaf->dims_xy >> 16), (int)leaf->dims_z};
+    float lo[3], hi[3];
+    int kl[3], kh[3];
+    packet_content_box(leaf, E, lo, hi, kl, kh);
+    /* The units that can still take a packed quad here: those whose rays enter the content
+     * box (widened) before their own farthest hit. A lane takes a quad at a point of the quad's
+     * box, which lies in the content box, so every other unit is done before this leaf. */
+    uint32_t leaf_units = packet_box_units(p, lo, hi);
+    if (!leaf_units)
+        return;
     int base[3] = {0, E[0] + 1, E[0] + E[1] + 2};
     const uint32_t *bk = view->buckets + leaf->bucket_offset;
     const uint32_t *packed = quads + leaf->quad_offset, *table = quads + leaf->table_offset;
-    /* Where the tile's rays can be inside the leaf's box (packet_traverse has found it open). */
+    /* Where the tile's rays can be inside the content box (packet_box_units found it open). */
     float t0 = p->t_near, t1 = p->t_far;
     for (int a = 0; a < 3; ++a)
-        if (!packet_slab(p, a, leaf->lo[a], leaf->hi[a], &t0, &t1))
+        if (!packet_slab(p, a, lo[a], hi[a], &t0, &t1))
             return;
     /* The walk goes near side first, so the first leaf the tile enters shows how far away its
      * hits lie; past give_up_t its rays spread over several leaves and go one by one. */
@@ -626,11 +701,12 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     t0 -= t0 * T_SLACK;
     t1 += t1 * T_SLACK;
     plane_bounds pb;
-    for (int a = 0; a < 3; ++a) {
+    for (int ai = 0; ai < 3; ++ai) {
+        int a = p->axes[ai];
         if (p->sign[a] == 0) {
             /* Directions on both sides of this axis (or along it): no bounds, every quad. */
             pb.bounded = 0;
-            for (int k = 0; k <= E[a]; ++k) {
+            for (int k = kl[a]; k <= kh[a]; ++k) {
                 uint32_t b = (uint32_t)(base[a] + k);
                 packet_bucket(p, a, leaf->lo[a] + (float)k, leaf, packed, table, bk[b], bk[b + 1u], objects,
                               leaf_units, &pb);
@@ -638,11 +714,13 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             continue;
         }
         /* Planes in the order the rays cross them, from the one at or behind the eye, within
-         * the span the tile's rays cover inside the leaf's box (one plane wider each side). */
+         * the span the tile's rays cover inside the content box (one plane wider each side). */
         float x0 = pk_min(pk_min(t0 * p->dmin[a], t0 * p->dmax[a]), pk_min(t1 * p->dmin[a], t1 * p->dmax[a]));
         float x1 = pk_max(pk_max(t0 * p->dmin[a], t0 * p->dmax[a]), pk_max(t1 * p->dmin[a], t1 * p->dmax[a]));
         int klo = pk_plane_index(floorf(p->o[a] + x0 - leaf->lo[a]) - 1.0f, E[a]);
         int khi = pk_plane_index(ceilf(p->o[a] + x1 - leaf->lo[a]) + 1.0f, E[a]);
+        klo = klo > kl[a] ? klo : kl[a];
+        khi = khi < kh[a] ? khi : kh[a];
         int eye = pk_plane_index(floorf(p->o[a] - leaf->lo[a]), E[a]);
         int step = p->sign[a];
         int k = step > 0 ? (eye > klo ? eye : klo) : (eye + 1 < khi ? eye + 1 : khi);
@@ -660,11 +738,11 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             if (tlo > p->t_far || tlo > p->max_best)
                 break;    /* this plane and every later one lie past every ray's hit */
             plane_bounds_make(p, a, c, &pb);
-            /* Rays crossing the plane outside the leaf's box (widened) cannot take a quad of
+            /* Rays crossing the plane outside the content box (widened) cannot take a quad of
              * this leaf there that its neighbour, which holds the quad too, would not. */
             int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
-            if (pb.uhi < leaf->lo[u] - p->slack || pb.ulo > leaf->hi[u] + p->slack ||
-                pb.vhi < leaf->lo[v] - p->slack || pb.vlo > leaf->hi[v] + p->slack)
+            if (pb.uhi < lo[u] - p->slack || pb.ulo > hi[u] + p->slack || pb.vhi < lo[v] - p->slack ||
+                pb.vlo > hi[v] + p->slack)
                 continue;
             packet_bucket(p, a, plane, leaf, packed, table, first, end, objects, leaf_units, &pb);
         }
