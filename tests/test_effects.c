@@ -201,7 +201,7 @@ static void world_against_bruteforce(vis_context *ctx, const char *spec, fx_coun
             trace_fx(ctx, scene, &cams[c], VIS_TRAVERSAL_BRUTEFORCE, sets[e], light, fog, &ref);
             if (sets[e] == sets[4])
                 count_effects(&ref, counts);
-            for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_PACKET; ++m) {
+            for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_DDA; ++m) {
                 if (m == VIS_TRAVERSAL_BRUTEFORCE)
                     continue;
                 trace_fx(ctx, scene, &cams[c], (vis_traversal)m, sets[e], light, fog, &got);
@@ -386,7 +386,7 @@ static void trace_all_1x1(vis_context *ctx, vis_scene *scene, const vis_camera *
     fx_bufs ref;
     bufs_init(&ref, out->w, out->h, layers);
     trace_fx(ctx, scene, cam, VIS_TRAVERSAL_BRUTEFORCE, effects, light, fog, &ref);
-    for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_PACKET; ++m) {
+    for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_DDA; ++m) {
         trace_fx(ctx, scene, cam, (vis_traversal)m, effects, light, fog, out);
         char why[256];
         if (!bufs_equal(out, &ref, effects, why, sizeof why))
@@ -467,7 +467,7 @@ static void test_mirror_facing_mirror(void **state)
     bufs_init(&f, 9, 9, 1);
     bufs_init(&ref, 9, 9, 1);
     trace_fx(ctx, scene, &cam, VIS_TRAVERSAL_BRUTEFORCE, VIS_EFFECT_REFLECT, NULL, 0, &ref);
-    for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_PACKET; ++m) {
+    for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_DDA; ++m) {
         trace_fx(ctx, scene, &cam, (vis_traversal)m, VIS_EFFECT_REFLECT, NULL, 0, &f);
         char why[256];
         if (!bufs_equal(&f, &ref, VIS_EFFECT_REFLECT, why, sizeof why))
@@ -670,7 +670,7 @@ static void test_no_effects_is_plain_trace(void **state)
     bufs_init(&f, 32, 32, 1);
     uint32_t ids[32 * 32];
     float depth[32 * 32];
-    for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_PACKET; ++m) {
+    for (int m = VIS_TRAVERSAL_AUTO; m <= VIS_TRAVERSAL_DDA; ++m) {
         trace_fx(ctx, scene, &cam, (vis_traversal)m, 0, NULL, 0, &f);
         vis_trace_desc d;
         vis_trace_desc_defaults(&d);

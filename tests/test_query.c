@@ -1444,17 +1444,16 @@ static void test_cli_backends(void **state)
     vt_run_free(&r);
     r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --backend opencl --json --out %s", MAZE,
                qpath("maze_b.jsonl"), qpath("cl.jsonl"));
-    if (r.code != 0) {
-        assert_non_null(strstr(r.err, "OpenCL"));
+    if (r.code != 0 && strstr(r.err, "cannot create an OpenCL context")) { /* any other failure fails */
         print_message("no OpenCL device (%s): skipped\n", r.err);
         vt_run_free(&r);
         skip();
     }
+    vt_assert_exit(r, 0);
     assert_non_null(strstr(r.out, "\"backend\":\"opencl\""));
     vt_run_free(&r);
     char *a = without_times(qpath("cpu.jsonl")), *b = without_times(qpath("cl.jsonl"));
-    assert_non_null(strstr(a, "\"chunks\":[")); /* lists were written, and no time is left */
-    assert_null(strstr(a, "\"ms\":"));
+    assert_non_null(strstr(a, "\"chunks\":[")); /* lists were written */
     assert_string_equal(a, b);
     free(a);
     free(b);
