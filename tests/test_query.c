@@ -302,8 +302,20 @@ static void test_edit_opens_wall(void **state)
     assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
     assert_int_equal(st.pairs_cached, 1); /* nothing moved: answered from the cache */
     assert_false(listed(q, 0, 2, NULL));
-    /* Cut a window z in [18, 22), y in [2, 4) into the wall: the wall becomes 4 boxes. */
+    /* An edit away from every segment between the eye region and the entity's box (a new
+     * block behind the viewer's back, past the world's far corner of the pair) keeps the
+     * proof: answered from the cache. */
     tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 9;
+    float far_lo[3] = {40, 1, 50}, far_hi[3] = {41, 3, 51};
+    obj_box(&o, far_lo, far_hi);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 1);
+    assert_false(listed(q, 0, 2, NULL));
+    /* Cut a window z in [18, 22), y in [2, 4) into the wall: the wall becomes 4 boxes. */
     memset(&o, 0, sizeof o);
     o.id = 2;
     float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 22, 21, 10, 40}, {20, 1, 18, 21, 2, 22}, {20, 4, 18, 21, 10, 22}};

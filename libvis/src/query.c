@@ -37,6 +37,10 @@
 #define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */
 #define QUERY_MAX_BYTES ((uint64_t)1 << 31)
 #define QUERY_DEFAULT_SLACK 0.5  /* voxels: about 15 ticks of a walk at 128 ticks/s          */
+/* Slack, in voxels and relative, added to changed boxes against rounding (edit_touches_pair). */
+#define PAIR_EDIT_SLACK_ABS 1e-3
+#define PAIR_EDIT_SLACK_REL 1e-5
+
 #define PAIR_NONE 0u      /* nothing cached: prove it                                           */
 #define PAIR_SEEN 1u
 #define PAIR_HIDDEN 2u
@@ -490,6 +494,38 @@ static int cache_holds(const vis_query *q, size_t p, const vis_occ_box *eye, con
     }
 }
 
+/* Can this tick's changed boxes (an edit since the last tick) change pair p's cached proof?
+ * Every segment the proof took runs from a point of its eye region to a point of its box
+ * region (a SEEN proof keeps one such witness, its two ends), so it lies inside the bounding
+ * box of the two. A change that stays outside it moved no occluder of a HIDDEN proof and
+ * cannot block a SEEN witness: the proof still answers (vis_occ_test reads only primitives on
+ * its segments). The changed boxes are grown by far more than float rounding, as in
+ * query_edits.c, so the test errs only toward proving again. */
+static int edit_touches_pair(const vis_query *q, size_t p)
+{
+    if (q->change_count == UINT32_MAX)
+        return 1; /* the log did not reach back: anything may have changed */
+    const vis_occ_box *e = &q->pair_eye[p], *b = &q->pair_box[p];
+    const int seen = q->pair_state[p] == PAIR_SEEN; /* a witness: only .lo holds its ends */
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = fmin(e->lo[k], b->lo[k]);
+        hi[k] = seen ? fmax(e->lo[k], b->lo[k]) : fmax(e->hi[k], b->hi[k]);
+    }
+    for (uint32_t c = 0; c < q->change_count; ++c) {
+        const vis_scene_edit_box *ch = &q->changes[c];
+        int apart = 0;
+        for (int k = 0; k < 3 && !apart; ++k) {
+            double m = fmax(fabs((double)ch->lo[k]), fabs((double)ch->hi[k]));
+            double slack = PAIR_EDIT_SLACK_ABS + PAIR_EDIT_SLACK_REL * fmax(m, fmax(fabs(lo[k]), fabs(hi[k])));
+            apart = (double)ch->hi[k] + slack < lo[k] || (double)ch->lo[k] - slack > hi[k];
+        }
+        if (!apart)
+            return 1;
+    }
+    return 0;
+}
+
 /* The region reached ahead along the velocity: the hull of b and b moved by proof_slack
  * voxels in the velocity's direction (b itself when still). While the motion keeps its
  * direction, the next ticks' regions stay inside for proof_slack / speed seconds. */
@@ -582,7 +618,7 @@ static void viewer_job(vis_query *q, uint32_t i)
         size_t p = (size_t)vs * d->max_entities + es;
         uint32_t reason = 0;
         ++r->pairs;
-        if (!q->regenerated && cache_holds(q, p, eye, &boxes[j])) {
+        if ((!q->regenerated || !edit_touches_pair(q, p)) && cache_holds(q, p, eye, &boxes[j])) {
             ++r->cached;
         } else if (left == 0) {
             q->pair_state[p] = PAIR_NONE;
