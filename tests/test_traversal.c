@@ -741,6 +741,20 @@ static void test_aimed_at_chunk_edges(void **state)
     vis_context_destroy(ctx);
 }
 
+/* One quad of 1-3 voxels a side on a random axis, inside the chunk at `base` at least `margin`
+ * voxels from its faces. */
+static void small_quad(tobj *o, const float base[3], int margin, uint64_t *rng)
+{
+    uint32_t a = (uint32_t)(vt_rand(rng) % 3u), u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+    float lo[3];
+    int ext[3];
+    for (int b = 0; b < 3; ++b) {
+        ext[b] = 1 + (int)(vt_rand(rng) % 3u);
+        lo[b] = base[b] + (float)margin + (float)(vt_rand(rng) % (uint64_t)(17 - 2 * margin - ext[b]));
+    }
+    obj_quad(o, a, lo[a], lo[u], lo[v], lo[u] + (float)ext[u], lo[v] + (float)ext[v]);
+}
+
 /* Lone quads inside chunks, one to three voxels wide, their edges on even and odd offsets from
  * the chunk's corner, on every axis, with nothing next to them: a ray aimed at such an edge
  * takes the quad only through the quad test's slack. With VIS_LEAF_MASK the leaf walk skips
@@ -754,16 +768,8 @@ static void lone_quad_world(tworld *w, uint64_t *rng)
         float base[3] = {16.0f * (float)(c & 1u), 16.0f * (float)((c >> 1) & 1u), 16.0f * (float)(c >> 2)};
         uint32_t n = 2u + (uint32_t)(vt_rand(rng) % 4u);
         tobj *o = add_obj(w, 1u + c);
-        for (uint32_t i = 0; i < n; ++i) {
-            uint32_t a = (uint32_t)(vt_rand(rng) % 3u), u = (a + 1u) % 3u, v = (a + 2u) % 3u;
-            float lo[3];
-            int ext[3];
-            for (int b = 0; b < 3; ++b) {
-                ext[b] = 1 + (int)(vt_rand(rng) % 3u);
-                lo[b] = base[b] + (float)(vt_rand(rng) % (uint64_t)(17 - ext[b]));
-            }
-            obj_quad(o, a, lo[a], lo[u], lo[v], lo[u] + (float)ext[u], lo[v] + (float)ext[v]);
-        }
+        for (uint32_t i = 0; i < n; ++i)
+            small_quad(o, base, 0, rng);
     }
 }
 
@@ -890,16 +896,8 @@ static void spanning_box_world(tworld *w, uint64_t *rng)
             obj_quad(o, a, base[a] + k, base[u], base[v], base[u] + 16.0f, base[v] + 16.0f);
         }
         uint32_t n = 1u + (uint32_t)(vt_rand(rng) % 3u);
-        for (uint32_t i = 0; i < n; ++i) {
-            uint32_t a = (uint32_t)(vt_rand(rng) % 3u), u = (a + 1u) % 3u, v = (a + 2u) % 3u;
-            float lo[3];
-            int ext[3];
-            for (int b = 0; b < 3; ++b) {
-                ext[b] = 1 + (int)(vt_rand(rng) % 3u);
-                lo[b] = base[b] + 2.0f + (float)(vt_rand(rng) % (uint64_t)(13 - ext[b]));
-            }
-            obj_quad(o, a, lo[a], lo[u], lo[v], lo[u] + (float)ext[u], lo[v] + (float)ext[v]);
-        }
+        for (uint32_t i = 0; i < n; ++i)
+            small_quad(o, base, 2, rng);
     }
 }
 

@@ -159,6 +159,25 @@ static size_t pack_items(const vis_cl_backend *b)
     return n;
 }
 
+/* The arguments vis_drawlist_block_count and vis_drawlist_compact share (kernels/trace.cl):
+ * 0-4 and 6 (5, the counts offset, is set per launch). */
+static cl_int set_count_args(const vis_cl_backend *b, cl_kernel k, const vis_cl_scene *sc, cl_uint slots,
+                             cl_uint id_mode, cl_uint stride)
+{
+    cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &sc->objects.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 1, sizeof(cl_mem), &sc->object_leaves.mem);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 2, sizeof slots, &slots);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 3, sizeof id_mode, &id_mode);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 4, sizeof(cl_mem), &b->dl_counts);
+    if (e == CL_SUCCESS)
+        e = clSetKernelArg(k, 6, sizeof stride, &stride);
+    return e;
+}
+
 /* The kernels' arguments that stay the same for every launch of a call (kernels/trace.cl);
  * the counts offset (the launch's view count: its heads come first) is set per launch. */
 static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene *sc, cl_mem ids, cl_mem depth,
@@ -187,17 +206,7 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
         e = clSetKernelArg(k, 18, key_bytes, NULL);
     k = p->compact;
     if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 0, sizeof(cl_mem), &sc->objects.mem);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 1, sizeof(cl_mem), &sc->object_leaves.mem);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 2, sizeof slots, &slots);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 3, sizeof id_mode, &id_mode);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 4, sizeof(cl_mem), &b->dl_counts);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 6, sizeof stride, &stride);
+        e = set_count_args(b, k, sc, slots, id_mode, stride);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(k, 7, sizeof(cl_mem), &b->dl_list);
     if (e == CL_SUCCESS)
@@ -209,17 +218,7 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
         e = clSetKernelArg(k, 10, sizeof(cl_mem), &b->dl_blocks);
     k = p->block_count;
     if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 0, sizeof(cl_mem), &sc->objects.mem);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 1, sizeof(cl_mem), &sc->object_leaves.mem);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 2, sizeof slots, &slots);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 3, sizeof id_mode, &id_mode);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 4, sizeof(cl_mem), &b->dl_counts);
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(k, 6, sizeof stride, &stride);
+        e = set_count_args(b, k, sc, slots, id_mode, stride);
     if (e == CL_SUCCESS)
         e = clSetKernelArg(k, 7, sizeof run, &run);
     if (e == CL_SUCCESS)
