@@ -15,7 +15,12 @@
 #include "scene.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "kdtree.h"
 
@@ -346,7 +351,8 @@ static uint32_t quad_bucket(const vis_flat_leaf *lf, const vis_flat_quad *q)
     uint32_t E[3];
     leaf_dims(lf, E);
     float k = q->plane - lf->lo[a];
-    if (!(k >= 0.0f) || k > (float)E[a] || k != floorf(k) || lf->lo[a] + k != q->plane)
+    /* whole: k is in [0, E] (E < 2^16) before the conversion, so truncation is floor */
+    if (!(k >= 0.0f) || k > (float)E[a] || (float)(uint32_t)k != k || lf->lo[a] + k != q->plane)
         return UINT32_MAX;
     uint32_t base = a == 0 ? 0u : a == 1 ? E[0] + 1u : E[0] + E[1] + 2u;
     return base + (uint32_t)k;
@@ -423,23 +429,41 @@ static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap
  * it can be packed: its plane on a bucket, its rectangle on whole offsets in [0, 31] from the
  * leaf's corner that give its coordinates back exactly, small flags, and a table index that
  * fits. Returns 0 for a quad that stays loose. */
+_Static_assert(offsetof(vis_flat_quad, v1) == offsetof(vis_flat_quad, u0) + 3 * sizeof(float),
+               "pack_quad loads u0, v0, u1, v1 as four floats");
 static int pack_quad(const vis_flat_leaf *lf, const vis_flat_quad *q, uint32_t local, uint32_t *bucket, uint32_t *word)
 {
     uint32_t b = quad_bucket(lf, q);
     if (b == UINT32_MAX || local > VIS_PQ_TABLE_MAX || VIS_META_FLAGS(q->meta) > VIS_PQ_FLAGS_MAX)
         return 0;
     uint32_t a = VIS_META_AXIS(q->meta), u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
-    const float c[4] = {q->u0, q->v0, q->u1, q->v1}, base[4] = {lf->lo[u], lf->lo[v], lf->lo[u], lf->lo[v]};
     uint32_t w = VIS_META_FLAGS(q->meta) << 20 | local << 22;
+    /* Each of u0, v0, u1, v1 less the corner: in [0, 31], whole, and giving the coordinate
+     * back exactly. The same float operations four lanes at a time where SSE2 is there. */
+#if defined(__SSE2__)
+    const __m128 c = _mm_loadu_ps(&q->u0), base = _mm_setr_ps(lf->lo[u], lf->lo[v], lf->lo[u], lf->lo[v]);
+    const __m128 k = _mm_sub_ps(c, base);
+    const __m128i ki = _mm_cvttps_epi32(k); /* exact where k is whole and in range */
+    const __m128 kf = _mm_cvtepi32_ps(ki);
+    __m128 ok = _mm_and_ps(_mm_cmpge_ps(k, _mm_setzero_ps()), _mm_cmple_ps(k, _mm_set1_ps((float)VIS_PQ_COORD_MAX)));
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpeq_ps(kf, k), _mm_cmpeq_ps(_mm_add_ps(base, kf), c)));
+    if (_mm_movemask_ps(ok) != 0xF)
+        return 0;
+    _Alignas(16) uint32_t kw[4];
+    _mm_store_si128((__m128i *)kw, ki);
+    w |= kw[0] | kw[1] << 5 | kw[2] << 10 | kw[3] << 15;
+#else
+    const float c[4] = {q->u0, q->v0, q->u1, q->v1}, base[4] = {lf->lo[u], lf->lo[v], lf->lo[u], lf->lo[v]};
     for (uint32_t i = 0; i < 4; ++i) {
         float k = c[i] - base[i];
         if (!(k >= 0.0f && k <= (float)VIS_PQ_COORD_MAX))
             return 0;
-        uint32_t ki = (uint32_t)k; /* whole, and giving the coordinate back exactly */
+        uint32_t ki = (uint32_t)k;
         if ((float)ki != k || base[i] + (float)ki != c[i])
             return 0;
         w |= ki << (5u * i);
     }
+#endif
     *bucket = b;
     *word = w;
     return 1;

@@ -14,8 +14,10 @@
  * Steps, all on the caller's stack (no allocation unless mesh needs to grow):
  *   1. copy the chunk into a (C+2)^3 byte box with a one-voxel rim taken from the six face
  *      neighbours (the edges and corners of the box are never needed: faces look along axes);
- *   2. per row of C voxels along X and per direction, compare the row with its neighbour row
- *      16 bytes at a time (SSE2, with a scalar fallback) into a face bit mask;
+ *   2. per padded row, two bit masks: where the voxel is air and where it is see-through; a
+ *      row's faces towards a direction are then a few word operations (solid here, air or
+ *      see-through there), and only rows that face a see-through neighbour compare bytes
+ *      (b == a hides the face) 16 at a time (SSE2, with a scalar fallback);
  *   3. per material that has faces, and per direction, AND with the material's row mask and
  *      greedy-merge slice by slice. X faces need their (y, z) slices, so those masks are
  *      transposed first. */
@@ -34,7 +36,9 @@
 
 /* Scratch, on the caller's stack: sized per chunk edge (see mesh_16 / mesh_32 below), so a
  * 16-voxel chunk needs about 22 KiB of stack and a 32-voxel one about 120 KiB. */
-#define SCRATCH_BYTES(c) (2u * ((c) + 2) * ((c) + 2) * ((c) + 2) + 10u * (c) * (c) * sizeof(uint32_t))
+#define SCRATCH_BYTES(c)                                                                                    \
+    (2u * ((c) + 2) * ((c) + 2) * ((c) + 2) + 10u * (c) * (c) * sizeof(uint32_t) +                          \
+     2u * ((c) + 2) * ((c) + 2) * sizeof(uint64_t))
 
 typedef struct mesher {
     int32_t c, w;          /* chunk edge; padded edge C + 2                                  */
@@ -46,6 +50,7 @@ typedef struct mesher {
     uint32_t *matmask;     /* rows of one material                                           */
     uint32_t *sel;         /* one material's faces in one direction                          */
     uint32_t *rows;        /* the slices being merged                                        */
+    uint64_t *air, *glass; /* padded row (z*W + y) -> bit x + 1: air / see-through, not air  */
     uint8_t opaque[256];   /* 0xFF for materials that hide what is behind them               */
     uint8_t clear[MAX_CLEAR]; /* the see-through materials, when there are few               */
     int n_clear;           /* how many; MAX_CLEAR + 1 means "many: use the opq box"         */
@@ -64,7 +69,9 @@ static void mesher_init(mesher *m, int32_t c, void *scratch)
     m->matmask = words + 7 * plane;
     m->sel = words + 8 * plane;
     m->rows = words + 9 * plane;
-    m->mat = (uint8_t *)(words + 10 * plane);
+    m->air = (uint64_t *)(words + 10 * plane); /* 10 * C * C words: 8-byte aligned */
+    m->glass = m->air + (size_t)m->w * (size_t)m->w;
+    m->mat = (uint8_t *)(m->glass + (size_t)m->w * (size_t)m->w);
     m->opq = m->mat + box;
 }
 
@@ -170,52 +177,99 @@ static void fill_padded(mesher *m, const vw_world *w, const vwi_chunk *ch, const
 
 /* ---- step 2: face masks -------------------------------------------------------------- */
 
-/* Direction order: -X, +X, -Y, +Y, -Z, +Z (direction d: axis d/2, side +1 when d is odd). */
-static void face_masks(mesher *m)
+/* Bits p of padded row (py, pz) for p in [lo, hi): where the voxel is air, and where it is
+ * see-through but not air (it hides nothing, except a face of its own material). */
+static void row_bits(const mesher *m, int32_t py, int32_t pz, int32_t lo, int32_t hi)
 {
-    const int32_t c = m->c, pw = m->w;
-    const int32_t off[6] = {-1, 1, -pw, pw, -pw * pw, pw * pw};
+    const int32_t pw = m->w, r = pw * (py + pw * pz);
+    const uint8_t *row = &m->mat[r];
+    uint64_t air = 0, glass = 0;
+    int32_t p = lo;
 #ifdef VW_MESHER_SSE2
     const int by_table = m->n_clear > MAX_CLEAR;
-    __m128i clear_key[MAX_CLEAR];
-    for (int k = 0; k < m->n_clear && k < MAX_CLEAR; k++)
-        clear_key[k] = _mm_set1_epi8((char)m->clear[k]);
-#endif
-    for (int d = 0; d < 6; d++) {
-        const int32_t o = off[d];
-        uint32_t *out = m->face[d];
-        for (int32_t z = 0; z < c; z++)
-            for (int32_t y = 0; y < c; y++) {
-                const int32_t row = 1 + pw * ((y + 1) + pw * (z + 1));
-                uint32_t bits = 0;
-#ifdef VW_MESHER_SSE2
-                const __m128i zero = _mm_setzero_si128();
-                for (int32_t x = 0; x < c; x += 16) {
-                    const int32_t p = row + x;
-                    const __m128i a = _mm_loadu_si128((const __m128i *)&m->mat[p]);
-                    const __m128i b = _mm_loadu_si128((const __m128i *)&m->mat[p + o]);
-                    __m128i clear; /* 0xFF where b hides nothing: air or see-through */
-                    if (by_table) {
-                        clear = _mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)&m->opq[p + o]), zero);
-                    } else {
-                        clear = _mm_cmpeq_epi8(b, zero);
-                        for (int k = 0; k < m->n_clear; k++)
-                            clear = _mm_or_si128(clear, _mm_cmpeq_epi8(b, clear_key[k]));
-                    }
-                    /* a face where a is solid, b clear and b != a */
-                    const __m128i hidden = _mm_or_si128(_mm_cmpeq_epi8(a, b), _mm_cmpeq_epi8(a, zero));
-                    bits |= (uint32_t)_mm_movemask_epi8(_mm_andnot_si128(hidden, clear)) << x;
-                }
-#else
-                for (int32_t x = 0; x < c; x++) {
-                    const uint8_t a = m->mat[row + x], b = m->mat[row + x + o];
-                    if (a && !m->opaque[b] && b != a)
-                        bits |= 1u << x;
-                }
-#endif
-                out[z * c + y] = bits;
-            }
+    const __m128i zero = _mm_setzero_si128();
+    for (; p + 16 <= hi; p += 16) {
+        const __m128i v = _mm_loadu_si128((const __m128i *)&row[p]);
+        const __m128i is_air = _mm_cmpeq_epi8(v, zero);
+        __m128i clear;
+        if (by_table) {
+            clear = _mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)&m->opq[r + p]), zero);
+        } else {
+            clear = is_air;
+            for (int k = 0; k < m->n_clear; k++)
+                clear = _mm_or_si128(clear, _mm_cmpeq_epi8(v, _mm_set1_epi8((char)m->clear[k])));
+        }
+        air |= (uint64_t)(uint32_t)_mm_movemask_epi8(is_air) << p;
+        glass |= (uint64_t)(uint32_t)_mm_movemask_epi8(_mm_andnot_si128(is_air, clear)) << p;
     }
+#endif
+    for (; p < hi; p++) {
+        const uint8_t v = row[p];
+        air |= (uint64_t)(v == 0) << p;
+        glass |= (uint64_t)(v != 0 && !m->opaque[v]) << p;
+    }
+    m->air[pz * pw + py] = air;
+    m->glass[pz * pw + py] = glass;
+}
+
+/* Bit x set where byte a[x] == b[x], x in [0, C). */
+static uint32_t equal_bits(const uint8_t *a, const uint8_t *b, int32_t c)
+{
+    uint32_t eq = 0;
+#ifdef VW_MESHER_SSE2
+    for (int32_t x = 0; x < c; x += 16)
+        eq |= (uint32_t)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)&a[x]),
+                                                         _mm_loadu_si128((const __m128i *)&b[x])))
+              << x;
+#else
+    for (int32_t x = 0; x < c; x++)
+        eq |= (uint32_t)(a[x] == b[x]) << x;
+#endif
+    return eq;
+}
+
+/* The faces of a row of solid voxels `solid` towards neighbours that are `air` or see-through
+ * (`glass`), padded bits; `a` and `b` are the two rows' bytes at x = 0 (b: the neighbours). */
+static inline uint32_t row_faces(uint64_t solid, uint64_t air, uint64_t glass, const uint8_t *a, const uint8_t *b,
+                                 int32_t c)
+{
+    uint64_t f = solid & air;
+    const uint64_t g = solid & glass;
+    if (g) /* see-through neighbours: a face only where the materials differ */
+        f |= g & ~((uint64_t)equal_bits(a, b, c) << 1);
+    return (uint32_t)(f >> 1);
+}
+
+/* Direction order: -X, +X, -Y, +Y, -Z, +Z (direction d: axis d/2, side +1 when d is odd).
+ * A solid voxel a has a face towards b where b is air, or see-through and b != a. */
+static void face_masks(mesher *m)
+{
+    const int32_t c = m->c, pw = m->w, pp = pw * pw;
+    const uint64_t inner = ((1ull << c) - 1) << 1; /* padded bits of x = 0 .. C-1 */
+    /* The rows a face can look into: the interior rows with their X rims, the rim rows
+     * inside them (the box's edges are never read). */
+    for (int32_t z = 1; z <= c; z++)
+        for (int32_t y = 1; y <= c; y++)
+            row_bits(m, y, z, 0, c + 2);
+    for (int32_t i = 1; i <= c; i++) {
+        row_bits(m, 0, i, 1, c + 1);
+        row_bits(m, c + 1, i, 1, c + 1);
+        row_bits(m, i, 0, 1, c + 1);
+        row_bits(m, i, c + 1, 1, c + 1);
+    }
+    const uint64_t *air = m->air, *glass = m->glass;
+    for (int32_t z = 1; z <= c; z++)
+        for (int32_t y = 1; y <= c; y++) {
+            const int32_t r = z * pw + y, o = (z - 1) * c + (y - 1);
+            const uint8_t *a = &m->mat[pw * r + 1];
+            const uint64_t solid = ~air[r] & inner;
+            m->face[0][o] = row_faces(solid, air[r] << 1, glass[r] << 1, a, a - 1, c); /* x - 1 */
+            m->face[1][o] = row_faces(solid, air[r] >> 1, glass[r] >> 1, a, a + 1, c);
+            m->face[2][o] = row_faces(solid, air[r - 1], glass[r - 1], a, a - pw, c);
+            m->face[3][o] = row_faces(solid, air[r + 1], glass[r + 1], a, a + pw, c);
+            m->face[4][o] = row_faces(solid, air[r - pw], glass[r - pw], a, a - pp, c);
+            m->face[5][o] = row_faces(solid, air[r + pw], glass[r + pw], a, a + pp, c);
+        }
 }
 
 /* ---- step 3: greedy merge ------------------------------------------------------------ */
