@@ -1502,7 +1502,8 @@ static void test_cli_simulate_replay(void **state)
     assert_int_equal(lines, 49); /* header + 48 ticks */
     assert_non_null(strstr(text, "\"edits\":[["));
     free(text);
-    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --chunk-move 1 --chunk-traversal ropes --json", MAZE,
+    r = vt_run(VIS_EXE, qdir, NULL,
+               "query --scene %s --replay %s --chunk-move 1 --chunk-traversal ropes --unsettled-ticks 2 --json", MAZE,
                qpath("maze.jsonl"));
     vt_assert_exit(r, 0);
     assert_non_null(strstr(r.out, "\"mean\":"));
@@ -1648,7 +1649,8 @@ static void test_cli_hostile_replay(void **state)
     vt_assert_exit(r, 2);
     vt_run_free(&r);
     const char *bad_opts[] = {"--chunk-move -1", "--chunk-move nan", "--chunk-move 1e6", "--chunk-traversal shortstack:3",
-                              "--chunk-traversal warp", "--chunk-traversal", "--chunks"};
+                              "--chunk-traversal warp", "--chunk-traversal", "--chunks", "--unsettled-ticks 0",
+                              "--unsettled-ticks 1025", "--unsettled-ticks"};
     for (size_t i = 0; i < sizeof bad_opts / sizeof bad_opts[0]; ++i) {
         r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s %s", MAZE, qpath("long.jsonl"), bad_opts[i]);
         vt_assert_exit(r, 2);
