@@ -431,6 +431,100 @@ static void test_slack_cache(void **state)
     vis_context_destroy(ctx);
 }
 
+/* Unsettled pairs wait: a pair whose proof used its whole pair limit is reported
+ * (UNCHECKED) and, with unsettled_ticks N, not proven again for N ticks while it stays in
+ * its regions; leaving them, an edit reaching them, or a proof the ray budget cut short ends
+ * the wait. With the default (1) it is proven every tick. A pair limit of 1 ray cannot
+ * settle any hidden pair (the segment and the plane test are two). */
+static void test_unsettled_wait(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v;
+    vis_query_entity e;
+    corner_setup(&v, &e);
+    e.velocity[2] = 0.0;
+    e.box_min[2] = 19.5;
+    e.box_max[2] = 20.5;
+    v.eye[1] = 3.0; /* the centre segment clears the window's sill, once it is cut */
+    v.eye[2] = 20.0;
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    assert_int_equal(d.unsettled_ticks, 1);
+    d.pair_ray_limit = 1;
+    vis_query *q1 = NULL, *q4 = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q1), VIS_OK);
+    d.unsettled_ticks = 4;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q4), VIS_OK);
+    vis_query_stats s1, s4;
+    /* Ticks 1..8: q4 proves on ticks 1 and 5 and answers the others from the wait; q1 proves
+     * every tick. Both report the pair every tick. */
+    for (int t = 1; t <= 8; ++t) {
+        assert_int_equal(vis_query_run(q1, &v, 1, &e, 1, &s1), VIS_OK);
+        assert_int_equal(vis_query_run(q4, &v, 1, &e, 1, &s4), VIS_OK);
+        assert_int_equal(s1.entity_rays, 1);
+        assert_int_equal(s1.pairs_cached, 0);
+        int proves = t == 1 || t == 5;
+        assert_int_equal(s4.entity_rays, proves ? 1 : 0);
+        assert_int_equal(s4.pairs_cached, proves ? 0 : 1);
+        assert_int_equal(s4.pairs_unchecked, 1);
+        uint32_t r1 = 0, r4 = 0;
+        assert_true(listed(q1, 0, 2, &r1));
+        assert_true(listed(q4, 0, 2, &r4));
+        assert_int_equal(r1, VIS_QUERY_UNCHECKED);
+        assert_int_equal(r4, VIS_QUERY_UNCHECKED);
+    }
+    /* Tick 9 proved again (the wait of tick 5's proof ends at tick 9); on tick 10 the viewer
+     * (still: its regions are not grown) steps 0.25 voxels: proven again at once. */
+    assert_int_equal(vis_query_run(q4, &v, 1, &e, 1, &s4), VIS_OK);
+    assert_int_equal(s4.entity_rays, 1);
+    v.eye[2] += 0.25;
+    assert_int_equal(vis_query_run(q4, &v, 1, &e, 1, &s4), VIS_OK);
+    assert_int_equal(s4.entity_rays, 1);
+    assert_true(listed(q4, 0, 2, NULL));
+    /* A window cut into the wall between them during the wait: SEEN on the next tick. */
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 2;
+    float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 22, 21, 10, 40}, {20, 1, 18, 21, 2, 22}, {20, 4, 18, 21, 10, 22}};
+    for (int i = 0; i < 4; ++i)
+        obj_box(&o, parts[i], parts[i] + 3);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    assert_int_equal(vis_query_run(q4, &v, 1, &e, 1, &s4), VIS_OK);
+    assert_int_equal(s4.pairs_cached, 0);
+    uint32_t reason = 0;
+    assert_true(listed(q4, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_SEEN);
+    vis_query_destroy(q1);
+    vis_query_destroy(q4);
+    /* A proof the ray budget cut short is not kept: proven again on the next tick. */
+    vis_scene *scene2 = make_scene(ctx, &w, NULL, 0); /* the wall without its window */
+    d.pair_ray_limit = 16;
+    d.unsettled_ticks = 8;
+    d.ray_budget = 1;
+    assert_int_equal(vis_query_create(ctx, scene2, &d, &q4), VIS_OK);
+    for (int t = 0; t < 3; ++t) {
+        assert_int_equal(vis_query_run(q4, &v, 1, &e, 1, &s4), VIS_OK);
+        assert_int_equal(s4.entity_rays, 1);
+        assert_int_equal(s4.pairs_cached, 0);
+        assert_true(listed(q4, 0, 2, NULL));
+    }
+    vis_query_destroy(q4);
+    /* Out of range: refused at creation. */
+    vis_query *bad = NULL;
+    d.unsettled_ticks = 1025;
+    assert_int_equal(vis_query_create(ctx, scene2, &d, &bad), VIS_ERROR_INVALID_ARGUMENT);
+    assert_null(bad);
+    vis_scene_destroy(scene2);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Hold: seen at tick 1, hidden from tick 2: reported (HELD) for hold_ticks more ticks. */
 static void test_hold(void **state)
 {
@@ -593,6 +687,19 @@ static void test_threads_deterministic(void **state)
         assert_int_equal(s1.chunk_edit_passes, s2.chunk_edit_passes);
     }
     assert_true(s1.chunk_edit_passes > 0 && s1.chunk_edit_passes < 2 * 12); /* edits retraced some viewers */
+    /* Unsettled pairs waiting (a pair limit too small to settle many): the same lists. */
+    d.pair_ray_limit = 3;
+    d.unsettled_ticks = 2;
+    n1 = run_ticks(1, &d, a, CAP, &s1);
+    assert_true(s1.pairs_unchecked > 0);
+    for (int t = 0; t < 2; ++t) {
+        size_t n2 = run_ticks(threads[t], &d, b, CAP, &s2);
+        assert_int_equal(n1, n2);
+        assert_memory_equal(a, b, n1 * 4);
+        assert_int_equal(s1.entity_rays, s2.entity_rays);
+    }
+    d.pair_ray_limit = 0;
+    d.unsettled_ticks = 0;
     /* Passes driven by the eyes' motion, with another traversal: still the same lists. */
     d.chunk_move = 0.5;
     d.chunk_traversal = VIS_TRAVERSAL_SHORTSTACK;
@@ -1395,7 +1502,8 @@ static void test_cli_simulate_replay(void **state)
     assert_int_equal(lines, 49); /* header + 48 ticks */
     assert_non_null(strstr(text, "\"edits\":[["));
     free(text);
-    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --chunk-move 1 --chunk-traversal ropes --json", MAZE,
+    r = vt_run(VIS_EXE, qdir, NULL,
+               "query --scene %s --replay %s --chunk-move 1 --chunk-traversal ropes --unsettled-ticks 2 --json", MAZE,
                qpath("maze.jsonl"));
     vt_assert_exit(r, 0);
     assert_non_null(strstr(r.out, "\"mean\":"));
@@ -1541,7 +1649,8 @@ static void test_cli_hostile_replay(void **state)
     vt_assert_exit(r, 2);
     vt_run_free(&r);
     const char *bad_opts[] = {"--chunk-move -1", "--chunk-move nan", "--chunk-move 1e6", "--chunk-traversal shortstack:3",
-                              "--chunk-traversal warp", "--chunk-traversal", "--chunks"};
+                              "--chunk-traversal warp", "--chunk-traversal", "--chunks", "--unsettled-ticks 0",
+                              "--unsettled-ticks 1025", "--unsettled-ticks"};
     for (size_t i = 0; i < sizeof bad_opts / sizeof bad_opts[0]; ++i) {
         r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s %s", MAZE, qpath("long.jsonl"), bad_opts[i]);
         vt_assert_exit(r, 2);
@@ -1559,7 +1668,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_never_hides_visible), cmocka_unit_test(test_latency_peek),
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
-        cmocka_unit_test(test_slack_cache),
+        cmocka_unit_test(test_slack_cache),        cmocka_unit_test(test_unsettled_wait),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_chunk_reuse),

@@ -33,6 +33,7 @@
 #define QUERY_DEFAULT_CHUNK_RES 32u
 #define QUERY_DEFAULT_PAIR_RAYS 16u
 #define QUERY_MAX_PAIR_RAYS 4096u
+#define QUERY_MAX_UNSETTLED_TICKS 1024u
 #define QUERY_MAX_COORD 1e9      /* world coordinates beyond this are rejected             */
 #define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */
 #define QUERY_MAX_BYTES ((uint64_t)1 << 31)
@@ -44,6 +45,7 @@
 #define PAIR_NONE 0u      /* nothing cached: prove it                                           */
 #define PAIR_SEEN 1u
 #define PAIR_HIDDEN 2u
+#define PAIR_UNSETTLED 3u /* the proof ran out of its pair limit: reported until pair_retry  */
 
 static double now_ms(void)
 {
@@ -103,6 +105,7 @@ void vis_query_desc_defaults(vis_query_desc *d)
     d->chunk_every = 1;
     d->pair_ray_limit = QUERY_DEFAULT_PAIR_RAYS;
     d->proof_slack = QUERY_DEFAULT_SLACK;
+    d->unsettled_ticks = 1;
 }
 
 static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_query_desc *d)
@@ -121,17 +124,21 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
         d->chunk_every = 1;
     if (!d->pair_ray_limit)
         d->pair_ray_limit = QUERY_DEFAULT_PAIR_RAYS;
+    if (!d->unsettled_ticks)
+        d->unsettled_ticks = 1;
     if (d->proof_slack == 0.0)
         d->proof_slack = QUERY_DEFAULT_SLACK;
     else if (d->proof_slack < 0.0)
         d->proof_slack = 0.0; /* none (NaN and +inf are refused below)                       */
     if (d->max_viewers > VIS_QUERY_MAX_VIEWERS || d->max_entities > VIS_QUERY_MAX_ENTITIES ||
-        d->chunk_res > VIS_QUERY_MAX_CHUNK_RES || d->pair_ray_limit > QUERY_MAX_PAIR_RAYS)
+        d->chunk_res > VIS_QUERY_MAX_CHUNK_RES || d->pair_ray_limit > QUERY_MAX_PAIR_RAYS ||
+        d->unsettled_ticks > QUERY_MAX_UNSETTLED_TICKS)
         return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT,
                         "vis_query_create: max_viewers %u (at most %u), max_entities %u (at most %u), chunk_res %u "
-                        "(at most %u), pair_ray_limit %u (at most %u)",
+                        "(at most %u), pair_ray_limit %u (at most %u), unsettled_ticks %u (at most %u)",
                         d->max_viewers, VIS_QUERY_MAX_VIEWERS, d->max_entities, VIS_QUERY_MAX_ENTITIES, d->chunk_res,
-                        VIS_QUERY_MAX_CHUNK_RES, d->pair_ray_limit, QUERY_MAX_PAIR_RAYS);
+                        VIS_QUERY_MAX_CHUNK_RES, d->pair_ray_limit, QUERY_MAX_PAIR_RAYS, d->unsettled_ticks,
+                        QUERY_MAX_UNSETTLED_TICKS);
     if (!isfinite(d->margin) || d->margin < 0.0 || d->margin > QUERY_MAX_BOX || !isfinite(d->peek_speed) ||
         d->peek_speed < 0.0 || d->peek_speed > VIS_QUERY_MAX_SPEED || !isfinite(d->proof_slack) ||
         d->proof_slack > QUERY_MAX_BOX || !isfinite(d->chunk_move) || d->chunk_move < 0.0 ||
@@ -159,8 +166,8 @@ static void query_free(vis_query *q)
     vis_context *ctx = q->ctx;
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
-                      q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->eye_now, q->box_now, q->keys,
-                      q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals,
+                      q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->pair_retry, q->eye_now, q->box_now,
+                      q->keys, q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals,
                       q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->due_viewers, q->due_by_input};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
@@ -204,6 +211,7 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->pair_eye, V * E * sizeof(vis_occ_box)},
         {(void **)&q->pair_box, V * E * sizeof(vis_occ_box)},
         {(void **)&q->pair_seen, V * E * 4},
+        {(void **)&q->pair_retry, V * E * 4},
         {(void **)&q->eye_now, V * sizeof(vis_occ_box)},
         {(void **)&q->box_now, V * E * sizeof(vis_occ_box)},
         {(void **)&q->keys, V * E * 8},
@@ -481,7 +489,9 @@ static int box_in(const vis_occ_box *a, const vis_occ_box *b)
 /* Does pair p's cached result still answer for this tick's eye region and swept box? A
  * proof over larger regions holds for any regions inside them (every segment between the
  * smaller is one between the larger); an unblocked segment stays a witness while its ends
- * stay inside. The scene's generation is checked by the caller. */
+ * stay inside. An unsettled pair is reported whatever the answer would be, so keeping it
+ * hides nothing; it waits for its retry tick, and for its regions to leave those it failed
+ * on (a turn, a jump: new geometry, worth a new proof). Edits are checked by the caller. */
 static int cache_holds(const vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box)
 {
     switch (q->pair_state[p]) {
@@ -489,6 +499,9 @@ static int cache_holds(const vis_query *q, size_t p, const vis_occ_box *eye, con
         return point_in(q->pair_eye[p].lo, eye) && point_in(q->pair_box[p].lo, box);
     case PAIR_HIDDEN:
         return box_in(eye, &q->pair_eye[p]) && box_in(box, &q->pair_box[p]);
+    case PAIR_UNSETTLED:
+        return (int32_t)(q->pair_retry[p] - (uint32_t)q->tick) > 0 && box_in(eye, &q->pair_eye[p]) &&
+               box_in(box, &q->pair_box[p]);
     default:
         return 0;
     }
@@ -548,9 +561,13 @@ static void grow_ahead(const vis_query *q, const vis_occ_box *b, const double ve
  * returns the rays spent. A pair whose last proof was HIDDEN has moved out of it: the
  * regions grown ahead (grow_ahead) are tried first, so that one proof lasts many ticks;
  * when that fails, the exact regions get a pair limit of their own (so such a pair may
- * spend up to twice pair_ray_limit). A proof that runs out of rays is not cached: the pair
- * is reported and tried again next tick (caching it over the grown regions saved rays but
- * sent a fifth more pairs on gen:default, where such pairs are often proven a tick later). */
+ * spend up to twice pair_ray_limit). A proof that uses its whole pair limit without an
+ * answer is UNSETTLED: reported, and kept for unsettled_ticks over the grown regions (1:
+ * proven again next tick). Waiting longer saves the rays of proofs that keep failing, at
+ * the price of the few pairs a later tick would have proven hidden (docs/server.md: on
+ * gen:default about 1 % of the retries succeed, and each success hides its pair for many
+ * ticks). A proof cut short by the ray budget is not kept: the budget, not the proof,
+ * ended it. */
 static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box,
                            const double eye_vel[3], const double box_vel[3], uint64_t left)
 {
@@ -585,6 +602,11 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
         q->pair_state[p] = PAIR_HIDDEN;
         q->pair_eye[p] = *eye;
         q->pair_box[p] = *box;
+    } else if (lim2 == q->desc.pair_ray_limit && q->desc.unsettled_ticks > 1) {
+        q->pair_state[p] = PAIR_UNSETTLED; /* reported; tried again at pair_retry */
+        q->pair_eye[p] = ge;
+        q->pair_box[p] = gb;
+        q->pair_retry[p] = (uint32_t)q->tick + q->desc.unsettled_ticks;
     } else {
         q->pair_state[p] = PAIR_NONE; /* reported; tried again next tick */
     }
@@ -631,7 +653,7 @@ static void viewer_job(vis_query *q, uint32_t i)
             reason = VIS_QUERY_SEEN;
             q->pair_seen[p] = (uint32_t)q->tick + 1u;
             ++r->seen;
-        } else if (q->pair_state[p] == PAIR_NONE) {
+        } else if (q->pair_state[p] == PAIR_NONE || q->pair_state[p] == PAIR_UNSETTLED) {
             reason = VIS_QUERY_UNCHECKED;
             ++r->unchecked;
         } else {

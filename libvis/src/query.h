@@ -64,6 +64,7 @@ struct vis_query {
                                  segment from pair_eye.lo to pair_box.lo is unblocked      */
     vis_occ_box *pair_box;
     uint32_t *pair_seen;      /* tick seen + 1 (0: never), for the hold                      */
+    uint32_t *pair_retry;     /* UNSETTLED pairs: the tick from which they are proven again  */
 
     /* This tick's inputs, converted (input order). */
     const vis_query_viewer *in_viewers;

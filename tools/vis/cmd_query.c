@@ -35,6 +35,8 @@ static void usage(FILE *f)
             "  --budget N           entity rays per tick, all viewers (default 0: no limit)\n"
             "  --viewer-budget N    entity rays per viewer per tick (default 0: no limit)\n"
             "  --pair-limit N       rays to prove one pair hidden (default 16)\n"
+            "  --unsettled-ticks N  ticks a pair the pair limit could not settle is reported without\n"
+            "                       being proven again, while it stays in its grown regions (default 1)\n"
             "  --margin X           voxels around eye regions and swept boxes (default 0)\n"
             "  --peek X             voxels per second a viewer may move beyond its velocity (default 0)\n"
             "  --hold N             ticks an entity stays sent after it was seen (default 0)\n"
@@ -72,7 +74,7 @@ int cmd_query(int argc, char **argv)
 typedef struct qopts {
     const char *scene, *replay, *out;
     int json, compare, around;
-    uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, hold, chunk_res, chunk_every;
+    uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, unsettled, hold, chunk_res, chunk_every;
     uint32_t truth_res, truth_every, edit_every, viewer_budget, chunk_budget;
     uint64_t budget, seed;
     double margin, peek, slack, chunk_range, chunk_move, luanti_range, tick_ms;
@@ -192,6 +194,8 @@ static int parse_args(int argc, char **argv, qopts *o)
             rc = parse_u32(a, v, 0, UINT32_MAX, &o->viewer_budget);
         } else if (!strcmp(a, "--pair-limit")) {
             rc = parse_u32(a, v, 1, 4096, &o->pair_limit);
+        } else if (!strcmp(a, "--unsettled-ticks")) {
+            rc = parse_u32(a, v, 1, 1024, &o->unsettled);
         } else if (!strcmp(a, "--hold")) {
             rc = parse_u32(a, v, 0, 1000000, &o->hold);
         } else if (!strcmp(a, "--chunk-res")) {
@@ -519,6 +523,7 @@ static int run_replay(const qopts *o)
     qd.ray_budget = o->budget;
     qd.viewer_ray_budget = o->viewer_budget;
     qd.pair_ray_limit = o->pair_limit;
+    qd.unsettled_ticks = o->unsettled;
     qd.proof_slack = o->slack > 0.0 ? o->slack : -1.0; /* the library's 0 means its default */
     qd.chunk_range = o->chunk_range;
     qd.chunk_move = o->chunk_move;

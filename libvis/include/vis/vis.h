@@ -864,6 +864,13 @@ typedef struct vis_query_desc {
                                   proven again while its eye region and swept box stay inside
                                   the regions last proven; at most 1e5; 0 = default (0.5),
                                   negative = none (exact regions, re-proven on any move)     */
+    uint32_t unsettled_ticks;  /* a pair whose proof used its whole pair_ray_limit without an
+                                  answer is reported (VIS_QUERY_UNCHECKED) and not proven
+                                  again for this many ticks while its eye region and swept
+                                  box stay inside the regions grown by proof_slack (or until
+                                  an edit reaches them); 0 = default (1: proven again on the
+                                  next tick), at most 1024. Saves rays where the proof is
+                                  weak (hills, docs/server.md); sends a few more pairs       */
     uint32_t threads;          /* viewers run in parallel on this many threads (the caller
                                   included); 0 = the context's CPU thread count (its
                                   parallel_for when it has one), 1 = the calling thread      */
