@@ -10,7 +10,8 @@
  *  - a missing loader ($VIS_OPENCL_LIBRARY naming nothing): VIS_ERROR_UNSUPPORTED with a
  *    message naming it, and AUTO falling back to the CPU;
  *  - an ICD that may be a GPU beside PoCL: the loader is opened, PoCL's platform is not asked
- *    for devices (no thread started), and, finding no GPU, AUTO uses the CPU.
+ *    for devices (no thread started), and, finding no GPU, AUTO uses the CPU;
+ *  - the register cap that batch programs get on NVIDIA (a pure function, no loader).
  *
  * The process's own state is the oracle (/proc/self/maps, /proc/self/status), so the tests
  * run in the order below in one process: nothing may open the loader before the AUTO test,
@@ -456,6 +457,29 @@ static int remove_entry(const char *path, const struct stat *st, int type, struc
     return remove(path);
 }
 
+/* The register cap of the batch programs (cl_backend.c, vis_cl_batch_register_cap): on
+ * NVIDIA for the stack method and the cell-grid walk only, never on other platforms, and
+ * never when $VIS_OPENCL_BUILD_OPTIONS brings a cap of its own (two caps in one build). A
+ * pure function of its arguments: no loader is opened. */
+static void test_batch_register_cap(void **state)
+{
+    (void)state;
+#ifndef VIS_HAVE_OPENCL
+    printf("SKIP: this build has no OpenCL backend\n");
+    skip();
+#else
+    const char *nv = "NVIDIA CUDA";
+    assert_string_equal(vis_cl_batch_register_cap(nv, 0u, ""), " -cl-nv-maxrregcount=56"); /* stack */
+    assert_string_equal(vis_cl_batch_register_cap(nv, 9u, ""), " -cl-nv-maxrregcount=72"); /* dda */
+    for (uint32_t t = 1u; t < 9u; ++t)
+        assert_string_equal(vis_cl_batch_register_cap(nv, t, ""), "");
+    assert_string_equal(vis_cl_batch_register_cap(nv, 10u, ""), ""); /* the generic program */
+    assert_string_equal(vis_cl_batch_register_cap("Portable Computing Language", 0u, ""), "");
+    assert_string_equal(vis_cl_batch_register_cap(nv, 0u, "-cl-nv-maxrregcount=40"), "");
+    assert_string_equal(vis_cl_batch_register_cap(nv, 9u, "-cl-nv-verbose"), " -cl-nv-maxrregcount=72");
+#endif
+}
+
 int main(void)
 {
     /* The defaults are under test: nothing named. */
@@ -474,6 +498,7 @@ int main(void)
         cmocka_unit_test_teardown(test_auto_does_not_start_pocl, restore_env),
         cmocka_unit_test_teardown(test_missing_loader, restore_env),
         cmocka_unit_test_teardown(test_gpu_icd_opens_loader, restore_env),
+        cmocka_unit_test(test_batch_register_cap),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);
     if (nftw(g_tmp, remove_entry, 16, FTW_DEPTH | FTW_PHYS) != 0)

@@ -316,6 +316,25 @@ const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, i
     return batch ? b->batch_options[traversal] : b->method_options[traversal];
 }
 
+/* The register cap of a method's batch program (launches of several views): on NVIDIA
+ * (cl_nv_compiler_options) " -cl-nv-maxrregcount=N" for the stack method (N = 56) and the
+ * cell-grid walk (N = 72), "" otherwise, and "" when $VIS_OPENCL_BUILD_OPTIONS (extra) sets a
+ * cap of its own. A batch keeps every SM full, so it runs as fast as the warps an SM holds
+ * allow, and those are set by the registers of its largest kernel: the draw-list kernels
+ * take 72 (stack) and 121 (dda) registers uncapped, 28 and 16 warps of 64 per SM (ptxas,
+ * sm_90a). Capped, 256 views with draw lists went from 3.26 to 3.62 G rays/s with `stack`
+ * and from 2.60 to 3.35 with `dda` on the H200; one view, whose time is its slowest tiles',
+ * ran slower capped (docs/opencl.md, "Register caps for batches"), so single views are built
+ * without. The cap changes where values live, never an operation: results stay bit for bit. */
+const char *vis_cl_batch_register_cap(const char *platform, uint32_t traversal, const char *extra)
+{
+    if (!strstr(platform, "NVIDIA") || strstr(extra, "maxrregcount"))
+        return "";
+    if (traversal == VIS_TRAVERSAL_ID_STACK)
+        return " -cl-nv-maxrregcount=56";
+    return traversal == VIS_TRAVERSAL_ID_DDA ? " -cl-nv-maxrregcount=72" : "";
+}
+
 /* $VIS_OPENCL_WALK: how the per-ray kernels walk (docs/opencl.md "Persistent threads and leaf
  * postponing"; Aila & Laine 2009). Words joined by '+' or ',':
  *   persistent   every method's kernels as persistent threads (trace.cl);
@@ -363,8 +382,9 @@ static int walk_options(vis_cl_backend *b, const char *walk, char *err, size_t e
             snprintf(pp, sizeof pp, " -DVIS_CL_POSTPONE=%d%s", postpone, vote ? " -DVIS_CL_VOTE" : "");
         snprintf(b->method_options[t], sizeof b->method_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
                  persistent ? " -DVIS_CL_PERSISTENT" : "");
-        snprintf(b->batch_options[t], sizeof b->batch_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
-                 batch_persistent ? " -DVIS_CL_PERSISTENT" : "");
+        snprintf(b->batch_options[t], sizeof b->batch_options[t], "%s%s%s%s", vis_cl_traversal_options(t), pp,
+                 batch_persistent ? " -DVIS_CL_PERSISTENT" : "",
+                 vis_cl_batch_register_cap(b->caps.platform, t, b->extra_options));
     }
     if (!persistent && !batch_persistent)
         return VIS_OK;

@@ -279,6 +279,8 @@ const char *vis_cl_traversal_options(uint32_t traversal);
 /* The same with this backend's walk options added where they apply: for one view, or for a
  * launch of several (`batch`; persistent threads by default on a GPU). */
 const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, int batch);
+/* " -cl-nv-maxrregcount=N" for a method's batch program on NVIDIA, or "" (cl_backend.c). */
+const char *vis_cl_batch_register_cap(const char *platform, uint32_t traversal, const char *extra);
 /* Enqueues kernel k of program p over width x height x views (vis_cl_grid's tiles; a
  * persistent program gets about as many groups as the device runs at once and its counter and
  * view count as arguments pt_arg and pt_arg + 1). ev: the launch's event. */

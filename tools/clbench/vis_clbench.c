@@ -14,7 +14,8 @@
  * 4. Bytes uploaded per single-voxel edit (median, max over 200 edits).
  * 5. --methods 1: Chang & Ihm's Table 3 and 5 for this scene: kernel time of each traversal
  *    method (short and cached stacks of 1-3 and 7) on every camera-path view, 512x512, and
- *    the median over the views in Mrays/s.
+ *    the median over the views in Mrays/s. --only "stack (,dda" runs only the rows whose names
+ *    start with one of the comma-separated prefixes (a register sweep needs two rows).
  * 6. --drawlist 1: vis_trace_drawlist (the list built on the device, only the list read back)
  *    per path view, kernel and end-to-end, against vis_trace + vis_drawlist_build; batches of
  *    views with draw lists as the output (vis_trace_batch_drawlist); single-voxel edits
@@ -217,6 +218,22 @@ static double median(double *v, int n)
 
 /* 5. Chang & Ihm 2010, Tables 3 and 5, for this scene: per method, the kernel time on each
  * view (median of reps after 3 warm-ups) and the median over the views in Mrays/s. */
+static const char *g_only; /* --only: the rows of the methods table to run (prefixes of their names, comma-separated) */
+
+/* Whether the methods table runs row `name` (every row without --only). */
+static int method_wanted(const char *name)
+{
+    if (!g_only)
+        return 1;
+    for (const char *p = g_only; *p;) {
+        size_t n = strcspn(p, ",");
+        if (n && !strncmp(name, p, n))
+            return 1;
+        p += n + (p[n] == ',');
+    }
+    return 0;
+}
+
 static void methods_table(vis_context *cl, vis_scene *B, const vis_camera *def, const vc_view *views, size_t nv,
                           int reps, bufs *b)
 {
@@ -240,6 +257,8 @@ static void methods_table(vis_context *cl, vis_scene *B, const vis_camera *def, 
     printf(" %10s %10s %10s\n", "max ms", "med Mrays", "min Mrays");
     for (size_t i = 0; i < sizeof m / sizeof m[0]; ++i) {
         double per[VC_MAX_VIEWS + 1], mr[VC_MAX_VIEWS + 1], worst = 0.0;
+        if (!method_wanted(m[i].name))
+            continue;
         printf("%-18s", m[i].name);
         for (size_t v = 0; v <= nv; ++v) {
             const vis_camera *cam = v == 0 ? def : &views[v - 1].camera;
@@ -648,6 +667,8 @@ int main(int argc, char **argv)
             methods = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--drawlist"))
             drawlist = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--only"))
+            g_only = argv[i + 1];
         else if (!strcmp(argv[i], "--walks"))
             walks = argv[i + 1];
         else if (!strcmp(argv[i], "--rounds") && atoi(argv[i + 1]) >= 1)
@@ -660,7 +681,7 @@ int main(int argc, char **argv)
         }
         else {
             fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..] "
-                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--drawlist 0|1] [--traversal ENUM] [--nv-verbose 1] "
+                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--only stack,dda] [--drawlist 0|1] [--traversal ENUM] [--nv-verbose 1] "
                             "[--walks \"W[@WxH];...\" [--rounds N]]\n");
             return 2;
         }
