@@ -477,6 +477,18 @@ static void test_batch_register_cap(void **state)
     assert_string_equal(vis_cl_batch_register_cap("Portable Computing Language", 0u, ""), "");
     assert_string_equal(vis_cl_batch_register_cap(nv, 0u, "-cl-nv-maxrregcount=40"), "");
     assert_string_equal(vis_cl_batch_register_cap(nv, 9u, "-cl-nv-verbose"), " -cl-nv-maxrregcount=72");
+
+    /* And the options the programs are built with: the cap in the batch programs only. */
+    vis_cl_backend *b = calloc(1, sizeof *b);
+    assert_non_null(b);
+    snprintf(b->caps.platform, sizeof b->caps.platform, "%s", nv);
+    char err[256];
+    assert_int_equal(vis_cl_walk_options(b, "plain", err, sizeof err), VIS_OK); /* no OpenCL call */
+    assert_non_null(strstr(vis_cl_method_options(b, 0u, 1), "-cl-nv-maxrregcount=56"));
+    assert_non_null(strstr(vis_cl_method_options(b, 9u, 1), "-cl-nv-maxrregcount=72"));
+    assert_null(strstr(vis_cl_method_options(b, 0u, 0), "maxrregcount"));
+    assert_null(strstr(vis_cl_method_options(b, 9u, 0), "maxrregcount"));
+    free(b);
 #endif
 }
 

@@ -316,8 +316,8 @@ const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, i
     return batch ? b->batch_options[traversal] : b->method_options[traversal];
 }
 
-/* The register cap of a method's batch program (launches of several views): on NVIDIA
- * (cl_nv_compiler_options) " -cl-nv-maxrregcount=N" for the stack method (N = 56) and the
+/* The register cap of a method's batch program (launches of several views): on a platform
+ * whose name contains "NVIDIA" (its compiler takes -cl-nv-* options) " -cl-nv-maxrregcount=N" for the stack method (N = 56) and the
  * cell-grid walk (N = 72), "" otherwise, and "" when $VIS_OPENCL_BUILD_OPTIONS (extra) sets a
  * cap of its own. A batch keeps every SM full, so it runs as fast as the warps an SM holds
  * allow, and those are set by the registers of its largest kernel: the draw-list kernels
@@ -325,7 +325,8 @@ const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, i
  * sm_90a). Capped, 256 views with draw lists went from 3.26 to 3.62 G rays/s with `stack`
  * and from 2.60 to 3.35 with `dda` on the H200; one view, whose time is its slowest tiles',
  * ran slower capped (docs/opencl.md, "Register caps for batches"), so single views are built
- * without. The cap changes where values live, never an operation: results stay bit for bit. */
+ * without. The cap is meant to change where values live, not an operation; results were
+ * measured bit for bit the same on the H200 (test_opencl, vis_clbench conformance). */
 const char *vis_cl_batch_register_cap(const char *platform, uint32_t traversal, const char *extra)
 {
     if (!strstr(platform, "NVIDIA") || strstr(extra, "maxrregcount"))
@@ -348,7 +349,7 @@ const char *vis_cl_batch_register_cap(const char *platform, uint32_t traversal, 
  * plain, which measured fastest on the H200 for each; on other devices everything is plain.
  * Fills b->method_options and b->batch_options; returns a vis_status value with the reason.
  * Results never depend on it (every walk gives the stack method's buffers). */
-static int walk_options(vis_cl_backend *b, const char *walk, char *err, size_t err_size)
+int vis_cl_walk_options(vis_cl_backend *b, const char *walk, char *err, size_t err_size)
 {
     int persistent = 0, postpone = 0, vote = 0;
     const char *p = walk ? walk : "";
@@ -674,7 +675,7 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         }
         snprintf(b->extra_options, sizeof b->extra_options, "%s", extra);
     }
-    if ((st = walk_options(b, getenv("VIS_OPENCL_WALK"), err, err_size)) != VIS_OK) {
+    if ((st = vis_cl_walk_options(b, getenv("VIS_OPENCL_WALK"), err, err_size)) != VIS_OK) {
         cl_destroy(b);
         return st;
     }

@@ -281,6 +281,10 @@ const char *vis_cl_traversal_options(uint32_t traversal);
 const char *vis_cl_method_options(const vis_cl_backend *b, uint32_t traversal, int batch);
 /* " -cl-nv-maxrregcount=N" for a method's batch program on NVIDIA, or "" (cl_backend.c). */
 const char *vis_cl_batch_register_cap(const char *platform, uint32_t traversal, const char *extra);
+/* Fills method_options and batch_options from $VIS_OPENCL_WALK's words (`walk`, NULL = none)
+ * and the device (caps.platform, caps.is_gpu, extra_options); makes the persistent kernels'
+ * counter when a walk needs it (the only OpenCL call: none for "plain"). */
+int vis_cl_walk_options(vis_cl_backend *b, const char *walk, char *err, size_t err_size);
 /* Enqueues kernel k of program p over width x height x views (vis_cl_grid's tiles; a
  * persistent program gets about as many groups as the device runs at once and its counter and
  * view count as arguments pt_arg and pt_arg + 1). ev: the launch's event. */

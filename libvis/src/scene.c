@@ -429,8 +429,10 @@ static int reserve_slot(vis_scene *s, void **pool, uint32_t *used, uint32_t *cap
  * it can be packed: its plane on a bucket, its rectangle on whole offsets in [0, 31] from the
  * leaf's corner that give its coordinates back exactly, small flags, and a table index that
  * fits. Returns 0 for a quad that stays loose. */
-_Static_assert(offsetof(vis_flat_quad, v1) == offsetof(vis_flat_quad, u0) + 3 * sizeof(float),
-               "pack_quad loads u0, v0, u1, v1 as four floats");
+_Static_assert(offsetof(vis_flat_quad, v0) == offsetof(vis_flat_quad, u0) + sizeof(float) &&
+                   offsetof(vis_flat_quad, u1) == offsetof(vis_flat_quad, u0) + 2 * sizeof(float) &&
+                   offsetof(vis_flat_quad, v1) == offsetof(vis_flat_quad, u0) + 3 * sizeof(float),
+               "pack_quad loads u0, v0, u1, v1 as four floats in that order");
 static int pack_quad(const vis_flat_leaf *lf, const vis_flat_quad *q, uint32_t local, uint32_t *bucket, uint32_t *word)
 {
     uint32_t b = quad_bucket(lf, q);
@@ -443,7 +445,10 @@ static int pack_quad(const vis_flat_leaf *lf, const vis_flat_quad *q, uint32_t l
 #if defined(__SSE2__)
     const __m128 c = _mm_loadu_ps(&q->u0), base = _mm_setr_ps(lf->lo[u], lf->lo[v], lf->lo[u], lf->lo[v]);
     const __m128 k = _mm_sub_ps(c, base);
-    const __m128i ki = _mm_cvttps_epi32(k); /* exact where k is whole and in range */
+    /* Clamped first so that no lane's conversion is out of range (no FE_INVALID raised where
+     * the scalar test would have stopped); lanes outside [0, 31] or NaN fail `ok` anyway. */
+    const __m128 kc = _mm_min_ps(_mm_max_ps(k, _mm_setzero_ps()), _mm_set1_ps((float)VIS_PQ_COORD_MAX));
+    const __m128i ki = _mm_cvttps_epi32(kc); /* exact where k is whole and in range */
     const __m128 kf = _mm_cvtepi32_ps(ki);
     __m128 ok = _mm_and_ps(_mm_cmpge_ps(k, _mm_setzero_ps()), _mm_cmple_ps(k, _mm_set1_ps((float)VIS_PQ_COORD_MAX)));
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpeq_ps(kf, k), _mm_cmpeq_ps(_mm_add_ps(base, kf), c)));

@@ -35,7 +35,7 @@
 #define MAX_CLEAR 8        /* see-through materials compared directly in the row test         */
 
 /* Scratch, on the caller's stack: sized per chunk edge (see mesh_16 / mesh_32 below), so a
- * 16-voxel chunk needs about 22 KiB of stack and a 32-voxel one about 120 KiB. */
+ * 16-voxel chunk needs about 27 KiB of stack and a 32-voxel one about 135 KiB. */
 #define SCRATCH_BYTES(c)                                                                                    \
     (2u * ((c) + 2) * ((c) + 2) * ((c) + 2) + 10u * (c) * (c) * sizeof(uint32_t) +                          \
      2u * ((c) + 2) * ((c) + 2) * sizeof(uint64_t))

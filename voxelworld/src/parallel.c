@@ -59,15 +59,23 @@ void vwi_parallel_run(uint32_t threads, uint32_t count, vwi_item_fn fn, void *ct
     pthread_t id[VWI_MAX_THREADS];
     member m[VWI_MAX_THREADS];
     uint32_t started = 0;
+    /* An explicit stack size: the mesher's scratch (135 KiB for 32-voxel chunks) lives on the
+     * worker's stack, more than some C libraries' default thread stack (musl: 128 KiB). */
+    pthread_attr_t attr;
+    const int have_attr = pthread_attr_init(&attr) == 0;
+    if (have_attr)
+        pthread_attr_setstacksize(&attr, (size_t)1 << 20);
     /* Worker numbers stay dense (1..started): a thread that fails to start leaves no hole
      * in the per-worker scratch the callers index. */
     for (uint32_t k = 1; k < threads; k++) {
         m[started].t = &t;
         m[started].worker = started + 1;
-        if (pthread_create(&id[started], NULL, member_main, &m[started]) != 0)
+        if (pthread_create(&id[started], have_attr ? &attr : NULL, member_main, &m[started]) != 0)
             break;
         started++;
     }
+    if (have_attr)
+        pthread_attr_destroy(&attr);
     drain(&t, 0);
     for (uint32_t k = 0; k < started; k++)
         pthread_join(id[k], NULL);

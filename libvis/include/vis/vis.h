@@ -797,7 +797,8 @@ VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timin
  * Thread safety: a vis_query belongs to the context and scene it was created with; its
  * calls count as calls on that context (VIS_ERROR_BUSY while another thread is inside one).
  * The scene may be edited between calls (through its own context); each call sees the
- * committed state, and an edit since the last call invalidates every cached entity result.
+ * committed state; an edit since the last call drops the cached entity results whose proof
+ * it can reach (its changed boxes meet the proof's eye region and swept box).
  * Chunk lists: an edit retraces, on the next call, the viewers with a ray of their last chunk
  * pass that reaches an edited object's box (its hull before and after the edit) before that
  * ray's hit -- exactly the passes whose IDs the edit can change; the others keep their lists,
@@ -864,13 +865,13 @@ typedef struct vis_query_desc {
                                   proven again while its eye region and swept box stay inside
                                   the regions last proven; at most 1e5; 0 = default (0.5),
                                   negative = none (exact regions, re-proven on any move)     */
-    uint32_t unsettled_ticks;  /* a pair whose proof used its whole pair_ray_limit without an
-                                  answer is reported (VIS_QUERY_UNCHECKED) and not proven
-                                  again for this many ticks while its eye region and swept
-                                  box stay inside the regions grown by proof_slack (or until
-                                  an edit reaches them); 0 = default (1: proven again on the
-                                  next tick), at most 1024. Saves rays where the proof is
-                                  weak (hills, docs/server.md); sends a few more pairs       */
+    uint32_t unsettled_ticks;  /* a pair whose proof was given its whole pair_ray_limit and
+                                  ended without an answer is reported (VIS_QUERY_UNCHECKED)
+                                  and proven again this many ticks later (1: the next tick),
+                                  earlier when its eye region or swept box leaves the regions
+                                  grown by proof_slack or an edit reaches them; 0 = default
+                                  (1), at most 1024. Saves rays where the proof is weak
+                                  (hills, docs/server.md); sends a few more pairs            */
     uint32_t threads;          /* viewers run in parallel on this many threads (the caller
                                   included); 0 = the context's CPU thread count (its
                                   parallel_for when it has one), 1 = the calling thread      */
@@ -902,7 +903,8 @@ typedef struct vis_query_entity {
 /* Why an entity is in a viewer's list. */
 typedef enum vis_query_reason {
     VIS_QUERY_SEEN = 1,    /* a segment from the eye region to the swept box is unblocked    */
-    VIS_QUERY_UNCHECKED,   /* the ray budget ran out before it was proven hidden             */
+    VIS_QUERY_UNCHECKED,   /* not proven hidden: the ray budget or pair_ray_limit ran out
+                              (this tick, or a proof still waiting out unsettled_ticks)     */
     VIS_QUERY_HELD         /* proven hidden, but seen less than hold_ticks ticks ago         */
 } vis_query_reason;
 
@@ -917,7 +919,8 @@ typedef struct vis_query_stats {
     uint64_t chunk_rays;       /* pixels of the chunk passes traced this tick                  */
     uint32_t pairs;            /* viewer-entity pairs (the viewer's own entity excluded)      */
     uint32_t pairs_cached;     /* answered from an earlier tick's proof: its eye region and
-                                  swept box still lie inside the regions it covered          */
+                                  swept box still lie inside the regions it covered (or an
+                                  unsettled pair still waiting out unsettled_ticks)          */
     uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
     uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
     uint32_t chunk_edit_passes;/* of those, the viewers traced because a scene edit (since the
