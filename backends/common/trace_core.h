@@ -635,6 +635,31 @@ VIS_INLINE void vis_crossing_cells(float o, float td, float lo, int c[2])
     c[1] = !(y >= 0.0f) ? -1 : vis_clamp_plane(y, 0, (int)VIS_PQ_COORD_MAX); /* floor(y) */
 }
 
+/* vis_crossing_cells with its margin given: m, computed once per leaf walk by
+ * vis_crossing_margin from a bound on |td| over every plane the walk visits, is no smaller
+ * than the margin vis_crossing_cells computes for any of those planes (each float operation
+ * is monotone, and the bound is no smaller than each |td|), so the range is a superset of
+ * that one: no quad the exact test takes is dropped. m must be finite (then p, x and y are);
+ * the walk falls back to vis_crossing_cells otherwise. Same clamps, written as selects
+ * (docs/performance.md, "Far views at scale": 4-5 % fewer instructions on far per-ray views). */
+VIS_INLINE void vis_crossing_range(float o, float td, float lo, float m, int c[2])
+{
+    float p = (o + td) - lo;
+    float x = p - m, y = p + m;
+    float xc = x > 0.0f ? x : 0.0f;
+    xc = xc < (float)(VIS_PQ_COORD_MAX + 1u) ? xc : (float)(VIS_PQ_COORD_MAX + 1u);
+    int k = (int)xc;       /* truncation: floor, x clamped to [0, 32] */
+    c[0] = k + ((float)k < x); /* ceil(x), or 0, or 33 */
+    float yc = y < (float)VIS_PQ_COORD_MAX ? y : (float)VIS_PQ_COORD_MAX;
+    c[1] = y >= 0.0f ? (int)yc : -1; /* floor(y) in [0, 31], or -1 */
+}
+
+/* vis_crossing_cells's margin for td_max >= |td| (the same expression, |td| replaced). */
+VIS_INLINE float vis_crossing_margin(float o, float td_max, float lo)
+{
+    return (VIS_FABSF(o) + td_max + VIS_FABSF(lo) + 32.0f) * 1.52587890625e-05f; /* 2^-16 */
+}
+
 /* The leaf's loose quads and triangles (always tested: they are not in the content box). */
 VIS_NOINLINE void vis_leaf_loose(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
                                  const VIS_GLOBAL uint32_t *quads, const VIS_GLOBAL vis_flat_tri *tris,
@@ -665,6 +690,7 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
     int k[3], kend[3], step[3];
     float tk[3];
     float lo[3];
+    float t_abs = 0.0f; /* the largest |t| of a plane the walk can visit */
     for (int a = 0; a < 3; ++a)
         lo[a] = leaf->lo[a];
     for (int a = 0; a < 3; ++a) {
@@ -694,7 +720,19 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
             step[a] = -1;
         }
         tk[a] = vis_plane_t(r, a, lo[a], k[a]);
+        /* The planes' distances are monotone in k (rounding is), so the largest |t| the walk
+         * can meet on this axis is at one end of its range. */
+        float t_end = vis_plane_t(r, a, lo[a], kend[a]);
+        float f = VIS_FABSF(tk[a]) > VIS_FABSF(t_end) ? VIS_FABSF(tk[a]) : VIS_FABSF(t_end);
+        t_abs = f > t_abs ? f : t_abs;
     }
+    /* The crossing ranges' margins, once per leaf (vis_crossing_range): |t d[u]| <= t_abs |d[u]|
+     * for every plane visited. A margin that is not finite (or NaN, from inf * 0) takes the
+     * per-bucket margin instead. */
+    float mg[3];
+    for (int a = 0; a < 3; ++a)
+        mg[a] = vis_crossing_margin(r->o[a], t_abs * VIS_FABSF(r->d[a]), lo[a]);
+    int per_bucket = !(mg[0] < VIS_INF && mg[1] < VIS_INF && mg[2] < VIS_INF);
     const VIS_GLOBAL uint32_t *packed = quads + leaf->quad_offset;
     const VIS_GLOBAL uint32_t *table = quads + leaf->table_offset;
     const VIS_GLOBAL uint32_t *bk = buckets + leaf->bucket_offset;
@@ -721,8 +759,13 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
             int cu[2] = {0, -1}, cv[2] = {0, -1};
             uint32_t i = bk[b];
             if (i < end) {
-                vis_crossing_cells(r->o[u], t * r->d[u], lu, cu);
-                vis_crossing_cells(r->o[v], t * r->d[v], lv, cv);
+                if (per_bucket) {
+                    vis_crossing_cells(r->o[u], t * r->d[u], lu, cu);
+                    vis_crossing_cells(r->o[v], t * r->d[v], lv, cv);
+                } else {
+                    vis_crossing_range(r->o[u], t * r->d[u], lu, mg[u], cu);
+                    vis_crossing_range(r->o[v], t * r->d[v], lv, mg[v], cv);
+                }
             }
             for (; i < end; ++i) {
                 uint32_t w = packed[i];
@@ -1585,6 +1628,13 @@ VIS_INLINE float vis_dda_exit(const vis_ray *r, uint32_t a, int i, int step, int
     return b >= 1 && b <= n - 1 ? vis_dda_cross(r, a, b, cs) : VIS_INF;
 }
 
+/* vis_dda_exit by the boundary itself: b's distance, or VIS_INF at b = end (n moving up, 0
+ * moving down: past the last inner boundary). */
+VIS_INLINE float vis_dda_bound(const vis_ray *r, uint32_t a, int b, int end, float cs)
+{
+    return b != end ? vis_dda_cross(r, a, b, cs) : VIS_INF;
+}
+
 /* A test may define VIS_DDA_VISIT(entry) before including this file to see each cell visited
  * (its map entry, cell_map + cell; tests/test_traversal.c holds the walk to the cell test
  * above). */
@@ -1612,14 +1662,17 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
 {
     float cs = s->cell_size;
     int nx = (int)s->cells[0], ny = (int)s->cells[1], nz = (int)s->cells[2];
-    int mx = m0[0], my = m0[1], mz = m0[2];
     int sx = step[0], sy = step[1], sz = step[2];
+    /* The next boundary each axis crosses (vis_dda_exit's b) and the one past its last inner
+     * boundary, where the crossing is VIS_INF: one compare per step instead of the range. */
+    int bx = m0[0] + (sx > 0), by = m0[1] + (sy > 0), bz = m0[2] + (sz > 0);
+    int ex = sx > 0 ? nx : 0, ey = sy > 0 ? ny : 0, ez = sz > 0 ? nz : 0;
     /* The cell's map entry, and what a step on each axis adds to it. */
-    uint32_t entry = s->cell_map + (uint32_t)mx + s->cells[0] * ((uint32_t)my + s->cells[1] * (uint32_t)mz);
+    uint32_t entry = s->cell_map + (uint32_t)m0[0] + s->cells[0] * ((uint32_t)m0[1] + s->cells[1] * (uint32_t)m0[2]);
     uint32_t dx = (uint32_t)sx, dy = (uint32_t)sy * s->cells[0], dz = (uint32_t)sz * s->cells[0] * s->cells[1];
-    float tx = sx ? vis_dda_exit(r, 0u, mx, sx, nx, cs) : VIS_INF;
-    float ty = sy ? vis_dda_exit(r, 1u, my, sy, ny, cs) : VIS_INF;
-    float tz = sz ? vis_dda_exit(r, 2u, mz, sz, nz, cs) : VIS_INF;
+    float tx = sx ? vis_dda_bound(r, 0u, bx, ex, cs) : VIS_INF;
+    float ty = sy ? vis_dda_bound(r, 1u, by, ey, cs) : VIS_INF;
+    float tz = sz ? vis_dda_bound(r, 2u, bz, ez, cs) : VIS_INF;
     float T = t0; /* where the current cell is entered */
     /* The walk stops at a cell entered beyond lim(best hit) or lim(t1): one bound, renewed
      * only where the best hit can change (after a leaf that holds primitives). */
@@ -1662,26 +1715,26 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
                                      e, last, VIS_SCENE_ARGS, h);
                 stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
             }
+            lim = vis_t_limit(last); /* without a cluster, last is e and lim already this */
         }
-        lim = vis_t_limit(last);
         if (set & 1u) {
-            mx += sx;
+            bx += sx;
             entry += dx;
-            tx = vis_dda_exit(r, 0u, mx, sx, nx, cs);
+            tx = vis_dda_bound(r, 0u, bx, ex, cs);
             if (tx <= lim)
                 return 0; /* an axis crosses twice within the chain */
         }
         if (set & 2u) {
-            my += sy;
+            by += sy;
             entry += dy;
-            ty = vis_dda_exit(r, 1u, my, sy, ny, cs);
+            ty = vis_dda_bound(r, 1u, by, ey, cs);
             if (ty <= lim)
                 return 0;
         }
         if (set & 4u) {
-            mz += sz;
+            bz += sz;
             entry += dz;
-            tz = vis_dda_exit(r, 2u, mz, sz, nz, cs);
+            tz = vis_dda_bound(r, 2u, bz, ez, cs);
             if (tz <= lim)
                 return 0;
         }
@@ -1732,7 +1785,13 @@ VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_S
             g += step[a]; /* the last cell's exit is VIS_INF: ends in range */
         m0[a] = g;
     }
-    /* Once per combination of the in-plane axes' two cells. */
+    /* Once per combination of the in-plane axes' two cells; almost every ray lies in no
+     * boundary plane and takes one walk. */
+    if (!(alt[0] | alt[1] | alt[2])) {
+        if (!vis_dda_walk(r, s, m0, step, t0, t1, VIS_SCENE_ARGS, h))
+            vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h);
+        return;
+    }
     for (uint32_t v = 0u; v < 8u; ++v) {
         if (((v & 1u) && !alt[0]) || ((v & 2u) && !alt[1]) || ((v & 4u) && !alt[2]))
             continue;
