@@ -329,8 +329,28 @@ PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
 /* The lowest of lo[] and the highest of hi[], over the units. */
 PK_INLINE void pk_span(const float *lo, const float *hi, float *lo_out, float *hi_out)
 {
+#if defined(PK_VECTORS) && UNITS % 8 == 0
+    pk_v8 vl, vh;
+    memcpy(&vl, lo, sizeof vl);
+    memcpy(&vh, hi, sizeof vh);
+    for (int r = 8; r < UNITS; r += 8) {
+        pk_v8 wl, wh;
+        memcpy(&wl, lo + r, sizeof wl);
+        memcpy(&wh, hi + r, sizeof wh);
+        vl = PK_VMIN(vl, wl);
+        vh = PK_VMAX(vh, wh);
+    }
+    float ls[8], hs[8];
+    memcpy(ls, &vl, sizeof ls);
+    memcpy(hs, &vh, sizeof hs);
+    lo = ls;
+    hi = hs;
+    const int n = 8;
+#else
+    const int n = UNITS;
+#endif
     float l = lo[0], h = hi[0];
-    for (int r = 1; r < UNITS; ++r) {
+    for (int r = 1; r < n; ++r) {
         l = pk_min(l, lo[r]);
         h = pk_max(h, hi[r]);
     }
@@ -890,18 +910,44 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     }
 }
 
+/* A subtree to visit: its node and box, and where the tile's rays can be inside its parent's
+ * box (packet_box_open's interval before the widening), so that only the split axis's slab is
+ * new to it. */
 typedef struct packet_frame {
     uint32_t node;
+    int axis;         /* the parent's split axis; 3 at the root (all three slabs are new) */
+    float t0, t1;
     float lo[3], hi[3];
 } packet_frame;
 
 #define PACKET_STACK 128
+
+/* packet_box_open for a frame: the parent's interval narrowed by the one slab that differs
+ * (the child's box is its parent's cut at the split). The same values as all three slabs
+ * anew: the unchanged two give what they gave the parent, and a slab cut shorter gives an
+ * entry no nearer and an exit no farther (each bound is monotone in the plane's offset, as
+ * rounding is), so the maximum of the entries and the minimum of the exits are unchanged by
+ * the parent's wider one. Leaves [*t0, *t1] as the frame's interval; 0 where no ray may have a
+ * better hit inside the box. */
+PK_INLINE int packet_frame_open(const packet *p, const packet_frame *f, float *t0, float *t1)
+{
+    *t0 = f->t0;
+    *t1 = f->t1;
+    for (int a = f->axis == 3 ? 0 : f->axis, e = f->axis == 3 ? 3 : f->axis + 1; a < e; ++a)
+        if (!packet_slab(p, a, f->lo[a], f->hi[a], t0, t1))
+            return 0;
+    float w0 = *t0 - *t0 * T_SLACK;
+    return w0 <= *t1 + fabsf(*t1) * T_SLACK && w0 <= p->max_best + p->max_best * T_SLACK;
+}
 
 PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
 {
     packet_frame stack[PACKET_STACK];
     int sp = 0;
     stack[0].node = 0;
+    stack[0].axis = 3;
+    stack[0].t0 = p->t_near;
+    stack[0].t1 = p->t_far;
     for (int a = 0; a < 3; ++a) {
         stack[0].lo[a] = 0.0f;
         stack[0].hi[a] = view->size[a];
@@ -909,7 +955,8 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
     sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
     while (sp > 0 && !p->given_up) {
         packet_frame f = stack[--sp];
-        if (!packet_box_open(p, f.lo, f.hi))
+        float t0, t1;
+        if (!packet_frame_open(p, &f, &t0, &t1))
             continue;
         p->nodes += (uint32_t)p->counting;
         uint32_t info = view->nodes[f.node].info;
@@ -922,6 +969,9 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         /* The child on the eye's side first (any order is correct; this one finds the
          * nearest hits first, so the far side is often skipped). */
         uint32_t near_child = p->o[a] < split || (p->o[a] == split && p->sign[a] < 0) ? first : first + 1u;
+        f.axis = (int)a;
+        f.t0 = t0;
+        f.t1 = t1;
         packet_frame lo_child = f, hi_child = f;
         lo_child.node = first;
         lo_child.hi[a] = split;
