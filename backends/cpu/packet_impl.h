@@ -25,7 +25,8 @@
  * pixel equals vis_trace_pixel's (the brute-force reference and the OpenCL kernel), which
  * the tests check.
  *
- * The lane loops are written for the compiler to vectorise, a unit of 8 lanes at a time; on
+ * The lane loops are written for the compiler to vectorise, a unit of 8 lanes at a time (the
+ * min/max reductions, which it does not vectorise, in GCC's generic vectors); on
  * x86-64 with GCC the tile function is also built for AVX2 and picked at load time (define
  * VIS_NO_TARGET_CLONES for the baseline build only). No FMA is contracted
  * (-ffp-contract=off), so a lane computes exactly what a scalar ray does. docs/traversal.md
@@ -87,8 +88,8 @@ typedef struct packet {
     float dmin[3], dmax[3];  /* direction bounds                                            */
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
-    float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes,  */
-    int ratio_units;         /* made for axis a when bit a is set (packet_ratio_units)           */
+    float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes */
+    int ratio_units;         /* bit a: unit_rlo/unit_rhi[a] are made (packet_ratio_units)     */
     float unit_imin[3][UNITS], unit_imax[3][UNITS];      /* 1/d bounds of each unit             */
     float unit_best[UNITS];  /* the farthest best hit of each unit (+inf while a lane has none) */
     float slack;             /* absolute widening of boxes                                  */
