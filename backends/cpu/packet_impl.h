@@ -25,7 +25,8 @@
  * pixel equals vis_trace_pixel's (the brute-force reference and the OpenCL kernel), which
  * the tests check.
  *
- * The lane loops are written for the compiler to vectorise, a unit of 8 lanes at a time; on
+ * The lane loops are written for the compiler to vectorise, a unit of 8 lanes at a time (the
+ * min/max reductions, which it does not vectorise, in GCC's generic vectors); on
  * x86-64 with GCC the tile function is also built for AVX2 and picked at load time (define
  * VIS_NO_TARGET_CLONES for the baseline build only). No FMA is contracted
  * (-ffp-contract=off), so a lane computes exactly what a scalar ray does. docs/traversal.md
@@ -87,7 +88,8 @@ typedef struct packet {
     float dmin[3], dmax[3];  /* direction bounds                                            */
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
-    float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes  */
+    float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes */
+    int ratio_units;         /* bit a: unit_rlo/unit_rhi[a] are made (packet_ratio_units)     */
     float unit_imin[3][UNITS], unit_imax[3][UNITS];      /* 1/d bounds of each unit             */
     float unit_best[UNITS];  /* the farthest best hit of each unit (+inf while a lane has none) */
     float slack;             /* absolute widening of boxes                                  */
@@ -131,23 +133,51 @@ static inline uint32_t lane_y(int i)
 static inline float pk_min(float a, float b) { return a < b ? a : b; }
 static inline float pk_max(float a, float b) { return a > b ? a : b; }
 
+/* The pixel centres of vis_ray_for_pixel, (2x+1)/W - 1 and 1 - (2y+1)/H, once per column and
+ * row of the tile (pixels past the image edge repeat the last one), laid out as the lanes of a
+ * unit take them: a unit column's lanes' nx and a unit row's lanes' ny. */
+PK_INLINE void packet_pixel_centres(const vis_ray_setup *s, uint32_t x0, uint32_t y0,
+                                    float unit_nx[PK_TILE_W / UNIT_W][UNIT],
+                                    float unit_ny[PK_TILE_H / (UNIT / UNIT_W)][UNIT])
+{
+    float nx[PK_TILE_W], ny[PK_TILE_H];
+    for (int c = 0; c < PK_TILE_W; ++c) {
+        uint32_t x = x0 + (uint32_t)c;
+        x = x < s->width ? x : s->width - 1u;
+        nx[c] = (float)(int32_t)(2u * x + 1u) / (float)(int32_t)s->width - 1.0f;
+    }
+    for (int r = 0; r < PK_TILE_H; ++r) {
+        uint32_t y = y0 + (uint32_t)r;
+        y = y < s->height ? y : s->height - 1u;
+        ny[r] = 1.0f - (float)(int32_t)(2u * y + 1u) / (float)(int32_t)s->height;
+    }
+    for (int uc = 0; uc < PK_TILE_W / UNIT_W; ++uc)
+        for (int j = 0; j < UNIT; ++j)
+            unit_nx[uc][j] = nx[uc * UNIT_W + j % UNIT_W];
+    for (int ur = 0; ur < PK_TILE_H / (UNIT / UNIT_W); ++ur)
+        for (int j = 0; j < UNIT; ++j)
+            unit_ny[ur][j] = ny[ur * (UNIT / UNIT_W) + j / UNIT_W];
+}
+
 PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint32_t y0)
 {
-    /* vis_ray_for_pixel, lane by lane (pixels past the image edge repeat the last one). */
-    for (int i = 0; i < LANES; ++i) {
-        uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
-        x = x < s->width ? x : s->width - 1u;
-        y = y < s->height ? y : s->height - 1u;
-        float nx = (float)(int32_t)(2u * x + 1u) / (float)(int32_t)s->width - 1.0f;
-        float ny = 1.0f - (float)(int32_t)(2u * y + 1u) / (float)(int32_t)s->height;
-        float d0 = (s->forward[0] + nx * s->right[0]) + ny * s->up[0];
-        float d1 = (s->forward[1] + nx * s->right[1]) + ny * s->up[1];
-        float d2 = (s->forward[2] + nx * s->right[2]) + ny * s->up[2];
-        float len = sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
-        p->d[0][i] = vis_dir_component(d0 / len);
-        p->d[1][i] = vis_dir_component(d1 / len);
-        p->d[2][i] = vis_dir_component(d2 / len);
-    }
+    /* vis_ray_for_pixel, lane by lane, a unit at a time (the lanes of lane_x, lane_y). */
+    float unit_nx[PK_TILE_W / UNIT_W][UNIT], unit_ny[PK_TILE_H / (UNIT / UNIT_W)][UNIT];
+    packet_pixel_centres(s, x0, y0, unit_nx, unit_ny);
+    for (int ur = 0; ur < PK_TILE_H / (UNIT / UNIT_W); ++ur)
+        for (int uc = 0; uc < PK_TILE_W / UNIT_W; ++uc) {
+            int i0 = (ur * (PK_TILE_W / UNIT_W) + uc) * UNIT;
+            for (int j = 0; j < UNIT; ++j) {
+                float nx = unit_nx[uc][j], ny = unit_ny[ur][j];
+                float d0 = (s->forward[0] + nx * s->right[0]) + ny * s->up[0];
+                float d1 = (s->forward[1] + nx * s->right[1]) + ny * s->up[1];
+                float d2 = (s->forward[2] + nx * s->right[2]) + ny * s->up[2];
+                float len = sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
+                p->d[0][i0 + j] = vis_dir_component(d0 / len);
+                p->d[1][i0 + j] = vis_dir_component(d1 / len);
+                p->d[2][i0 + j] = vis_dir_component(d2 / len);
+            }
+        }
     for (int a = 0; a < 3; ++a)
         for (int i = 0; i < LANES; ++i)
             p->inv[a][i] = 1.0f / p->d[a][i];
@@ -167,6 +197,7 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
         p->tests[i] = 0;
     p->leaves_entered = 0;
     p->given_up = 0;
+    p->ratio_units = 0;
     float extent = 1.0f;
     for (int a = 0; a < 3; ++a) {
         p->o[a] = s->origin[a];
@@ -177,18 +208,61 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
     p->slack = 2.0f * extent * XY_SLACK;
 }
 
-/* Minimum and maximum of the lanes. A unit of running lanes, not one: a float min/max reduction
- * is only vectorised by the compiler when written elementwise like this. */
-PK_INLINE void pk_bounds(const float *x, float *lo_out, float *hi_out)
+/* The lane bounds below reduce 8 lanes at a time in GCC's generic vectors (one AVX2 register;
+ * two SSE ones in the baseline build): under -fno-fast-math the compiler does not vectorise a
+ * float min/max reduction on its own, and these bounds were a fifth of a near view's
+ * instructions (docs/performance.md, "Near views: fewer instructions per ray"). PK_VMIN is
+ * a < b ? a : b per element, written as a select (C has no vector ?:). Over values without NaN
+ * (every d, 1/d and d[b] / d[a] bounded here) a minimum or maximum is the same in any order up
+ * to the sign of a zero, which no use of these bounds tells apart (they are only compared, or
+ * multiplied and added to the eye, where -0 and +0 give equal values). */
+#if defined(__GNUC__) && !defined(__clang__) && UNIT == 8
+#  define PK_VECTORS 1
+typedef float pk_v8 __attribute__((vector_size(32)));
+typedef int32_t pk_v8i __attribute__((vector_size(32)));
+#  define PK_VSEL(m, a, b) ((pk_v8)(((m) & (pk_v8i)(a)) | (~(m) & (pk_v8i)(b))))
+#  define PK_VMIN(a, b) PK_VSEL((a) < (b), a, b)
+#  define PK_VMAX(a, b) PK_VSEL((a) > (b), a, b)
+#endif
+
+/* Minimum and maximum of the lanes of x, or of x[i] * y[i] where y is given (the products
+ * rounded as the caller's own loops round them). */
+PK_INLINE void pk_bounds_product(const float *x, const float *y, float *lo_out, float *hi_out)
 {
     float lo[UNIT], hi[UNIT];
+#if defined(PK_VECTORS) && LANES % (2 * UNIT) == 0
+    /* Two chains of 8 lanes, for fewer loop steps. */
+    pk_v8 lo0, lo1, hi0, hi1;
+    for (int i = 0; i < LANES; i += 2 * UNIT) {
+        pk_v8 v0, v1;
+        memcpy(&v0, x + i, sizeof v0);
+        memcpy(&v1, x + i + UNIT, sizeof v1);
+        if (y) {
+            pk_v8 w0, w1;
+            memcpy(&w0, y + i, sizeof w0);
+            memcpy(&w1, y + i + UNIT, sizeof w1);
+            v0 = v0 * w0;
+            v1 = v1 * w1;
+        }
+        lo0 = i == 0 ? v0 : PK_VMIN(lo0, v0);
+        hi0 = i == 0 ? v0 : PK_VMAX(hi0, v0);
+        lo1 = i == 0 ? v1 : PK_VMIN(lo1, v1);
+        hi1 = i == 0 ? v1 : PK_VMAX(hi1, v1);
+    }
+    lo0 = PK_VMIN(lo0, lo1);
+    hi0 = PK_VMAX(hi0, hi1);
+    memcpy(lo, &lo0, sizeof lo);
+    memcpy(hi, &hi0, sizeof hi);
+#else
     for (int j = 0; j < UNIT; ++j)
-        lo[j] = hi[j] = x[j];
+        lo[j] = hi[j] = y ? x[j] * y[j] : x[j];
     for (int i = UNIT; i < LANES; i += UNIT)
         for (int j = 0; j < UNIT; ++j) {
-            lo[j] = pk_min(lo[j], x[i + j]);
-            hi[j] = pk_max(hi[j], x[i + j]);
+            float v = y ? x[i + j] * y[i + j] : x[i + j];
+            lo[j] = pk_min(lo[j], v);
+            hi[j] = pk_max(hi[j], v);
         }
+#endif
     float l = lo[0], h = hi[0];
     for (int j = 1; j < UNIT; ++j) {
         l = pk_min(l, lo[j]);
@@ -198,6 +272,46 @@ PK_INLINE void pk_bounds(const float *x, float *lo_out, float *hi_out)
     *hi_out = h;
 }
 
+/* Minimum and maximum of the lanes. */
+PK_INLINE void pk_bounds(const float *x, float *lo_out, float *hi_out) { pk_bounds_product(x, NULL, lo_out, hi_out); }
+
+#if defined(PK_VECTORS) && UNITS % 8 == 0
+/* Minimum and maximum of each unit of 8 lanes, 8 units at a time: each step pairs two vectors,
+ * halving the lanes left per unit and doubling the units per vector, until one vector holds
+ * the 8 units' bounds (a transpose that reduces as it goes). */
+#  define PK_SHUF(a, b, ...) __builtin_shuffle(a, b, (pk_v8i){__VA_ARGS__})
+PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
+{
+    /* The shuffles are single AVX instructions (vperm2f128, vshufps; vpermps to put the units
+     * back in order at the end); the comments give the units each vector's lanes hold. */
+    for (int g = 0; g < UNITS; g += 8) {
+        pk_v8 v[8], l1[4], h1[4], l2[2], h2[2];
+        memcpy(v, x + g * UNIT, sizeof v);
+        for (int k = 0; k < 4; ++k) { /* 2k x4, 2k+1 x4 */
+            pk_v8 a = PK_SHUF(v[2 * k], v[2 * k + 1], 0, 1, 2, 3, 8, 9, 10, 11);
+            pk_v8 b = PK_SHUF(v[2 * k], v[2 * k + 1], 4, 5, 6, 7, 12, 13, 14, 15);
+            l1[k] = PK_VMIN(a, b);
+            h1[k] = PK_VMAX(a, b);
+        }
+        for (int k = 0; k < 2; ++k) { /* 4k x2, 4k+2 x2, 4k+1 x2, 4k+3 x2 */
+            pk_v8 la = PK_SHUF(l1[2 * k], l1[2 * k + 1], 0, 1, 8, 9, 4, 5, 12, 13);
+            pk_v8 lb = PK_SHUF(l1[2 * k], l1[2 * k + 1], 2, 3, 10, 11, 6, 7, 14, 15);
+            pk_v8 ha = PK_SHUF(h1[2 * k], h1[2 * k + 1], 0, 1, 8, 9, 4, 5, 12, 13);
+            pk_v8 hb = PK_SHUF(h1[2 * k], h1[2 * k + 1], 2, 3, 10, 11, 6, 7, 14, 15);
+            l2[k] = PK_VMIN(la, lb);
+            h2[k] = PK_VMAX(ha, hb);
+        }
+        /* 0, 2, 4, 6, 1, 3, 5, 7 */
+        pk_v8 la = PK_SHUF(l2[0], l2[1], 0, 2, 8, 10, 4, 6, 12, 14), lb = PK_SHUF(l2[0], l2[1], 1, 3, 9, 11, 5, 7, 13, 15);
+        pk_v8 ha = PK_SHUF(h2[0], h2[1], 0, 2, 8, 10, 4, 6, 12, 14), hb = PK_SHUF(h2[0], h2[1], 1, 3, 9, 11, 5, 7, 13, 15);
+        pk_v8 l = PK_VMIN(la, lb), h = PK_VMAX(ha, hb);
+        l = PK_SHUF(l, l, 0, 4, 1, 5, 2, 6, 3, 7);
+        h = PK_SHUF(h, h, 0, 4, 1, 5, 2, 6, 3, 7);
+        memcpy(lo + g, &l, sizeof l);
+        memcpy(hi + g, &h, sizeof h);
+    }
+}
+#else
 /* Minimum and maximum of each unit of 8 lanes. */
 PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
 {
@@ -211,6 +325,39 @@ PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
         hi[r] = h;
     }
 }
+#endif
+
+/* The lowest of lo[] and the highest of hi[], over the units. */
+PK_INLINE void pk_span(const float *lo, const float *hi, float *lo_out, float *hi_out)
+{
+#if defined(PK_VECTORS) && UNITS % 8 == 0
+    pk_v8 vl, vh;
+    memcpy(&vl, lo, sizeof vl);
+    memcpy(&vh, hi, sizeof vh);
+    for (int r = 8; r < UNITS; r += 8) {
+        pk_v8 wl, wh;
+        memcpy(&wl, lo + r, sizeof wl);
+        memcpy(&wh, hi + r, sizeof wh);
+        vl = PK_VMIN(vl, wl);
+        vh = PK_VMAX(vh, wh);
+    }
+    float ls[8], hs[8];
+    memcpy(ls, &vl, sizeof ls);
+    memcpy(hs, &vh, sizeof hs);
+    lo = ls;
+    hi = hs;
+    const int n = 8;
+#else
+    const int n = UNITS;
+#endif
+    float l = lo[0], h = hi[0];
+    for (int r = 1; r < n; ++r) {
+        l = pk_min(l, lo[r]);
+        h = pk_max(h, hi[r]);
+    }
+    *lo_out = l;
+    *hi_out = h;
+}
 
 /* The interval bounds of the tile's directions. */
 PK_INLINE void packet_bounds(packet *p)
@@ -218,14 +365,14 @@ PK_INLINE void packet_bounds(packet *p)
     for (int a = 0; a < 3; ++a) {
         float lo, hi, ilo, ihi;
         pk_bounds(p->d[a], &lo, &hi);
-        pk_bounds(p->inv[a], &ilo, &ihi);
+        pk_unit_bounds(p->inv[a], p->unit_imin[a], p->unit_imax[a]);
+        pk_span(p->unit_imin[a], p->unit_imax[a], &ilo, &ihi); /* the tile's, from its units' */
         p->dmin[a] = lo;
         p->dmax[a] = hi;
         /* A strict common sign with finite inverses; anything else is "mixed". */
         p->sign[a] = (lo > 0.0f || hi < 0.0f) && isfinite(ilo) && isfinite(ihi) ? (lo > 0.0f ? 1 : -1) : 0;
         p->imin[a] = ilo;
         p->imax[a] = ihi;
-        pk_unit_bounds(p->inv[a], p->unit_imin[a], p->unit_imax[a]);
     }
     for (int a = 0; a < 3; ++a) {
         if (p->sign[a] == 0)
@@ -233,11 +380,7 @@ PK_INLINE void packet_bounds(packet *p)
         for (int b = 0; b < 3; ++b) {
             if (b == a)
                 continue;
-            float r[LANES];
-            for (int i = 0; i < LANES; ++i)
-                r[i] = p->d[b][i] * p->inv[a][i];
-            pk_bounds(r, &p->rlo[a][b], &p->rhi[a][b]);
-            pk_unit_bounds(r, p->unit_rlo[a][b], p->unit_rhi[a][b]);
+            pk_bounds_product(p->d[b], p->inv[a], &p->rlo[a][b], &p->rhi[a][b]);
         }
     }
     /* A leaf's planes are walked axis by axis; the axis the rays move along most crosses the
@@ -252,6 +395,24 @@ PK_INLINE void packet_bounds(packet *p)
     p->axes[0] = first;
     p->axes[1] = m[c] > m[b] ? c : b;
     p->axes[2] = m[c] > m[b] ? b : c;
+}
+
+/* The units' d[b] / d[a] bounds for the two other axes b of axis a (sign[a] != 0), made the
+ * first time a quad on a plane of axis a passes the tile's rectangle: on near views most tiles
+ * never get there on some axes, or on any. */
+PK_INLINE void packet_ratio_units(packet *p, int a)
+{
+    if (p->ratio_units >> a & 1)
+        return;
+    p->ratio_units |= 1 << a;
+    for (int b = 0; b < 3; ++b) {
+        if (b == a)
+            continue;
+        float r[LANES];
+        for (int i = 0; i < LANES; ++i)
+            r[i] = p->d[b][i] * p->inv[a][i];
+        pk_unit_bounds(r, p->unit_rlo[a][b], p->unit_rhi[a][b]);
+    }
 }
 
 /* The farthest best hit, from the units' (each the maximum of its lanes, kept by every step
@@ -601,6 +762,7 @@ PK_INLINE void packet_bucket(packet *p, int a, float plane, const vis_flat_leaf 
             if (q->u1 < pb->ulo || q->v0 > pb->vhi || q->v1 < pb->vlo)
                 continue;
             if (!bounds) {
+                packet_ratio_units(p, a);
                 plane_bounds_units(p, a, pb);
                 open &= packet_plane_units(p, a, pb->c);
                 bounds = 1;
@@ -749,18 +911,44 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     }
 }
 
+/* A subtree to visit: its node and box, and where the tile's rays can be inside its parent's
+ * box (packet_box_open's interval before the widening), so that only the split axis's slab is
+ * new to it. */
 typedef struct packet_frame {
     uint32_t node;
+    int axis;         /* the parent's split axis; 3 at the root (all three slabs are new) */
+    float t0, t1;
     float lo[3], hi[3];
 } packet_frame;
 
 #define PACKET_STACK 128
+
+/* packet_box_open for a frame: the parent's interval narrowed by the one slab that differs
+ * (the child's box is its parent's cut at the split). The same values as all three slabs
+ * anew: the unchanged two give what they gave the parent, and a slab cut shorter gives an
+ * entry no nearer and an exit no farther (each bound is monotone in the plane's offset, as
+ * rounding is), so the maximum of the entries and the minimum of the exits are unchanged by
+ * the parent's wider one. Leaves [*t0, *t1] as the frame's interval; 0 where no ray may have a
+ * better hit inside the box. */
+PK_INLINE int packet_frame_open(const packet *p, const packet_frame *f, float *t0, float *t1)
+{
+    *t0 = f->t0;
+    *t1 = f->t1;
+    for (int a = f->axis == 3 ? 0 : f->axis, e = f->axis == 3 ? 3 : f->axis + 1; a < e; ++a)
+        if (!packet_slab(p, a, f->lo[a], f->hi[a], t0, t1))
+            return 0;
+    float w0 = *t0 - *t0 * T_SLACK;
+    return w0 <= *t1 + fabsf(*t1) * T_SLACK && w0 <= p->max_best + p->max_best * T_SLACK;
+}
 
 PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
 {
     packet_frame stack[PACKET_STACK];
     int sp = 0;
     stack[0].node = 0;
+    stack[0].axis = 3;
+    stack[0].t0 = p->t_near;
+    stack[0].t1 = p->t_far;
     for (int a = 0; a < 3; ++a) {
         stack[0].lo[a] = 0.0f;
         stack[0].hi[a] = view->size[a];
@@ -768,7 +956,8 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
     sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
     while (sp > 0 && !p->given_up) {
         packet_frame f = stack[--sp];
-        if (!packet_box_open(p, f.lo, f.hi))
+        float t0, t1;
+        if (!packet_frame_open(p, &f, &t0, &t1))
             continue;
         p->nodes += (uint32_t)p->counting;
         uint32_t info = view->nodes[f.node].info;
@@ -781,6 +970,9 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         /* The child on the eye's side first (any order is correct; this one finds the
          * nearest hits first, so the far side is often skipped). */
         uint32_t near_child = p->o[a] < split || (p->o[a] == split && p->sign[a] < 0) ? first : first + 1u;
+        f.axis = (int)a;
+        f.t0 = t0;
+        f.t1 = t1;
         packet_frame lo_child = f, hi_child = f;
         lo_child.node = first;
         lo_child.hi[a] = split;
@@ -798,6 +990,49 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
 }
 
 #ifndef PK_EFFECTS
+/* The object IDs and depths of a tile wholly inside an image `width` wide, row by row: each
+ * row of a unit is UNIT_W lanes in a row of pixels, copied together (the lane-by-lane loop
+ * below, with its per-lane pixel, edge and mode tests, cost a fifth of a near view). */
+PK_INLINE void packet_store_rows(const packet *p, uint32_t width, uint32_t x0, uint32_t y0, uint32_t *ids,
+                                 float *depth)
+{
+#if defined(PK_VECTORS) && UNIT_W == 4
+    /* A unit at a time: its two rows of 4 lanes, masked in one vector. */
+    for (int r = 0; r < UNITS; ++r) {
+        pk_v8i obj, id;
+        memcpy(&obj, &p->best_obj[r * UNIT], sizeof obj);
+        memcpy(&id, &p->best_id[r * UNIT], sizeof id);
+        id &= obj != (pk_v8i){-1, -1, -1, -1, -1, -1, -1, -1}; /* VIS_NO_OBJECT: ID 0 */
+        size_t at = (size_t)(y0 + lane_y(r * UNIT)) * width + x0 + lane_x(r * UNIT);
+        memcpy(ids + at, &id, 4 * sizeof(uint32_t));
+        memcpy(ids + at + width, (const uint32_t *)&id + 4, 4 * sizeof(uint32_t));
+        if (depth) {
+            memcpy(depth + at, &p->best_t[r * UNIT], 4 * sizeof(float));
+            memcpy(depth + at + width, &p->best_t[r * UNIT + 4], 4 * sizeof(float));
+        }
+    }
+    return;
+#endif
+    for (int ty = 0; ty < PK_TILE_H; ++ty) {
+        uint32_t *out = ids + (size_t)(y0 + (uint32_t)ty) * width + x0;
+        int i0 = ty / (UNIT / UNIT_W) * (PK_TILE_W / UNIT_W) * UNIT + ty % (UNIT / UNIT_W) * UNIT_W;
+        for (int uc = 0; uc < PK_TILE_W / UNIT_W; ++uc)
+            for (int j = 0; j < UNIT_W; ++j) {
+                int i = i0 + uc * UNIT + j;
+                uint32_t hit = p->best_obj[i] != VIS_NO_OBJECT; /* a mask, not a branch: vectorised */
+                out[uc * UNIT_W + j] = p->best_id[i] & (0u - hit);
+            }
+    }
+    if (!depth)
+        return;
+    for (int ty = 0; ty < PK_TILE_H; ++ty) {
+        float *out = depth + (size_t)(y0 + (uint32_t)ty) * width + x0;
+        int i0 = ty / (UNIT / UNIT_W) * (PK_TILE_W / UNIT_W) * UNIT + ty % (UNIT / UNIT_W) * UNIT_W;
+        for (int uc = 0; uc < PK_TILE_W / UNIT_W; ++uc)
+            memcpy(out + uc * UNIT_W, &p->best_t[i0 + uc * UNIT], UNIT_W * sizeof(float));
+    }
+}
+
 int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
              uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
@@ -815,6 +1050,10 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
     packet_traverse(&p, view, occupied);
     if (p.given_up)
         return 0;
+    if (x0 + PK_TILE_W <= setup->width && y0 + PK_TILE_H <= setup->height && setup->id_mode != 1u && !cost) {
+        packet_store_rows(&p, setup->width, x0, y0, ids, depth);
+        return 1;
+    }
     for (int i = 0; i < LANES; ++i) {
         uint32_t x = x0 + lane_x(i), y = y0 + lane_y(i);
         if (x >= setup->width || y >= setup->height)
