@@ -213,13 +213,14 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
  * float min/max reduction on its own, and these bounds were a fifth of a near view's
  * instructions (docs/performance.md, "Near views: fewer instructions per ray"). PK_VMIN is
  * a < b ? a : b per element, written as a select (C has no vector ?:). Over values without NaN
- * (every d, 1/d and d[b] / d[a] bounded here) a minimum or maximum is the same in any order up
+ * (every d, 1/d, d[b] / d[a] and best t bounded here) a minimum or maximum is the same in any order up
  * to the sign of a zero, which no use of these bounds tells apart (they are only compared, or
  * multiplied and added to the eye, where -0 and +0 give equal values). */
 #if defined(__GNUC__) && !defined(__clang__) && UNIT == 8
 #  define PK_VECTORS 1
 typedef float pk_v8 __attribute__((vector_size(32)));
-typedef int32_t pk_v8i __attribute__((vector_size(32)));
+typedef int pk_v8i __attribute__((vector_size(32))); /* the type a float vector compare gives */
+_Static_assert(sizeof(int) == 4, "pk_v8i holds 8 lanes of a float compare's mask");
 #  define PK_VSEL(m, a, b) ((pk_v8)(((m) & (pk_v8i)(a)) | (~(m) & (pk_v8i)(b))))
 #  define PK_VMIN(a, b) PK_VSEL((a) < (b), a, b)
 #  define PK_VMAX(a, b) PK_VSEL((a) > (b), a, b)
