@@ -1635,6 +1635,14 @@ VIS_INLINE float vis_dda_bound(const vis_ray *r, uint32_t a, int b, int end, flo
     return b != end ? vis_dda_cross(r, a, b, cs) : VIS_INF;
 }
 
+#if !defined(VIS_DDA_ONE_WALK)
+#  if defined(__OPENCL_VERSION__)
+#    define VIS_DDA_ONE_WALK 0
+#  else
+#    define VIS_DDA_ONE_WALK 1
+#  endif
+#endif
+
 /* A test may define VIS_DDA_VISIT(entry) before including this file to see each cell visited
  * (its map entry, cell_map + cell; tests/test_traversal.c holds the walk to the cell test
  * above). */
@@ -1786,12 +1794,17 @@ VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_S
         m0[a] = g;
     }
     /* Once per combination of the in-plane axes' two cells; almost every ray lies in no
-     * boundary plane and takes one walk. */
+     * boundary plane and takes one walk. On the CPU that walk is taken directly; an OpenCL
+     * kernel keeps the loop's one call site: with the direct call (a second inlined copy of
+     * the walk) the H200's dda kernel ran about 3x slower, without it as before (docs/opencl.md,
+     * "The session's merged tree on the H200, and a dda regression caught"). */
+#if VIS_DDA_ONE_WALK
     if (!(alt[0] | alt[1] | alt[2])) {
         if (!vis_dda_walk(r, s, m0, step, t0, t1, VIS_SCENE_ARGS, h))
             vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h);
         return;
     }
+#endif
     for (uint32_t v = 0u; v < 8u; ++v) {
         if (((v & 1u) && !alt[0]) || ((v & 2u) && !alt[1]) || ((v & 4u) && !alt[2]))
             continue;
