@@ -280,6 +280,37 @@ static void test_latency_peek(void **state)
 }
 
 /* An edit that opens the wall is seen by the next tick (the cache is dropped). */
+/* corner_setup with the entity standing still behind the wall, at z 19.5..20.5. */
+static void corner_setup_still(vis_query_viewer *v, vis_query_entity *e)
+{
+    corner_setup(v, e);
+    e->velocity[2] = 0.0;
+    e->box_min[2] = 19.5;
+    e->box_max[2] = 20.5;
+}
+
+/* Object 2 becomes the wall x 20..21, y 1..10, z 0..40 with a window y 2..4, z z0..z1 cut
+ * into it; then the pair (viewer 0, entity 2) of q, behind it, is seen on the next tick and
+ * answered from no cached proof. */
+static void cut_window_and_see(vis_scene *scene, vis_query *q, const vis_query_viewer *v, const vis_query_entity *e,
+                               float z0, float z1)
+{
+    tobj o;
+    memset(&o, 0, sizeof o);
+    o.id = 2;
+    float parts[4][6] = {{20, 1, 0, 21, 10, z0}, {20, 1, z1, 21, 10, 40}, {20, 1, z0, 21, 2, z1}, {20, 4, z0, 21, 10, z1}};
+    for (int i = 0; i < 4; ++i)
+        obj_box(&o, parts[i], parts[i] + 3);
+    set_obj(scene, &o);
+    obj_clear(&o);
+    vis_query_stats st;
+    assert_int_equal(vis_query_run(q, v, 1, e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 0);
+    uint32_t reason = 0;
+    assert_true(listed(q, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_SEEN);
+}
+
 static void test_edit_opens_wall(void **state)
 {
     (void)state;
@@ -289,10 +320,7 @@ static void test_edit_opens_wall(void **state)
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_query_viewer v;
     vis_query_entity e;
-    corner_setup(&v, &e);
-    e.velocity[2] = 0.0;
-    e.box_min[2] = 19.5;
-    e.box_max[2] = 20.5;
+    corner_setup_still(&v, &e);
     v.eye[2] = 20.0;
     vis_query *q = NULL;
     assert_int_equal(vis_query_create(ctx, scene, NULL, &q), VIS_OK);
@@ -403,19 +431,7 @@ static void test_slack_cache(void **state)
         assert_int_equal(vis_query_run(q1, &v, 1, &e, 1, &st), VIS_OK);
     assert_int_equal(st.pairs_cached, 1);
     assert_false(listed(q1, 0, 2, NULL));
-    tobj o;
-    memset(&o, 0, sizeof o);
-    o.id = 2;
-    float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 23, 21, 10, 40}, {20, 1, 18, 21, 2, 23}, {20, 4, 18, 21, 10, 23}};
-    for (int i = 0; i < 4; ++i)
-        obj_box(&o, parts[i], parts[i] + 3);
-    set_obj(scene, &o);
-    obj_clear(&o);
-    assert_int_equal(vis_query_run(q1, &v, 1, &e, 1, &st), VIS_OK);
-    assert_int_equal(st.pairs_cached, 0);
-    uint32_t reason = 0;
-    assert_true(listed(q1, 0, 2, &reason));
-    assert_int_equal(reason, VIS_QUERY_SEEN);
+    cut_window_and_see(scene, q1, &v, &e, 18, 23);
     vis_query_destroy(q0);
     vis_query_destroy(q1);
     /* Bad slack or range: refused at creation. */
@@ -445,10 +461,7 @@ static void test_unsettled_wait(void **state)
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_query_viewer v;
     vis_query_entity e;
-    corner_setup(&v, &e);
-    e.velocity[2] = 0.0;
-    e.box_min[2] = 19.5;
-    e.box_max[2] = 20.5;
+    corner_setup_still(&v, &e);
     v.eye[1] = 3.0; /* the centre segment clears the window's sill, once it is cut */
     v.eye[2] = 20.0;
     vis_query_desc d;
@@ -486,19 +499,7 @@ static void test_unsettled_wait(void **state)
     assert_int_equal(s4.entity_rays, 1);
     assert_true(listed(q4, 0, 2, NULL));
     /* A window cut into the wall between them during the wait: SEEN on the next tick. */
-    tobj o;
-    memset(&o, 0, sizeof o);
-    o.id = 2;
-    float parts[4][6] = {{20, 1, 0, 21, 10, 18}, {20, 1, 22, 21, 10, 40}, {20, 1, 18, 21, 2, 22}, {20, 4, 18, 21, 10, 22}};
-    for (int i = 0; i < 4; ++i)
-        obj_box(&o, parts[i], parts[i] + 3);
-    set_obj(scene, &o);
-    obj_clear(&o);
-    assert_int_equal(vis_query_run(q4, &v, 1, &e, 1, &s4), VIS_OK);
-    assert_int_equal(s4.pairs_cached, 0);
-    uint32_t reason = 0;
-    assert_true(listed(q4, 0, 2, &reason));
-    assert_int_equal(reason, VIS_QUERY_SEEN);
+    cut_window_and_see(scene, q4, &v, &e, 18, 22);
     vis_query_destroy(q1);
     vis_query_destroy(q4);
     /* A proof the ray budget cut short is not kept: proven again on the next tick. */
