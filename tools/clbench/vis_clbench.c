@@ -61,15 +61,26 @@ static void die(const char *what, vis_context *ctx)
     exit(2);
 }
 
+/* A failed vis_context_create has no context to ask: its reason comes through the log. */
+static void log_errors(vis_log_level level, const char *message, void *user)
+{
+    (void)user;
+    if (level >= VIS_LOG_ERROR)
+        fprintf(stderr, "vis_clbench: %s\n", message);
+}
+
 static vis_context *open_ctx(vis_backend_kind kind, const char *device)
 {
     vis_context_desc d;
     vis_context_desc_defaults(&d);
     d.backend = kind;
     d.opencl_device = device;
+    d.log = log_errors;
     vis_context *ctx = NULL;
-    if (vis_context_create(&d, &ctx) != VIS_OK) {
-        fprintf(stderr, "vis_clbench: no %s context\n", kind == VIS_BACKEND_CPU ? "CPU" : "OpenCL");
+    vis_status st = vis_context_create(&d, &ctx);
+    if (st != VIS_OK) {
+        fprintf(stderr, "vis_clbench: no %s context (%s)\n", kind == VIS_BACKEND_CPU ? "CPU" : "OpenCL",
+                vis_status_string(st));
         exit(2);
     }
     return ctx;
