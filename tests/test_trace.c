@@ -93,9 +93,25 @@ static uint32_t check_one_view(vis_context *ctx, vis_scene *scene, const tworld 
     return hits;
 }
 
-/* Every view twice: as asked (on these small images each ray is a packet of its own), and
- * narrowed to 12 degrees at 64x56, where 16x16 packets share one walk of the tree
- * (backends/cpu/packet.c picks by the tiles' spread). */
+/* The packet side a packet pass of this view takes (backends/cpu/packet.c picks it by the
+ * tiles' spread), checked to be `want`. */
+static void expect_side(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t W, uint32_t H,
+                        uint32_t want)
+{
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = W, d.height = H;
+    d.traversal = VIS_TRAVERSAL_PACKET;
+    vis_ray_setup s;
+    assert_int_equal(vis_trace_make_setup(ctx, scene, cam, &d, &s), VIS_OK);
+    uint32_t side = vis_packet_side(&s);
+    if (side != want)
+        fail_msg("%ux%u at %g degrees: packets of %u, want %u", W, H, cam->fovy_deg, side, want);
+}
+
+/* Every view three times: as asked, narrowed to 12 degrees at 64x56, where 16x16 packets
+ * share one walk of the tree, and widened to 110 degrees at 24x20, where the tiles spread too
+ * wide for any packet and each ray of the packet pass goes alone. */
 static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam, uint32_t W,
                            uint32_t H, const char *what)
 {
@@ -104,12 +120,19 @@ static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, 
     narrow.fovy_deg = 12.0;
     char label[192];
     snprintf(label, sizeof label, "%s, narrowed to 16x16 packets", what);
+    expect_side(ctx, scene, &narrow, 64, 56, 16);
     check_one_view(ctx, scene, w, &narrow, 64, 56, label);
+    vis_camera wide = *cam;
+    wide.fovy_deg = 110.0;
+    snprintf(label, sizeof label, "%s, widened to lone rays", what);
+    expect_side(ctx, scene, &wide, 24, 20, 1);
+    check_one_view(ctx, scene, w, &wide, 24, 20, label);
     return hits;
 }
 
-/* The view at the two image sizes whose tiles take the smaller packets (backends/cpu/packet.c):
- * 96x72 at 45 degrees (8x8) and 72x72 at 60 (4x4). */
+/* The view at the image sizes whose tiles take the smaller packets (backends/cpu/packet.c):
+ * 96x72 at 45 degrees (8x8), 72x72 at 60 (4x4) and 32x32 at 90 (4x4 packets as wide as they
+ * come: a server's chunk pass, a face of a cube all around). */
 static void check_small_packets(vis_context *ctx, vis_scene *scene, const tworld *w, const vis_camera *cam,
                                 const char *what)
 {
@@ -117,10 +140,16 @@ static void check_small_packets(vis_context *ctx, vis_scene *scene, const tworld
     vis_camera c = *cam;
     c.fovy_deg = 45.0;
     snprintf(label, sizeof label, "%s, 8x8 packets", what);
+    expect_side(ctx, scene, &c, 96, 72, 8);
     check_one_view(ctx, scene, w, &c, 96, 72, label);
     c.fovy_deg = 60.0;
     snprintf(label, sizeof label, "%s, 4x4 packets", what);
+    expect_side(ctx, scene, &c, 72, 72, 4);
     check_one_view(ctx, scene, w, &c, 72, 72, label);
+    c.fovy_deg = 90.0;
+    snprintf(label, sizeof label, "%s, wide 4x4 packets", what);
+    expect_side(ctx, scene, &c, 32, 32, 4);
+    check_one_view(ctx, scene, w, &c, 32, 32, label);
 }
 
 /* vis_trace_cost: the same IDs as vis_trace, a cost on every pixel (a hit pixel tested at

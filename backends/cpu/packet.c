@@ -3,8 +3,9 @@
  * A packet's bounds are only as tight as its rays are close: a 16x16 tile at 512x512 and a
  * 60 degree field of view spans about 2 degrees, and its culls remove almost everything; the
  * same tile of a 32x32 image spans 30 degrees and culls almost nothing, so every leaf in view
- * is opened for it. So a pass takes the largest packets (16x16, 8x8 or 4x4) whose tiles spread
- * no wider than PACKET_MAX_SPREAD; where even 4x4 would, each ray is a packet of its own.
+ * is opened for it. So a pass takes the largest packets (16x16 or 8x8) whose tiles spread no
+ * wider than PACKET_MAX_SPREAD, else 4x4 packets up to PACKET_MAX_SPREAD_4; wider than that,
+ * each ray goes alone.
  *
  * Far away a small packet over-reaches in the same way: where a pixel covers more than
  * PACKET_MAX_FOOTPRINT scene units, an 8x8 or 4x4 tile spans several leaves, its bounds stop
@@ -35,11 +36,23 @@ int vis_packet_trace_4x4(const vis_ray_setup *setup, const vis_scene_view *view,
 int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
                          float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
-/* Widest tile, as its extent on the image plane at distance 1 (tangent units): at 60 degrees,
- * 512x512 tiles of 16 span 0.036 and 256x256 ones 0.072 (16x16 packets 2.5-3.5x faster than
- * single rays there), 128x128 ones 0.144 (a tie); docs/traversal.md. */
+/* Widest tile of 16x16 or 8x8 packets, as its extent on the image plane at distance 1
+ * (tangent units): at 60 degrees, 512x512 tiles of 16 span 0.036 and 256x256 ones 0.072
+ * (16x16 packets 2.5-3.5x faster than single rays there), 128x128 ones 0.144 (a tie);
+ * docs/traversal.md. */
 #ifndef PACKET_MAX_SPREAD
 #  define PACKET_MAX_SPREAD 0.1f
+#endif
+
+/* The same for 4x4 packets, the last size before rays go alone. Sixteen rays close together
+ * still share most of their walk where their hits lie near, and the footprint rule below
+ * sends the far ones alone: at 0.25 (a server's 32x32 faces of 90 degrees) 4x4 packets
+ * executed 24-70 % fewer instructions than lone rays on the chunk passes of gen:city,
+ * gen:default and gen:maze, and at 0.29 (16x16 images at 60 degrees) about as many; at 0.5
+ * and more they cost 1.7-8x the lone rays (docs/performance.md, "4x4 packets for passes of
+ * wide pixels"). */
+#ifndef PACKET_MAX_SPREAD_4
+#  define PACKET_MAX_SPREAD_4 0.3f
 #endif
 
 /* Scene units a pixel may cover where a tile enters its first leaf for it to stay a packet. */
@@ -75,10 +88,10 @@ float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side) { return g
 uint32_t vis_packet_side(const vis_ray_setup *setup)
 {
     float pixel = pixel_extent(setup);
-    for (uint32_t side = VIS_PACKET_SIDE; side >= 4u; side /= 2u)
+    for (uint32_t side = VIS_PACKET_SIDE; side >= 8u; side /= 2u)
         if ((float)side * pixel <= PACKET_MAX_SPREAD)
             return side;
-    return 1u;
+    return 4.0f * pixel <= PACKET_MAX_SPREAD_4 ? 4u : 1u;
 }
 
 typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, uint32_t, uint32_t,

@@ -48,7 +48,7 @@ static void usage(FILE *f)
             "  --chunk-move X       re-trace a viewer's chunks when its eye moved X voxels (on any\n"
             "                       axis) since its last pass, instead of every --chunk-every ticks\n"
             "                       (default 0: the cadence, skipping passes whose camera is unchanged)\n"
-            "  --chunk-traversal M  the chunk passes' traversal (default auto: stack; names as vis run's)\n"
+            "  --chunk-traversal M  the chunk passes' traversal (default auto: the backend's, packets on the CPU; names as vis run's)\n"
             "  --chunk-budget N     viewers whose chunk pass runs per tick; the others wait, most\n"
             "                       urgent first (default 0: no limit)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"

@@ -838,8 +838,9 @@ typedef struct vis_query_desc {
                                   for a new viewer, or after an edit that reaches its last
                                   pass); at most 1e5                                         */
     vis_traversal chunk_traversal; /* the chunk passes' traversal; VIS_TRAVERSAL_AUTO (default):
-                                  VIS_TRAVERSAL_STACK, cheaper than packets for passes this
-                                  coarse (docs/server.md); every method gives the same IDs  */
+                                  the backend's (vis_traversal): on the CPU packets, 4x4 at
+                                  the default chunk_res (docs/server.md); every method gives
+                                  the same IDs                                               */
     uint32_t chunk_pass_budget;/* viewers whose chunk pass is traced per call; 0 (default):
                                   every viewer due. Past it, due viewers wait for a later
                                   call, keeping their last list (a new viewer has none yet:
