@@ -46,13 +46,13 @@ int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view,
 
 /* The same for 4x4 packets, the last size before rays go alone. Sixteen rays close together
  * still share most of their walk where their hits lie near, and the footprint rule below
- * sends the far ones alone: at 0.25 (a server's 32x32 faces of 90 degrees) 4x4 packets
- * executed 24-70 % fewer instructions than lone rays on the chunk passes of gen:city,
- * gen:default and gen:maze, and at 0.29 (16x16 images at 60 degrees) about as many; at 0.5
- * and more they cost 1.7-8x the lone rays (docs/performance.md, "4x4 packets for passes of
- * wide pixels"). */
+ * sends the far ones alone: 4x4 packets executed 24-70 % fewer instructions than lone rays on
+ * a server's chunk passes (32x32 faces of 90 degrees: 0.25) over gen:city, gen:default and
+ * gen:maze, and 9-50 % fewer on the camera paths of 24x24 and 40x40 images at 60 degrees
+ * (0.19, 0.12); at 16x16 (0.29) gen:default's path took 65 % more, so the limit stops just
+ * past a 90-degree face of 32 (docs/performance.md, "4x4 packets for passes of wide pixels"). */
 #ifndef PACKET_MAX_SPREAD_4
-#  define PACKET_MAX_SPREAD_4 0.3f
+#  define PACKET_MAX_SPREAD_4 0.26f
 #endif
 
 /* Scene units a pixel may cover where a tile enters its first leaf for it to stay a packet. */
