@@ -21,7 +21,7 @@
 
 #include <cmocka.h>
 
-#include "cpu/packet.h"
+#include "packet_check.h"
 #include "scene_builder.h"
 #include "test_support.h"
 #include "trace.h"
@@ -96,23 +96,6 @@ static void trace_fx(vis_context *ctx, vis_scene *scene, const vis_camera *cam, 
     d.fog_dist = fog;
     if (vis_trace_effects(ctx, scene, cam, &d, &f->b) != VIS_OK)
         fail_msg("vis_trace_effects (method %d, effects 0x%x): %s", (int)method, effects, vis_context_last_error(ctx));
-}
-
-/* The packet side a packet pass of this view takes (backends/cpu/packet.c), checked to be
- * `want`, and the distance past which its first leaf makes a packet give up. */
-static float expect_packets(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t w, uint32_t h,
-                            uint32_t want)
-{
-    vis_trace_desc d;
-    vis_trace_desc_defaults(&d);
-    d.width = w, d.height = h;
-    d.traversal = VIS_TRAVERSAL_PACKET;
-    vis_ray_setup s;
-    assert_int_equal(vis_trace_make_setup(ctx, scene, cam, &d, &s), VIS_OK);
-    uint32_t side = vis_packet_side(&s);
-    if (side != want)
-        fail_msg("%ux%u at %g degrees: packets of %u, want %u", w, h, cam->fovy_deg, side, want);
-    return vis_packet_give_up_t(&s, side);
 }
 
 /* A box's diagonal: no leaf is entered farther than this from an eye inside it. */
@@ -244,12 +227,12 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
     };
     const uint32_t sides[4] = {16, 8, 4, 4};
     for (int c = 0; c < 3; ++c) {
-        float give_up = expect_packets(ctx, scene, &cams[c], w, h, sides[c]);
+        float give_up = expect_packets(ctx, scene, &cams[c], w, h, sides[c], NULL);
         assert_true(give_up >= diagonal(sz));
     }
     /* The far view: the world's nearest point lies within the give-up distance, its farthest
      * corner beyond. */
-    float give_up = expect_packets(ctx, scene, &cams[3], w, h, sides[3]);
+    float give_up = expect_packets(ctx, scene, &cams[3], w, h, sides[3], NULL);
     assert_true(nearest_point(cams[3].eye, sz) < give_up && farthest_corner(cams[3].eye, sz) > give_up);
     /* The far 16x16 view: its give-up distance depends on its pixel only, so the eye is put
      * that far from the world's centre, above and outside a corner, looking at the centre. */
@@ -258,10 +241,10 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
     cams[4] = cams[0];
     for (int a = 0; a < 3; ++a)
         cams[4].target[a] = sz[a] * 0.5;
-    float give_up16 = expect_packets(ctx, scene, &cams[4], w, h, 16);
+    float give_up16 = expect_packets(ctx, scene, &cams[4], w, h, 16, NULL);
     for (int a = 0; a < 3; ++a)
         cams[4].eye[a] = cams[4].target[a] + give_up16 * away[a] / away_len;
-    assert_true(expect_packets(ctx, scene, &cams[4], w, h, 16) == give_up16);
+    assert_true(expect_packets(ctx, scene, &cams[4], w, h, 16, NULL) == give_up16);
     assert_true(nearest_point(cams[4].eye, sz) < give_up16 && farthest_corner(cams[4].eye, sz) > give_up16);
     static const uint32_t sets[] = {
         VIS_EFFECT_SEE_THROUGH,
@@ -356,7 +339,7 @@ static void centre_in_packet(vis_context *ctx, vis_scene *scene, const vis_camer
     narrow.fovy_deg = 10;
     vis_scene_info info;
     vis_scene_get_info(scene, &info);
-    assert_true(expect_packets(ctx, scene, &narrow, 25, 25, 8) >= diagonal(info.size));
+    assert_true(expect_packets(ctx, scene, &narrow, 25, 25, 8, NULL) >= diagonal(info.size));
     fx_bufs ref, got;
     bufs_init(&ref, 25, 25, layers);
     bufs_init(&got, 25, 25, layers);
@@ -462,7 +445,7 @@ static void test_mirror_facing_mirror(void **state)
     flag_last(m2, VIS_PRIM_REFLECTIVE);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_camera cam = {{8, 8, 8}, {2, 8, 8}, 10, 0.05, 0};
-    assert_true(expect_packets(ctx, scene, &cam, 9, 9, 4) >= 28.0f); /* 4x4 packets for packet and auto */
+    assert_true(expect_packets(ctx, scene, &cam, 9, 9, 4, NULL) >= 28.0f); /* 4x4 packets for packet and auto */
     fx_bufs f, ref;
     bufs_init(&f, 9, 9, 1);
     bufs_init(&ref, 9, 9, 1);
@@ -619,7 +602,7 @@ static void test_triangles_in_packets(void **state)
     obj_tri(add_obj(&w, 33), o0, o1, o2);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
     vis_camera cam = {{8, 6, 15}, {8, 4, 1}, 16, 0.05, 0};
-    assert_true(expect_packets(ctx, scene, &cam, 48, 48, 16) >= diagonal(w.size));
+    assert_true(expect_packets(ctx, scene, &cam, 48, 48, 16, NULL) >= diagonal(w.size));
     static const uint32_t sets[] = {
         VIS_EFFECT_SEE_THROUGH,
         VIS_EFFECT_REFLECT,

@@ -25,6 +25,7 @@
 #include "cpu/occupancy.h"
 #include "cpu/packet.h"
 #include "drawlist_check.h"
+#include "packet_check.h"
 #include "ref_trace.h"
 #include "scene.h"
 #include "scene_builder.h"
@@ -93,22 +94,6 @@ static uint32_t check_one_view(vis_context *ctx, vis_scene *scene, const tworld 
     return hits;
 }
 
-/* The packet side a packet pass of this view takes (backends/cpu/packet.c picks it by the
- * tiles' spread), checked to be `want`. */
-static void expect_side(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t W, uint32_t H,
-                        uint32_t want)
-{
-    vis_trace_desc d;
-    vis_trace_desc_defaults(&d);
-    d.width = W, d.height = H;
-    d.traversal = VIS_TRAVERSAL_PACKET;
-    vis_ray_setup s;
-    assert_int_equal(vis_trace_make_setup(ctx, scene, cam, &d, &s), VIS_OK);
-    uint32_t side = vis_packet_side(&s);
-    if (side != want)
-        fail_msg("%ux%u at %g degrees: packets of %u, want %u", W, H, cam->fovy_deg, side, want);
-}
-
 /* Every view three times: as asked, narrowed to 12 degrees at 64x56, where 16x16 packets
  * share one walk of the tree, and widened to 110 degrees at 24x20, where the tiles spread too
  * wide for any packet and each ray of the packet pass goes alone. */
@@ -120,12 +105,12 @@ static uint32_t check_view(vis_context *ctx, vis_scene *scene, const tworld *w, 
     narrow.fovy_deg = 12.0;
     char label[192];
     snprintf(label, sizeof label, "%s, narrowed to 16x16 packets", what);
-    expect_side(ctx, scene, &narrow, 64, 56, 16);
+    expect_packets(ctx, scene, &narrow, 64, 56, 16, NULL);
     check_one_view(ctx, scene, w, &narrow, 64, 56, label);
     vis_camera wide = *cam;
     wide.fovy_deg = 110.0;
     snprintf(label, sizeof label, "%s, widened to lone rays", what);
-    expect_side(ctx, scene, &wide, 24, 20, 1);
+    expect_packets(ctx, scene, &wide, 24, 20, 1, NULL);
     check_one_view(ctx, scene, w, &wide, 24, 20, label);
     return hits;
 }
@@ -140,15 +125,15 @@ static void check_small_packets(vis_context *ctx, vis_scene *scene, const tworld
     vis_camera c = *cam;
     c.fovy_deg = 45.0;
     snprintf(label, sizeof label, "%s, 8x8 packets", what);
-    expect_side(ctx, scene, &c, 96, 72, 8);
+    expect_packets(ctx, scene, &c, 96, 72, 8, NULL);
     check_one_view(ctx, scene, w, &c, 96, 72, label);
     c.fovy_deg = 60.0;
     snprintf(label, sizeof label, "%s, 4x4 packets", what);
-    expect_side(ctx, scene, &c, 72, 72, 4);
+    expect_packets(ctx, scene, &c, 72, 72, 4, NULL);
     check_one_view(ctx, scene, w, &c, 72, 72, label);
     c.fovy_deg = 90.0;
     snprintf(label, sizeof label, "%s, wide 4x4 packets", what);
-    expect_side(ctx, scene, &c, 32, 32, 4);
+    expect_packets(ctx, scene, &c, 32, 32, 4, NULL);
     check_one_view(ctx, scene, w, &c, 32, 32, label);
 }
 
@@ -254,15 +239,8 @@ static void far_free(void *p, void *user)
 static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t W, uint32_t H,
                            uint32_t want_side, float *give_up)
 {
-    vis_trace_desc d;
-    vis_trace_desc_defaults(&d);
-    d.width = W, d.height = H;
-    d.traversal = VIS_TRAVERSAL_PACKET;
     vis_ray_setup s;
-    assert_int_equal(vis_trace_make_setup(ctx, scene, cam, &d, &s), VIS_OK);
-    uint32_t side = vis_packet_side(&s);
-    assert_int_equal(side, want_side);
-    *give_up = vis_packet_give_up_t(&s, side);
+    *give_up = expect_packets(ctx, scene, cam, W, H, want_side, &s);
     vis_scene_view v = vis_scene_get_view(scene);
     vis_allocator a = {far_alloc, far_free, NULL};
     vis_occupancy occ;
@@ -276,7 +254,11 @@ static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera 
     uint32_t *ids = malloc(n * 4), *want = malloc(n * 4), alone = 0;
     for (uint32_t y = 0; y < H; y += VIS_PACKET_SIDE)
         for (uint32_t x = 0; x < W; x += VIS_PACKET_SIDE)
-            alone += vis_packet_trace_tile(&s, &v, occ.occupied, side, x, y, ids, NULL, NULL);
+            alone += vis_packet_trace_tile(&s, &v, occ.occupied, want_side, x, y, ids, NULL, NULL);
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = W, d.height = H;
+    d.traversal = VIS_TRAVERSAL_PACKET;
     assert_int_equal(vis_trace(ctx, scene, cam, &d, want, n, NULL, 0), VIS_OK);
     assert_memory_equal(ids, want, n * 4);
     vis_occupancy_free(&occ);
