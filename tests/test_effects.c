@@ -204,8 +204,9 @@ static void world_against_bruteforce(vis_context *ctx, const char *spec, fx_coun
  * outside and above a corner, where the 4x4 packets whose first leaf lies past the give-up
  * distance go ray by ray and the nearer ones stay packets (about 5 % of them on the terrain,
  * 40 % on the city), and 12 degrees from far outside, where 16x16 packets give up the same way
- * (their own, larger distance: PACKET_FAR_FOOTPRINT). `packet` and `auto` against the brute
- * force, every effect set, the fog at the target's distance. */
+ * (their own, larger distance: PACKET_FAR_FOOTPRINT), and the third view widened to 90 degrees
+ * (4x4 packets whose tiles spread 0.22, near the limit). `packet` and `auto` against the
+ * brute force, every effect set, the fog at the target's distance. */
 static void world_packets_against_bruteforce(vis_context *ctx, const char *spec, fx_counts *counts)
 {
     vw_world *world = NULL;
@@ -219,7 +220,7 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
     vis_scene_get_info(scene, &info);
     const float *sz = info.size;
     const uint32_t w = 44, h = 36;
-    vis_camera cams[5] = {
+    vis_camera cams[6] = {
         {{sz[0] * 0.1, sz[1] * 0.9, sz[2] * 0.1}, {sz[0] * 0.6, sz[1] * 0.2, sz[2] * 0.7}, 12, 0.05, 0},
         {{sz[0] * 0.9, sz[1] * 0.8, sz[2] * 0.5}, {sz[0] * 0.3, sz[1] * 0.25, sz[2] * 0.45}, 20, 0.05, 0},
         {{sz[0] * 0.5, sz[1] * 0.45, sz[2] * 0.05}, {sz[0] * 0.5, sz[1] * 0.3, sz[2] * 0.95}, 40, 0.05, 0},
@@ -246,6 +247,10 @@ static void world_packets_against_bruteforce(vis_context *ctx, const char *spec,
         cams[4].eye[a] = cams[4].target[a] + give_up16 * away[a] / away_len;
     assert_true(expect_packets(ctx, scene, &cams[4], w, h, 16, NULL) == give_up16);
     assert_true(nearest_point(cams[4].eye, sz) < give_up16 && farthest_corner(cams[4].eye, sz) > give_up16);
+    /* A near view at 90 degrees: 4x4 packets as wide as they come (a tile spreads 0.22). */
+    cams[5] = cams[2];
+    cams[5].fovy_deg = 90;
+    expect_packets(ctx, scene, &cams[5], w, h, 4, NULL);
     static const uint32_t sets[] = {
         VIS_EFFECT_SEE_THROUGH,
         VIS_EFFECT_REFLECT,

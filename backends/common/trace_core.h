@@ -920,6 +920,16 @@ VIS_INLINE int vis_node_decide(const vis_ray *r, uint32_t a, float split, uint32
         return o == split ? VIS_GO_BOTH_IN_PLANE : VIS_GO_NEAR;
     float t_split = (split - o) * r->inv[a];
     *t_split_out = t_split;
+    /* A ray that starts on the plane at distance 0 (a secondary ray leaving a surface: t_near
+     * is 0) touches the child behind it there, and a quad of that child through the origin is
+     * hit at t = 0, as the brute force finds it (t >= t_near): both, the child behind over
+     * [0, 0] first. Primary rays start at t_near > 0 and never take this. */
+    if (t_split == 0.0f && t_min <= 0.0f) {
+        *near_out = *far_out;
+        *far_out = near_child;
+        *t_split_out = 0.0f;
+        return VIS_GO_BOTH;
+    }
     /* t_split <= 0: the ray starts on or past the plane and moves into near_child. Otherwise
      * a child is entered when the ray's part in it is non-empty within vis_t_limit's slack:
      * far when t_split <= lim(t_max), near when t_min <= lim(t_split). A leaf is thus entered
