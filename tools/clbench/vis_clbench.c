@@ -721,20 +721,8 @@ int main(int argc, char **argv)
     printf("world built in %.0f ms: %u objects, %llu quads, %u leaves\n", vc_now_ms() - t0, si.objects,
            (unsigned long long)si.quads, si.leaves);
 
-    /* Traversal methods: the CPU accepts 0..n-1. */
-    {
-        vis_camera c = {{1, 1, 1}, {2, 2, 2}, 60, 0, 0};
-        uint32_t id;
-        vis_trace_desc td;
-        vis_trace_desc_defaults(&td);
-        td.width = td.height = 1;
-        for (uint32_t t = 0; t < 64; ++t) {
-            td.traversal = (vis_traversal)t;
-            if (vis_trace(cpu, A, &c, &td, &id, 1, NULL, 0) != VIS_OK)
-                break;
-            g_traversals = t + 1;
-        }
-    }
+    /* Traversal methods: every one vis.h names, AUTO (0) to DDA. */
+    g_traversals = VIS_TRAVERSAL_DDA + 1;
 
     /* ---- 1. conformance ---- */
     vc_view views[VC_MAX_VIEWS];
