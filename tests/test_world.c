@@ -335,6 +335,40 @@ static void expect_dirty(vw_world *w, const uint32_t *want, size_t n_want)
         assert_int_equal(got[i], want[i]);
 }
 
+/* More chunks than one word of the dirty summary covers (64 words of 64 chunks): dirty chunks
+ * in several words of both summary words come back in ascending order, a few per call when
+ * the caller's array is small, and each once. */
+static void test_dirty_many_chunks(void **state)
+{
+    (void)state;
+    vw_world *w = make_world(16, 0, 0, 0, 16 * 20, 16 * 16, 16 * 20); /* 6,400 chunks */
+    const uint32_t want[] = {0, 63, 64, 200, 4095, 4096, 4160, 6399};
+    const size_t n_want = sizeof want / sizeof want[0];
+    for (size_t i = n_want; i-- > 0;) { /* marked in descending order: the order must not matter */
+        int32_t c[3];
+        vw_world_chunk_coords(w, want[i], c);
+        assert_int_equal(vw_world_set(w, c[0] * 16 + 8, c[1] * 16 + 8, c[2] * 16 + 8, 1), VW_OK);
+    }
+    assert_int_equal(vw_world_take_dirty(w, NULL, 0), n_want);
+    uint32_t got[8];
+    size_t taken = 0;
+    for (size_t n; (n = vw_world_take_dirty(w, got, 3)) > 0; taken += n) {
+        assert_true(n <= 3);
+        for (size_t i = 0; i < n; i++)
+            assert_int_equal(got[i], want[taken + i]);
+        assert_int_equal(vw_world_take_dirty(w, NULL, 0), n_want - taken - n);
+    }
+    assert_int_equal(taken, n_want);
+    /* Cleared, then marked again: the summary follows. */
+    vw_world_set(w, 8, 8, 8, 0);
+    vw_world_clear_dirty(w);
+    assert_int_equal(vw_world_take_dirty(w, got, 8), 0);
+    vw_world_set(w, 16 * 19 + 8, 16 * 15 + 8, 16 * 19 + 8, 0);
+    assert_int_equal(vw_world_take_dirty(w, got, 8), 1);
+    assert_int_equal(got[0], 6399);
+    vw_world_destroy(w);
+}
+
 static void test_dirty(void **state)
 {
     (void)state;
@@ -502,6 +536,7 @@ int main(void)
         cmocka_unit_test(test_materials),
         cmocka_unit_test(test_chunk_index),
         cmocka_unit_test(test_dirty),
+        cmocka_unit_test(test_dirty_many_chunks),
         cmocka_unit_test(test_create_over_budget),
         cmocka_unit_test(test_dense_growth_over_budget),
     };

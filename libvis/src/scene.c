@@ -976,6 +976,20 @@ static uint64_t leaf_words_after(const vis_scene *s, uint32_t li, uint32_t slot,
     return slot_words(lh->object_count + !c.in, c.packed, c.loose);
 }
 
+/* At least leaf_words_after's count, without packing a quad: every quad the leaf may hold
+ * after the edit (its stored ones, the old copy of `slot`'s among them, the others' copies and
+ * the mesh's) counted loose, plus a full object table. */
+static uint64_t leaf_words_bound(const vis_scene *s, uint32_t li, const vis_mesh *mesh)
+{
+    const vis_flat_leaf *lf = &s->leaves[li];
+    const vis_leaf_host *lh = &s->leaf_host[li];
+    uint64_t quads = (uint64_t)lf->quad_count + lf->loose_count + mesh->quad_count;
+    for (uint32_t i = 0; i < lh->object_count; ++i)
+        if (!object_resident(s, lh->objects[i]))
+            quads += s->object_host[lh->objects[i]].quad_count;
+    return table_words(lh->object_count + 1u, 1u) + quads * VIS_LOOSE_WORDS;
+}
+
 /* reserve_slot's choice for a slot of slot_cap that must hold need, without making it, with
  * the slots earlier moves of the same edit took and freed (per class): returns the entries
  * it appends to the pool (0 when a free slot serves). */
@@ -983,20 +997,22 @@ typedef struct pool_sim {
     const vis_slot_free *fl;
     int32_t delta[VIS_SLOT_CLASSES]; /* slots earlier moves of the edit freed, less those taken */
     uint64_t used, free_entries;
+    int bound; /* an upper bound only: every slot appended, nothing compacted */
 } pool_sim;
 
-static void pool_sim_init(pool_sim *p, const vis_slot_free *fl, uint32_t used)
+static void pool_sim_init(pool_sim *p, const vis_slot_free *fl, uint32_t used, int bound)
 {
     memset(p, 0, sizeof *p);
     p->fl = fl;
     p->used = used;
     p->free_entries = fl->entries;
+    p->bound = bound;
 }
 
 /* reserve_slot's choice for a slot of slot_cap that must hold need, without making it. */
 static void simulate_reserve(const vis_scene *s, pool_sim *p, uint64_t need, uint32_t slot_cap)
 {
-    uint32_t c0 = slot_class_for(s, need), c = vis_slot_free_class(p->fl, p->delta, c0);
+    uint32_t c0 = slot_class_for(s, need), c = p->bound ? UINT32_MAX : vis_slot_free_class(p->fl, p->delta, c0);
     if (c != UINT32_MAX) {
         --p->delta[c];
         p->free_entries -= vis_slot_class_size(c);
@@ -1014,7 +1030,7 @@ static void simulate_reserve(const vis_scene *s, pool_sim *p, uint64_t need, uin
 static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap)
 {
     uint64_t c = p->used <= cap ? cap : grown_cap(cap, p->used); /* 0: past 32-bit counts */
-    if (c && vis_slot_should_compact(p->used, p->free_entries))
+    if (c && !p->bound && vis_slot_should_compact(p->used, p->free_entries))
         c = vis_slot_compact_cap(p->used - p->free_entries, c);
     return c;
 }
@@ -1026,9 +1042,11 @@ static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap)
  * hold, taking freed slots as reserve_slot does), first-time bucket tables and the dirty
  * list. Pools that move several slots grow as if once to their final need (grown_cap). What
  * the compaction after the edit gives back (scene_compact.c) goes to *shrink. `leaves` are the
- * n leaves of the new mesh. */
+ * n leaves of the new mesh. With `bound`, an upper bound instead, with *shrink 0: every leaf's
+ * quads loose (leaf_words_bound), every moved slot appended (each no larger than the exact
+ * walk's, as slot classes and grown_cap only rise with the need), nothing compacted. */
 static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
-                                  uint32_t n, uint64_t *shrink)
+                                  uint32_t n, int bound, uint64_t *shrink)
 {
     uint64_t add = 0;
     *shrink = 0;
@@ -1070,8 +1088,8 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
     /* Leaves the object leaves only shrink; every leaf of the new set is rebuilt. */
     uint64_t b_used = s->bucket_count;
     pool_sim *ps = sims, *qs = &ps[0], *ts = &ps[1];
-    pool_sim_init(qs, &s->quad_free, s->quad_used);
-    pool_sim_init(ts, &s->tri_free, s->tri_used);
+    pool_sim_init(qs, &s->quad_free, s->quad_used, bound);
+    pool_sim_init(ts, &s->tri_free, s->tri_used, bound);
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t li = leaves[i];
         const vis_flat_leaf *lf = &s->leaves[li];
@@ -1079,8 +1097,11 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         int was_in = old && contains(old, old_count, li);
         if (!was_in)
             add = vis_sat_add(add, growth(lh->object_cap, (uint64_t)lh->object_count + 1, sizeof(uint32_t)));
-        uint32_t packed = 0;
-        uint64_t nq = leaf_words_after(s, li, slot_after, mesh, n, &packed), nt = lf->tri_count;
+        uint32_t packed = 1; /* the bound: a first bucket table wherever one may be needed */
+        uint64_t nq = bound ? leaf_words_bound(s, li, mesh) : leaf_words_after(s, li, slot_after, mesh, n, &packed);
+        uint64_t nt = lf->tri_count;
+        if (nq > 0xFFFFFF00u)
+            return UINT64_MAX;
         if (was_in)
             for (uint32_t t = 0; t < oh->tri_count; ++t)
                 nt -= old_count == 1 || tri_overlaps_leaf(lf, &oh->tris[t]);
@@ -1292,7 +1313,12 @@ vis_status vis_scene_apply_set(vis_scene *s, uint32_t id, const vis_mesh *mesh)
             return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory locating an object");
         vis_kdtree_leaves_of_box(s, lo, hi, leaves, n);
     }
-    uint64_t shrink = 0, add = set_object_growth(s, slot, mesh, leaves, n, &shrink);
+    /* The bound settles nearly every edit (a scene far below max_bytes) without packing the
+     * leaves' quads once to count them and again to store them; near the limit the exact
+     * walk decides. Either way the decision is the exact one. */
+    uint64_t shrink = 0, add = set_object_growth(s, slot, mesh, leaves, n, 1, &shrink);
+    if (add == UINT64_MAX || vis_sat_add(vis_scene_bytes(s), add) > s->desc.max_bytes)
+        add = set_object_growth(s, slot, mesh, leaves, n, 0, &shrink);
     st = check_growth(s, add, shrink, "setting the mesh", id);
     if (st == VIS_OK)
         st = set_object_located(s, id, slot, mesh, lo, hi, leaves, n);

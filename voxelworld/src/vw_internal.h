@@ -57,6 +57,8 @@ struct vw_world {
     vwi_chunk *chunk;     /* chunk_count entries                                          */
 
     uint64_t *dirty;      /* one bit per chunk                                            */
+    uint64_t *dirty_any;  /* one bit per word of `dirty` that is not 0: take_dirty reads only
+                           * those words, not a bitmap of a quarter million chunks per edit */
     size_t dirty_count;
 
     /* Running totals, kept by vwi_chunk_account() so that vw_world_get_info is O(1).   */
@@ -107,8 +109,9 @@ static inline uint32_t vwi_chunk_volume(const vw_world *w)
  * budgets with this one formula. */
 static inline uint64_t vwi_table_bytes(uint64_t chunk_count)
 {
+    const uint64_t dirty_words = (chunk_count + 63) / 64;
     return (uint64_t)sizeof(vw_world) + chunk_count * (uint64_t)sizeof(vwi_chunk) +
-           (chunk_count + 63) / 64 * (uint64_t)sizeof(uint64_t);
+           (dirty_words + (dirty_words + 63) / 64) * (uint64_t)sizeof(uint64_t);
 }
 
 /* Everything the world holds now (vw_world_info.bytes): pool blocks count whole, used or

@@ -226,7 +226,8 @@ vw_status vw_world_create(const vw_world_desc *desc, vw_world **out_world, vw_er
     }
     w->chunk = calloc(count, sizeof *w->chunk);
     w->dirty = calloc((count + 63) / 64, sizeof *w->dirty);
-    if (!w->chunk || !w->dirty) {
+    w->dirty_any = calloc(((count + 63) / 64 + 63) / 64, sizeof *w->dirty_any);
+    if (!w->chunk || !w->dirty || !w->dirty_any) {
         vw_world_destroy(w);
         return vwi_fail(err, VW_ERROR_OUT_OF_MEMORY, "out of memory for a table of %llu chunks", (unsigned long long)count);
     }
@@ -249,6 +250,7 @@ void vw_world_destroy(vw_world *w)
     vwi_pool_destroy(w);
     free(w->chunk);
     free(w->dirty);
+    free(w->dirty_any);
     free(w);
 }
 
@@ -333,6 +335,7 @@ void vwi_mark_dirty(vw_world *w, uint32_t i)
     uint64_t bit = 1ull << (i & 63);
     if (!(w->dirty[i >> 6] & bit)) {
         w->dirty[i >> 6] |= bit;
+        w->dirty_any[i >> 12] |= 1ull << ((i >> 6) & 63);
         w->dirty_count++;
     }
 }
@@ -511,16 +514,17 @@ size_t vw_world_take_dirty(vw_world *w, uint32_t *out, size_t capacity)
         return 0;
     if (!out || capacity == 0)
         return w->dirty_count;
-    size_t n = 0, words = ((size_t)w->chunk_count + 63) / 64;
-    for (size_t k = 0; k < words && n < capacity; k++) {
-        uint64_t bits = w->dirty[k];
-        while (bits && n < capacity) {
-            int b = vwi_ctz64(bits);
-            bits &= bits - 1;
-            out[n++] = (uint32_t)(k * 64 + (size_t)b);
-            w->dirty[k] &= ~(1ull << b);
+    size_t n = 0, summary = (((size_t)w->chunk_count + 63) / 64 + 63) / 64;
+    for (size_t j = 0; j < summary && n < capacity; j++)
+        for (uint64_t words = w->dirty_any[j]; words && n < capacity; words &= words - 1) {
+            const size_t k = j * 64 + (size_t)vwi_ctz64(words);
+            uint64_t bits = w->dirty[k];
+            for (; bits && n < capacity; bits &= bits - 1)
+                out[n++] = (uint32_t)(k * 64 + (size_t)vwi_ctz64(bits));
+            w->dirty[k] = bits; /* what did not fit stays dirty */
+            if (!bits)
+                w->dirty_any[j] &= ~(1ull << (k & 63));
         }
-    }
     w->dirty_count -= n;
     return n;
 }
@@ -529,6 +533,8 @@ void vw_world_clear_dirty(vw_world *w)
 {
     if (!w)
         return;
-    memset(w->dirty, 0, ((size_t)w->chunk_count + 63) / 64 * sizeof *w->dirty);
+    const size_t words = ((size_t)w->chunk_count + 63) / 64;
+    memset(w->dirty, 0, words * sizeof *w->dirty);
+    memset(w->dirty_any, 0, (words + 63) / 64 * sizeof *w->dirty_any);
     w->dirty_count = 0;
 }
