@@ -1043,8 +1043,8 @@ static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap)
  * list. Pools that move several slots grow as if once to their final need (grown_cap). What
  * the compaction after the edit gives back (scene_compact.c) goes to *shrink. `leaves` are the
  * n leaves of the new mesh. With `bound`, an upper bound instead, with *shrink 0: every leaf's
- * quads loose (leaf_words_bound), every moved slot appended (each no larger than the exact
- * walk's, as slot classes and grown_cap only rise with the need), nothing compacted. */
+ * quads loose (leaf_words_bound), every moved slot appended (each at least as large as the
+ * exact walk's, as slot classes and grown_cap only rise with the need), nothing compacted. */
 static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
                                   uint32_t n, int bound, uint64_t *shrink)
 {

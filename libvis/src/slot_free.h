@@ -39,7 +39,9 @@ static inline uint64_t vis_slot_compact_cap(uint64_t live, uint64_t cap)
     return c < cap ? c : cap;
 }
 
-/* The class of a slot of n >= 1 elements (n < 2^31). */
+/* The class of a slot of n >= 1 elements (n <= 2^63). Classes from VIS_SLOT_CLASSES on are
+ * only ever sized (vis_slot_class_size), never kept in a free list: the budget checks size
+ * needs past the pools' 32-bit counts before refusing them. */
 static inline uint32_t vis_slot_class(uint64_t n)
 {
     if (n <= 16u)
