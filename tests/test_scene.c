@@ -652,6 +652,56 @@ static void test_edit_growth_exact(void **state)
     vis_context_destroy(ctx);
 }
 
+/* An object leaving a leaf can make the leaf larger: only the first VIS_PQ_TABLE_MAX + 1
+ * objects of a leaf's list can have packed quads, so removing one moves the next into the
+ * packable range, and its quad packed brings the leaf an object table (one word per object,
+ * up to 1,024) and its first bucket table. Here 1,025 objects share one leaf, every quad
+ * loose (the first 1,024 lie off the integer grid, the last is past the table). Removing the
+ * first, or moving it to another leaf, grows the scene; that growth must be charged before
+ * the edit like any other (one byte less than it: refused, nothing changed). */
+static void test_leaving_leaf_growth_exact(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    vis_scene_desc d = sized(64, 64, 64);
+    const uint32_t n = VIS_PQ_TABLE_MAX + 2u;
+    for (int move = 0; move <= 1; ++move) {
+        vis_scene *a = NULL, *b = NULL;
+        assert_int_equal(vis_scene_create(ctx, &d, &a), VIS_OK);
+        assert_int_equal(vis_scene_create(ctx, &d, &b), VIS_OK);
+        for (uint32_t i = 0; i < n; ++i) {
+            int last = i == n - 1;
+            float o = last ? 2.0f : 0.5f; /* packable coordinates only for the last object */
+            vis_quad q = {1, 0, (float)(1 + i % 13), o, o, o + 1.0f, o + 1.0f};
+            vis_mesh m = {&q, 1, NULL, 0};
+            assert_int_equal(vis_scene_set_object(a, i + 1, &m), VIS_OK);
+            assert_int_equal(vis_scene_set_object(b, i + 1, &m), VIS_OK);
+        }
+        vis_quad far = {1, 0, 40.0f, 40.5f, 40.5f, 41.5f, 41.5f}; /* in another leaf */
+        vis_mesh fm = {&far, 1, NULL, 0};
+        vis_scene_info ia, ib, ib2;
+        assert_int_equal(vis_scene_get_info(a, &ia), VIS_OK);
+        assert_int_equal(vis_scene_get_info(b, &ib), VIS_OK);
+        assert_int_equal(ia.bytes, ib.bytes);
+        assert_int_equal(move ? vis_scene_set_object(a, 1, &fm) : vis_scene_remove_object(a, 1), VIS_OK);
+        assert_int_equal(vis_scene_get_info(a, &ia), VIS_OK);
+        assert_true(ia.bytes > ib.bytes); /* the case this test is for: the leaf grew */
+        b->desc.max_bytes = ia.bytes - 1;
+        assert_int_equal(move ? vis_scene_set_object(b, 1, &fm) : vis_scene_remove_object(b, 1), VIS_ERROR_BUDGET);
+        assert_int_equal(vis_scene_get_info(b, &ib2), VIS_OK);
+        assert_int_equal(ib2.bytes, ib.bytes);
+        assert_int_equal(ib2.objects, ib.objects);
+        assert_int_equal(ib2.edits, ib.edits);
+        b->desc.max_bytes = ia.bytes;
+        assert_int_equal(move ? vis_scene_set_object(b, 1, &fm) : vis_scene_remove_object(b, 1), VIS_OK);
+        assert_int_equal(vis_scene_get_info(b, &ib2), VIS_OK);
+        assert_int_equal(ib2.bytes, ia.bytes);
+        vis_scene_destroy(a);
+        vis_scene_destroy(b);
+    }
+    vis_context_destroy(ctx);
+}
+
 /* world_scene_create meshes the next batch of chunks while it uploads one, on any number of
  * meshing threads; the scene must be the one a plain loop builds, chunk by chunk in ascending
  * order, serially: the same leaves, pools and object slots, word for word. The world has more
@@ -758,6 +808,7 @@ int main(void)
         cmocka_unit_test(test_edits_respect_max_bytes),
         cmocka_unit_test(test_plan_matches_build),
         cmocka_unit_test(test_edit_growth_exact),
+        cmocka_unit_test(test_leaving_leaf_growth_exact),
         cmocka_unit_test(test_world_scene_batches_equal_serial),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

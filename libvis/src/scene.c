@@ -945,8 +945,9 @@ typedef struct word_count {
     const vis_scene *s;
     const vis_flat_leaf *lf;
     const vis_leaf_host *lh;
-    uint32_t slot;  /* the object being set                                                */
-    int in;         /* already in the leaf's list                                          */
+    uint32_t slot;  /* the object being set or leaving                                     */
+    int shift;      /* what its joining (+1), staying (0) or leaving (-1) does to the table
+                     * index of every object after it in the list                           */
     int can_pack;
     uint64_t packed, loose;
 } word_count;
@@ -955,8 +956,8 @@ static void visit_count(void *user, const vis_flat_quad *q)
 {
     word_count *c = user;
     uint32_t o = VIS_META_OBJECT(q->meta), b, w;
-    /* The table index once `slot` is in the list. */
-    uint32_t local = list_position(c->lh, o) + (!c->in && c->slot < o);
+    /* The table index once the list has `slot` added, kept or taken out. */
+    uint32_t local = list_position(c->lh, o) + (uint32_t)(c->slot < o ? c->shift : 0);
     if (c->can_pack && pack_quad(c->lf, q, local, &b, &w))
         ++c->packed;
     else
@@ -964,26 +965,29 @@ static void visit_count(void *user, const vis_flat_quad *q)
 }
 
 /* The quad words rebuild_leaf will give leaf li once the object in `slot` holds `mesh` (and
- * lies in n leaves), counted as rebuild_leaf counts them; *packed gets the packed quads. */
+ * lies in n leaves), or, `leaving`, once it is out of the leaf's list (mesh unread), counted
+ * as rebuild_leaf counts them; *packed gets the packed quads. A leaf an object leaves can
+ * grow: the objects after it in the list move down, and a quad of the one that enters the
+ * object table's range (VIS_PQ_TABLE_MAX) packs, which brings the table with it. */
 static uint64_t leaf_words_after(const vis_scene *s, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
-                                 uint32_t *packed)
+                                 int leaving, uint32_t *packed)
 {
     const vis_leaf_host *lh = &s->leaf_host[li];
-    word_count c = {s, &s->leaves[li], lh, slot, contains(lh->objects, lh->object_count, slot),
-                    leaf_has_buckets(&s->leaves[li]), 0, 0};
-    gather_leaf(s, li, slot, mesh, n, 1, visit_count, &c);
+    int shift = leaving ? -1 : !contains(lh->objects, lh->object_count, slot);
+    word_count c = {s, &s->leaves[li], lh, slot, shift, leaf_has_buckets(&s->leaves[li]), 0, 0};
+    gather_leaf(s, li, slot, mesh, n, !leaving, visit_count, &c);
     *packed = (uint32_t)c.packed;
-    return slot_words(lh->object_count + !c.in, c.packed, c.loose);
+    return slot_words((uint32_t)((int64_t)lh->object_count + shift), c.packed, c.loose);
 }
 
 /* At least leaf_words_after's count, without packing a quad: every quad the leaf may hold
  * after the edit (its stored ones, the old copy of `slot`'s among them, the others' copies and
- * the mesh's) counted loose, plus a full object table. */
+ * the mesh's, if any) counted loose, plus a full object table. */
 static uint64_t leaf_words_bound(const vis_scene *s, uint32_t li, const vis_mesh *mesh)
 {
     const vis_flat_leaf *lf = &s->leaves[li];
     const vis_leaf_host *lh = &s->leaf_host[li];
-    uint64_t quads = (uint64_t)lf->quad_count + lf->loose_count + mesh->quad_count;
+    uint64_t quads = (uint64_t)lf->quad_count + lf->loose_count + (mesh ? mesh->quad_count : 0u);
     for (uint32_t i = 0; i < lh->object_count; ++i)
         if (!object_resident(s, lh->objects[i]))
             quads += s->object_host[lh->objects[i]].quad_count;
@@ -1025,14 +1029,53 @@ static void simulate_reserve(const vis_scene *s, pool_sim *p, uint64_t need, uin
     }
 }
 
-/* The pool's capacity after the edit: grown to its use, then compacted if it will be
- * (scene_compact.c). */
-static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap)
+/* The pool's capacity after the edit: grown to its use, then, where the edit `compacts`,
+ * compacted if it will be (scene_compact.c). */
+static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap, int compacts)
 {
     uint64_t c = p->used <= cap ? cap : grown_cap(cap, p->used); /* 0: past 32-bit counts */
-    if (c && !p->bound && vis_slot_should_compact(p->used, p->free_entries))
+    if (c && compacts && !p->bound && vis_slot_should_compact(p->used, p->free_entries))
         c = vis_slot_compact_cap(p->used - p->free_entries, c);
     return c;
+}
+
+/* One leaf's rebuild in the walks below, in relink's order: its quad words (exact, or the
+ * bound), its triangles, and the slots and first bucket table that rebuild_leaf will take.
+ * `mesh` joins or stays in the leaf (NULL: the object in `slot` leaves it); `old` is that
+ * object's host record when the leaf holds its triangles now (NULL otherwise). Returns 0
+ * when the leaf would pass the pool's 32-bit counts. */
+typedef struct growth_walk {
+    int bound;
+    pool_sim quads, tris;
+    uint64_t buckets; /* bucket entries after the edit */
+} growth_walk;
+
+static int walk_leaf(const vis_scene *s, growth_walk *g, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
+                     const vis_object_host *old, uint32_t old_count)
+{
+    const vis_flat_leaf *lf = &s->leaves[li];
+    const vis_leaf_host *lh = &s->leaf_host[li];
+    uint32_t packed = 1; /* the bound: a first bucket table wherever one may be needed */
+    uint64_t nq = g->bound ? leaf_words_bound(s, li, mesh) : leaf_words_after(s, li, slot, mesh, n, !mesh, &packed);
+    if (nq > 0xFFFFFF00u)
+        return 0;
+    uint64_t nt = lf->tri_count;
+    if (old)
+        for (uint32_t t = 0; t < old->tri_count; ++t)
+            nt -= old_count == 1 || tri_overlaps_leaf(lf, &old->tris[t]);
+    for (uint32_t t = 0; mesh && t < mesh->triangle_count; ++t) {
+        const vis_triangle *mt = &mesh->triangles[t];
+        nt += n == 1 || tri_in_leaf(lf, mt->v[0], mt->v[1], mt->v[2]);
+    }
+    /* reserve_slot's rule, in the order rebuild_leaf follows: a free slot of the class if one
+     * is left, else the end of the pool; then the old slot is free. */
+    if (nq > lh->quad_cap)
+        simulate_reserve(s, &g->quads, nq, lh->quad_cap);
+    if (nt > lh->tri_cap)
+        simulate_reserve(s, &g->tris, nt, lh->tri_cap);
+    if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && packed)
+        g->buckets += bucket_table_size(lf);
+    return 1;
 }
 
 /* The bytes vis_scene_set_object(id, mesh) will add, walking its allocations step by step
@@ -1042,7 +1085,8 @@ static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap)
  * hold, taking freed slots as reserve_slot does), first-time bucket tables and the dirty
  * list. Pools that move several slots grow as if once to their final need (grown_cap). What
  * the compaction after the edit gives back (scene_compact.c) goes to *shrink. `leaves` are the
- * n leaves of the new mesh. With `bound`, an upper bound instead, with *shrink 0: every leaf's
+ * n leaves of the new mesh; a NULL mesh (n 0) walks vis_scene_remove_object's relink instead,
+ * which compacts nothing. With `bound`, an upper bound instead, with *shrink 0: every leaf's
  * quads loose (leaf_words_bound), every moved slot appended (each at least as large as the
  * exact walk's, as slot classes and grown_cap only rise with the need), nothing compacted. */
 static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
@@ -1050,7 +1094,6 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
 {
     uint64_t add = 0;
     *shrink = 0;
-    pool_sim sims[2];
     uint32_t quad_cap = 0, tri_cap = 0;
     int dirty = 0;
     const vis_object_host *oh = NULL;
@@ -1079,48 +1122,34 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         old_count = s->objects[slot].leaf_count;
         old = old_count ? &s->object_leaves[s->objects[slot].leaf_offset] : NULL;
     }
-    if (n != 1) /* a resident object keeps no copy of its quads (object_resident) */
-        add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
-    add = vis_sat_add(add, growth(tri_cap, mesh->triangle_count, sizeof(vis_flat_tri)));
+    if (mesh) {
+        if (n != 1) /* a resident object keeps no copy of its quads (object_resident) */
+            add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
+        add = vis_sat_add(add, growth(tri_cap, mesh->triangle_count, sizeof(vis_flat_tri)));
+    }
     uint32_t leaf_range = slot_after < s->object_slots ? s->object_host[slot_after].leaf_range : 0;
     if (n > leaf_range)
         add = vis_sat_add(add, growth(s->object_leaf_cap, (uint64_t)s->object_leaf_used + n, sizeof(uint32_t)));
-    /* Leaves the object leaves only shrink; every leaf of the new set is rebuilt. */
-    uint64_t b_used = s->bucket_count;
-    pool_sim *ps = sims, *qs = &ps[0], *ts = &ps[1];
-    pool_sim_init(qs, &s->quad_free, s->quad_used, bound);
-    pool_sim_init(ts, &s->tri_free, s->tri_used, bound);
+    growth_walk g = {bound, {0}, {0}, s->bucket_count};
+    pool_sim_init(&g.quads, &s->quad_free, s->quad_used, bound);
+    pool_sim_init(&g.tris, &s->tri_free, s->tri_used, bound);
+    /* As relink rebuilds them: the leaves the object leaves, then every leaf of the new set. */
+    for (uint32_t i = 0; i < old_count; ++i)
+        if (!contains(leaves, n, old[i]) && !walk_leaf(s, &g, old[i], slot, NULL, 0, oh, old_count))
+            return UINT64_MAX;
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t li = leaves[i];
-        const vis_flat_leaf *lf = &s->leaves[li];
-        const vis_leaf_host *lh = &s->leaf_host[li];
         int was_in = old && contains(old, old_count, li);
         if (!was_in)
-            add = vis_sat_add(add, growth(lh->object_cap, (uint64_t)lh->object_count + 1, sizeof(uint32_t)));
-        uint32_t packed = 1; /* the bound: a first bucket table wherever one may be needed */
-        uint64_t nq = bound ? leaf_words_bound(s, li, mesh) : leaf_words_after(s, li, slot_after, mesh, n, &packed);
-        uint64_t nt = lf->tri_count;
-        if (nq > 0xFFFFFF00u)
+            add = vis_sat_add(add, growth(s->leaf_host[li].object_cap, (uint64_t)s->leaf_host[li].object_count + 1,
+                                          sizeof(uint32_t)));
+        if (!walk_leaf(s, &g, li, slot_after, mesh, n, was_in ? oh : NULL, old_count))
             return UINT64_MAX;
-        if (was_in)
-            for (uint32_t t = 0; t < oh->tri_count; ++t)
-                nt -= old_count == 1 || tri_overlaps_leaf(lf, &oh->tris[t]);
-        for (uint32_t t = 0; t < mesh->triangle_count; ++t) {
-            const vis_triangle *mt = &mesh->triangles[t];
-            nt += n == 1 || tri_in_leaf(lf, mt->v[0], mt->v[1], mt->v[2]);
-        }
-        /* reserve_slot's rule, in the order rebuild_leaf follows: a free slot of the class if
-         * one is left, else the end of the pool; then the old slot is free. */
-        if (nq > lh->quad_cap)
-            simulate_reserve(s, qs, nq, lh->quad_cap);
-        if (nt > lh->tri_cap)
-            simulate_reserve(s, ts, nt, lh->tri_cap);
-        if (leaf_has_buckets(lf) && lf->bucket_offset == VIS_KD_NO_BUCKETS && packed)
-            b_used += bucket_table_size(lf);
     }
+    const pool_sim *qs = &g.quads, *ts = &g.tris;
     if (qs->used > 0xFFFFFF00u || ts->used > 0xFFFFFF00u)
         return UINT64_MAX;
-    uint64_t qcap = pool_sim_cap(qs, s->quad_cap), tcap = pool_sim_cap(ts, s->tri_cap);
+    uint64_t qcap = pool_sim_cap(qs, s->quad_cap, mesh != NULL), tcap = pool_sim_cap(ts, s->tri_cap, mesh != NULL);
     if ((qcap == 0 && qs->used) || (tcap == 0 && ts->used))
         return UINT64_MAX;
     /* Pools only grow within the edit; a compaction after it gives bytes back. */
@@ -1132,7 +1161,7 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         add = vis_sat_add(add, (tcap - s->tri_cap) * sizeof *s->tris);
     else
         *shrink += (s->tri_cap - tcap) * sizeof *s->tris;
-    add = vis_sat_add(add, growth(s->bucket_cap, b_used, sizeof(uint32_t)));
+    add = vis_sat_add(add, growth(s->bucket_cap, g.buckets, sizeof(uint32_t)));
     if (!dirty)
         add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
     return add;
@@ -1332,11 +1361,14 @@ vis_status vis_scene_apply_remove(vis_scene *s, uint32_t id)
     uint32_t slot = vis_scene_find(s, id);
     if (slot == VIS_NO_OBJECT)
         return vis_fail(s->ctx, VIS_ERROR_NOT_FOUND, "no object with ID %u", id);
-    /* The free list and the dirty list may grow; the leaves only shrink. */
-    uint64_t add = growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t));
-    if (!s->object_dirty_flag[slot])
-        add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
-    vis_status st = check_growth(s, add, 0, "removing", id);
+    /* The free list may grow, and the dirty list, and the leaves the object leaves (their
+     * rebuilds, walked as set_object_growth walks them: the bound first). */
+    uint64_t shrink = 0, add = set_object_growth(s, slot, NULL, NULL, 0, 1, &shrink);
+    if (add == UINT64_MAX || vis_sat_add(vis_scene_bytes(s), add) > s->desc.max_bytes)
+        add = set_object_growth(s, slot, NULL, NULL, 0, 0, &shrink);
+    if (add != UINT64_MAX)
+        add = vis_sat_add(add, growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t)));
+    vis_status st = check_growth(s, add, shrink, "removing", id);
     if (st != VIS_OK)
         return st;
     if (!grow(s->ctx, (void **)&s->free_slots, &s->free_cap, s->free_count + 1, sizeof(uint32_t)) ||

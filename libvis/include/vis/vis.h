@@ -291,7 +291,9 @@ VIS_API void vis_scene_destroy(vis_scene *scene);
 VIS_API vis_status vis_scene_set_object(vis_scene *scene, uint32_t id, const vis_mesh *mesh);
 
 /* VIS_ERROR_NOT_FOUND if there is no such object. Like vis_scene_set_object, it may return
- * VIS_ERROR_BUDGET (scene unchanged) when its bookkeeping would grow past max_bytes. */
+ * VIS_ERROR_BUDGET (scene unchanged) when the scene would grow past max_bytes: its
+ * bookkeeping, or a leaf of more than 1,024 objects whose later objects' quads become
+ * packable once one leaves, which brings the leaf an object table. */
 VIS_API vis_status vis_scene_remove_object(vis_scene *scene, uint32_t id);
 
 /* With VIS_COMMIT_EXPLICIT, vis_scene_set_object and vis_scene_remove_object check their
