@@ -118,7 +118,8 @@ typedef struct bufs {
     size_t n; /* elements of each */
 } bufs;
 
-static uint32_t g_traversals;
+/* Traversal methods vis.h names, AUTO (0) to DDA: the conformance log counts them all. */
+enum { TRAVERSALS = VIS_TRAVERSAL_DDA + 1 };
 static uint32_t g_size = 512; /* --size: the square pass of sections 5 and 6 */
 static uint64_t g_compared, g_failures;
 
@@ -127,7 +128,7 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
 {
     size_t n = (size_t)W * H;
     for (uint32_t mode = 0; mode < 2; ++mode)
-        for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_DDA; ++t) {
+        for (uint32_t t = VIS_TRAVERSAL_STACK; t <= VIS_TRAVERSAL_DDA; ++t) {
             if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE && W * H > 16 * 12)
                 continue; /* brute force: every quad per ray, tiny buffers only (packets: the CPU's
                            * tiles against the device's work-group walk, both exact) */
@@ -721,9 +722,6 @@ int main(int argc, char **argv)
     printf("world built in %.0f ms: %u objects, %llu quads, %u leaves\n", vc_now_ms() - t0, si.objects,
            (unsigned long long)si.quads, si.leaves);
 
-    /* Traversal methods: every one vis.h names, AUTO (0) to DDA. */
-    g_traversals = VIS_TRAVERSAL_DDA + 1;
-
     /* ---- 1. conformance ---- */
     vc_view views[VC_MAX_VIEWS];
     size_t nv = vc_camera_path(wa, views, VC_MAX_VIEWS);
@@ -780,7 +778,7 @@ int main(int argc, char **argv)
             compare(cpu, A, cl, B, &c, i % 4 == 0 ? 512 : 61, i % 4 == 0 ? 512 : 47, &b, "after edits");
         }
         printf("conformance: %u cameras, %llu buffer pairs (%u traversals x object/leaf IDs), %llu mismatches, %.1f s\n",
-               cams, (unsigned long long)g_compared, g_traversals, (unsigned long long)g_failures,
+               cams, (unsigned long long)g_compared, (unsigned)TRAVERSALS, (unsigned long long)g_failures,
                (vc_now_ms() - c0) * 1e-3);
     }
 
@@ -807,7 +805,7 @@ int main(int argc, char **argv)
         for (size_t vi = 0; vi <= nv; ++vi) {
             const vis_camera *cam = vi == 0 ? &def : &views[vi - 1].camera;
             const char *name = vi == 0 ? "default" : views[vi - 1].name;
-            for (uint32_t t = VIS_TRAVERSAL_STACK; t < g_traversals && t <= VIS_TRAVERSAL_DDA; ++t) {
+            for (uint32_t t = VIS_TRAVERSAL_STACK; t <= VIS_TRAVERSAL_DDA; ++t) {
                 if (t == (uint32_t)VIS_TRAVERSAL_BRUTEFORCE || t == VIS_TRAVERSAL_PACKET || (vi > 0 && t != VIS_TRAVERSAL_STACK && t != VIS_TRAVERSAL_DDA))
                     continue;
                 vis_trace_desc td;
