@@ -1039,24 +1039,26 @@ static uint64_t pool_sim_cap(const pool_sim *p, uint32_t cap, int compacts)
     return c;
 }
 
+/* The primitive pools and bucket entries of one walk of set_object_growth (its pools' `bound`
+ * says which walk it is). */
+typedef struct growth_walk {
+    pool_sim quads, tris;
+    uint64_t buckets; /* bucket entries after the edit */
+} growth_walk;
+
 /* One leaf's rebuild in the walks below, in relink's order: its quad words (exact, or the
  * bound), its triangles, and the slots and first bucket table that rebuild_leaf will take.
  * `mesh` joins or stays in the leaf (NULL: the object in `slot` leaves it); `old` is that
  * object's host record when the leaf holds its triangles now (NULL otherwise). Returns 0
  * when the leaf would pass the pool's 32-bit counts. */
-typedef struct growth_walk {
-    int bound;
-    pool_sim quads, tris;
-    uint64_t buckets; /* bucket entries after the edit */
-} growth_walk;
-
 static int walk_leaf(const vis_scene *s, growth_walk *g, uint32_t li, uint32_t slot, const vis_mesh *mesh, uint32_t n,
                      const vis_object_host *old, uint32_t old_count)
 {
     const vis_flat_leaf *lf = &s->leaves[li];
     const vis_leaf_host *lh = &s->leaf_host[li];
     uint32_t packed = 1; /* the bound: a first bucket table wherever one may be needed */
-    uint64_t nq = g->bound ? leaf_words_bound(s, li, mesh) : leaf_words_after(s, li, slot, mesh, n, !mesh, &packed);
+    uint64_t nq = g->quads.bound ? leaf_words_bound(s, li, mesh)
+                                 : leaf_words_after(s, li, slot, mesh, n, !mesh, &packed);
     if (nq > 0xFFFFFF00u)
         return 0;
     uint64_t nt = lf->tri_count;
@@ -1085,8 +1087,8 @@ static int walk_leaf(const vis_scene *s, growth_walk *g, uint32_t li, uint32_t s
  * hold, taking freed slots as reserve_slot does), first-time bucket tables and the dirty
  * list. Pools that move several slots grow as if once to their final need (grown_cap). What
  * the compaction after the edit gives back (scene_compact.c) goes to *shrink. `leaves` are the
- * n leaves of the new mesh; a NULL mesh (n 0) walks vis_scene_remove_object's relink instead,
- * which compacts nothing. With `bound`, an upper bound instead, with *shrink 0: every leaf's
+ * n leaves of the new mesh; a NULL mesh (n 0) walks vis_scene_remove_object instead: its slot
+ * freed and its relink, which compacts nothing. With `bound`, an upper bound instead, with *shrink 0: every leaf's
  * quads loose (leaf_words_bound), every moved slot appended (each at least as large as the
  * exact walk's, as slot classes and grown_cap only rise with the need), nothing compacted. */
 static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
@@ -1122,6 +1124,8 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
         old_count = s->objects[slot].leaf_count;
         old = old_count ? &s->object_leaves[s->objects[slot].leaf_offset] : NULL;
     }
+    if (!mesh) /* a removal: the object's slot goes to the free list */
+        add = vis_sat_add(add, growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t)));
     if (mesh) {
         if (n != 1) /* a resident object keeps no copy of its quads (object_resident) */
             add = vis_sat_add(add, growth(quad_cap, mesh->quad_count, sizeof(vis_flat_quad)));
@@ -1130,7 +1134,7 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
     uint32_t leaf_range = slot_after < s->object_slots ? s->object_host[slot_after].leaf_range : 0;
     if (n > leaf_range)
         add = vis_sat_add(add, growth(s->object_leaf_cap, (uint64_t)s->object_leaf_used + n, sizeof(uint32_t)));
-    growth_walk g = {bound, {0}, {0}, s->bucket_count};
+    growth_walk g = {{0}, {0}, s->bucket_count};
     pool_sim_init(&g.quads, &s->quad_free, s->quad_used, bound);
     pool_sim_init(&g.tris, &s->tri_free, s->tri_used, bound);
     /* As relink rebuilds them: the leaves the object leaves, then every leaf of the new set. */
@@ -1164,6 +1168,19 @@ static uint64_t set_object_growth(const vis_scene *s, uint32_t slot, const vis_m
     add = vis_sat_add(add, growth(s->bucket_cap, g.buckets, sizeof(uint32_t)));
     if (!dirty)
         add = vis_sat_add(add, growth(s->dirty_object_cap, (uint64_t)s->dirty_object_count + 1, sizeof(uint32_t)));
+    return add;
+}
+
+/* The growth the budget check charges an edit (set_object_growth's arguments). The bound
+ * settles nearly every edit (a scene far below max_bytes) without packing the leaves' quads
+ * once to count them and again to store them; near the limit the exact walk decides. Either
+ * way the decision is the exact one. */
+static uint64_t edit_growth(const vis_scene *s, uint32_t slot, const vis_mesh *mesh, const uint32_t *leaves,
+                            uint32_t n, uint64_t *shrink)
+{
+    uint64_t add = set_object_growth(s, slot, mesh, leaves, n, 1, shrink);
+    if (add == UINT64_MAX || vis_sat_add(vis_scene_bytes(s), add) > s->desc.max_bytes)
+        add = set_object_growth(s, slot, mesh, leaves, n, 0, shrink);
     return add;
 }
 
@@ -1342,12 +1359,7 @@ vis_status vis_scene_apply_set(vis_scene *s, uint32_t id, const vis_mesh *mesh)
             return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory locating an object");
         vis_kdtree_leaves_of_box(s, lo, hi, leaves, n);
     }
-    /* The bound settles nearly every edit (a scene far below max_bytes) without packing the
-     * leaves' quads once to count them and again to store them; near the limit the exact
-     * walk decides. Either way the decision is the exact one. */
-    uint64_t shrink = 0, add = set_object_growth(s, slot, mesh, leaves, n, 1, &shrink);
-    if (add == UINT64_MAX || vis_sat_add(vis_scene_bytes(s), add) > s->desc.max_bytes)
-        add = set_object_growth(s, slot, mesh, leaves, n, 0, &shrink);
+    uint64_t shrink = 0, add = edit_growth(s, slot, mesh, leaves, n, &shrink);
     st = check_growth(s, add, shrink, "setting the mesh", id);
     if (st == VIS_OK)
         st = set_object_located(s, id, slot, mesh, lo, hi, leaves, n);
@@ -1361,13 +1373,8 @@ vis_status vis_scene_apply_remove(vis_scene *s, uint32_t id)
     uint32_t slot = vis_scene_find(s, id);
     if (slot == VIS_NO_OBJECT)
         return vis_fail(s->ctx, VIS_ERROR_NOT_FOUND, "no object with ID %u", id);
-    /* The free list may grow, and the dirty list, and the leaves the object leaves (their
-     * rebuilds, walked as set_object_growth walks them: the bound first). */
-    uint64_t shrink = 0, add = set_object_growth(s, slot, NULL, NULL, 0, 1, &shrink);
-    if (add == UINT64_MAX || vis_sat_add(vis_scene_bytes(s), add) > s->desc.max_bytes)
-        add = set_object_growth(s, slot, NULL, NULL, 0, 0, &shrink);
-    if (add != UINT64_MAX)
-        add = vis_sat_add(add, growth(s->free_cap, (uint64_t)s->free_count + 1, sizeof(uint32_t)));
+    /* The free list may grow, and the dirty list, and the leaves the object leaves. */
+    uint64_t shrink = 0, add = edit_growth(s, slot, NULL, NULL, 0, &shrink);
     vis_status st = check_growth(s, add, shrink, "removing", id);
     if (st != VIS_OK)
         return st;
