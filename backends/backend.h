@@ -133,6 +133,7 @@ typedef struct vis_scene_changes {
     const uint32_t *objects;
     uint32_t object_count;
     uint32_t object_leaf_lo, object_leaf_hi;
+    uint32_t rope_index_lo, rope_index_hi; /* rope_index entries rewritten: cell map clearances */
 } vis_scene_changes;
 
 /* The buffers of an effects pass (vis_trace_effects): ids always; the others NULL when

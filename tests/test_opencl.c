@@ -469,6 +469,43 @@ static void test_edit_uploads_only_changed_bytes(void **state)
     vis_context_destroy(cl);
 }
 
+/* An edit that puts the first primitives into empty cells lowers the cell map's clearances
+ * around them (trace_core.h, VIS_CELL_CLEAR), which the cell-grid walk reads to step over
+ * empty cells unread: the device must get them with the edit, or its walk would step over
+ * the new objects. A long, mostly empty world (clearances up to the maximum along the view),
+ * then boxes dropped into cells the view's rays cross, each edit traced at once. */
+static void test_edit_fills_empty_cells(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = 384, w.size[1] = 64, w.size[2] = 96; /* 24 x 4 x 6 cells */
+    const float lo0[3] = {2, 1, 2}, hi0[3] = {14, 12, 94};
+    obj_box(add_obj(&w, 1), lo0, hi0); /* a wall at the near end */
+    pair p;
+    pair_make(&p, cl, &w, NULL, 0);
+    vis_camera cam = {{20, 30, 48}, {380, 20, 48}, 70, 0, 0};
+    compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, "before the edits");
+    uint64_t rng = 8080;
+    for (uint32_t k = 0; k < 6; ++k) {
+        float c = 96.0f + 48.0f * (float)k + (float)(vt_rand(&rng) % 8u);
+        float lo[3] = {c, (float)(vt_rand(&rng) % 40u), 20.0f + (float)(vt_rand(&rng) % 40u)};
+        float hi[3] = {c + 3.0f, lo[1] + 6.0f, lo[2] + 9.0f};
+        tobj *o = add_obj(&w, 10u + k);
+        obj_box(o, lo, hi);
+        set_obj(p.cpu_scene, o);
+        set_obj(p.cl_scene, o);
+        char what[64];
+        snprintf(what, sizeof what, "after box %u", k);
+        if (compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, what) == 0)
+            fail_msg("%s: the view hits nothing", what);
+    }
+    pair_free(&p);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
 /* Pools that grow past the device buffers (big new objects, leaves that outgrow their
  * slots) take the reallocation path; the result must still match. */
 static void test_pool_growth_reallocates(void **state)
@@ -1283,6 +1320,7 @@ int main(void)
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_drawlist_on_device),
         cmocka_unit_test(test_edit_uploads_only_changed_bytes),
+        cmocka_unit_test(test_edit_fills_empty_cells),
         cmocka_unit_test(test_pool_growth_reallocates),
         cmocka_unit_test(test_terrain_with_voxel_edits),
         cmocka_unit_test(test_real_vox_scenes),

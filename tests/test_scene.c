@@ -702,6 +702,80 @@ static void test_leaving_leaf_growth_exact(void **state)
     vis_context_destroy(ctx);
 }
 
+/* The cell map's clearances (trace_core.h, VIS_CELL_CLEAR) after random edits: each cell's
+ * is min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to the nearest cell whose leaf
+ * has held primitives), computed here by brute force over the cells. Objects are single
+ * quads in one cell, or boxes across several; edits add, move, replace and remove them, so
+ * leaves fill and empty again (their clearance stays 0: "has held"). */
+static void test_cell_clearance(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    vis_scene_desc d = sized(400, 96, 240); /* 25 x 6 x 15 cells of 16 */
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    assert_true(s->cell_map != 0u);
+    const uint32_t nx = s->cells[0], ny = s->cells[1], nz = s->cells[2], nc = nx * ny * nz;
+    uint8_t *held = calloc(nc, 1);
+    assert_non_null(held);
+    uint64_t rng = 31337;
+    int edits = vt_small() ? 150 : 600;
+    for (int e = 0; e < edits; ++e) {
+        uint32_t id = 1u + (uint32_t)(vt_rand(&rng) % 60u);
+        if (vt_rand(&rng) % 5 == 0) {
+            vis_status st = vis_scene_remove_object(s, id);
+            assert_true(st == VIS_OK || st == VIS_ERROR_NOT_FOUND);
+        } else {
+            /* A box of 1..3 cells per axis (its faces as quads), sometimes a lone quad. */
+            float lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) {
+                uint32_t n = s->cells[a], c = (uint32_t)(vt_rand(&rng) % n);
+                uint32_t w = 1u + (uint32_t)(vt_rand(&rng) % 3u);
+                lo[a] = (float)c * 16.0f + (float)(vt_rand(&rng) % 8u);
+                hi[a] = (float)(c + w > n ? n : c + w) * 16.0f - (float)(vt_rand(&rng) % 8u);
+            }
+            vis_quad q[6];
+            uint32_t nq = vt_rand(&rng) % 4 == 0 ? 1u : 6u;
+            for (uint32_t f = 0; f < nq; ++f) {
+                uint32_t a = f / 2u, u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+                q[f].axis = (uint8_t)a;
+                q[f].flags = 0;
+                q[f].plane = f % 2u ? hi[a] : lo[a];
+                q[f].u0 = lo[u], q[f].u1 = hi[u];
+                q[f].v0 = lo[v], q[f].v1 = hi[v];
+            }
+            vis_mesh m = {q, nq, NULL, 0};
+            assert_int_equal(vis_scene_set_object(s, id, &m), VIS_OK);
+        }
+        for (uint32_t c = 0; c < nc; ++c) {
+            const vis_flat_leaf *lf = &s->leaves[VIS_CELL_LEAF(s->rope_index[s->cell_map + c])];
+            held[c] |= (lf->quad_count | lf->loose_count | lf->tri_count) != 0u;
+        }
+        if (e % 10 != 9 && e + 1 != edits)
+            continue;
+        for (uint32_t c = 0; c < nc; ++c) {
+            int64_t x = c % nx, y = c / nx % ny, z = c / nx / ny;
+            uint32_t want = VIS_CELL_CLEAR_MAX;
+            for (uint32_t m = 0; m < nc; ++m)
+                if (held[m]) {
+                    int64_t dx = llabs((int64_t)(m % nx) - x), dy = llabs((int64_t)(m / nx % ny) - y),
+                            dz = llabs((int64_t)(m / nx / ny) - z);
+                    int64_t dist = dx > dy ? dx : dy;
+                    dist = dz > dist ? dz : dist;
+                    if ((uint64_t)dist < want)
+                        want = (uint32_t)dist;
+                }
+            uint32_t got = VIS_CELL_CLEAR(s->rope_index[s->cell_map + c]);
+            if (got != want)
+                fail_msg("after edit %d: cell (%lld,%lld,%lld) has clearance %u, expected %u", e, (long long)x,
+                         (long long)y, (long long)z, got, want);
+        }
+    }
+    free(held);
+    vis_scene_destroy(s);
+    vis_context_destroy(ctx);
+}
+
 /* world_scene_create meshes the next batch of chunks while it uploads one, on any number of
  * meshing threads; the scene must be the one a plain loop builds, chunk by chunk in ascending
  * order, serially: the same leaves, pools and object slots, word for word. The world has more
@@ -810,6 +884,7 @@ int main(void)
         cmocka_unit_test(test_edit_growth_exact),
         cmocka_unit_test(test_leaving_leaf_growth_exact),
         cmocka_unit_test(test_world_scene_batches_equal_serial),
+        cmocka_unit_test(test_cell_clearance),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -146,6 +146,18 @@ typedef struct vis_rope_node {
 } vis_rope_node;
 
 #define VIS_NO_ROPE 0xFFFFFFFFu
+
+/* A cell map entry (rope_index[cell_map + cell], the cell-grid walk's): the cell's leaf in the
+ * low VIS_CELL_LEAF_BITS bits (leaves <= nodes <= VIS_MAX_KD_NODES = 2^26, kdtree.c asserts
+ * it), and above them the cell's clearance: 0 where the leaf may hold primitives, else a
+ * number c >= 1 such that every cell within c - 1 steps of it on each axis (Chebyshev
+ * distance c - 1) has an empty leaf, at most VIS_CELL_CLEAR_MAX. libvis keeps it at the
+ * distance to the nearest cell that ever held primitives since the scene was created: an
+ * edit that empties a leaf leaves it lower than it could be, never higher (kdtree.c). */
+#define VIS_CELL_LEAF_BITS 26u
+#define VIS_CELL_LEAF(e) ((e) & ((1u << VIS_CELL_LEAF_BITS) - 1u))
+#define VIS_CELL_CLEAR(e) ((e) >> VIS_CELL_LEAF_BITS)
+#define VIS_CELL_CLEAR_MAX 8u
 /* Deepest short stack (and rope level) a pass may ask for. vis.h defines the same name with
  * the same tokens (the device compiler cannot include vis.h); backends/backend.h asserts
  * that the two agree. */
@@ -171,7 +183,8 @@ typedef struct vis_ray_setup {
     uint32_t leaf_count;
     uint32_t short_stack; /* N of shortstack / ropes-shortstack, 1..VIS_MAX_SHORT_STACK       */
     uint32_t cells[3];    /* the scene's cell grid (the DDA method, vis_traverse_dda)          */
-    uint32_t cell_map;    /* rope_index[cell_map + cell] = the leaf of cell (x + nx (y + ny z));
+    uint32_t cell_map;    /* rope_index[cell_map + cell]: cell (x + nx (y + ny z))'s leaf and
+                             clearance (VIS_CELL_LEAF, VIS_CELL_CLEAR);
                              0: the scene has no map (its leaves are not single cells)       */
     float cell_size;      /* split planes lie on (float)i * cell_size                          */
 } vis_ray_setup;
@@ -1655,12 +1668,18 @@ VIS_INLINE float vis_dda_bound(const vis_ray *r, uint32_t a, int b, int end, flo
 #  define VIS_DDA_VISIT(entry) ((void)0)
 #endif
 
-/* The leaf of map entry `entry` over [ta, tb]; an empty leaf costs only its header. Returns
- * whether the leaf was tested (only then can the best hit have changed). */
-VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, VIS_SCENE_PARAMS, vis_hit *h)
+/* The leaf of map entry `entry` over [ta, tb]: a cell with a clearance costs only its map
+ * entry, an empty leaf without one its header too. Returns whether the leaf was tested (only
+ * then can the best hit have changed); *clear gets the cell's clearance. */
+VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, uint32_t *clear, VIS_SCENE_PARAMS,
+                            vis_hit *h)
 {
     VIS_DDA_VISIT(entry);
-    const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[rope_index[entry]];
+    uint32_t e = rope_index[entry];
+    *clear = VIS_CELL_CLEAR(e);
+    if (*clear)
+        return 0;
+    const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[VIS_CELL_LEAF(e)];
     if (!(leaf->quad_count | leaf->loose_count | leaf->tri_count))
         return 0;
     vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
@@ -1691,6 +1710,14 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
      * only where the best hit can change (after a leaf that holds primitives). */
     float lim_t1 = vis_t_limit(t1);
     float stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
+    /* Steps known to lead only to empty cells. A step moves the walk by at most one cell on
+     * each axis, and the cells around an edge or corner that it visits are within one cell of
+     * the cell it left, so the k-th step from a cell of clearance c (its map entry) stays
+     * within Chebyshev distance k of it: the next c - 1 steps meet only empty leaves, whose
+     * map entries and headers are not read (empty-space skipping; Lee & Han 2005, seeds/001,
+     * and the distance fields of voxel ray casters). The cells are still stepped through one
+     * by one, so the walk's geometry, and every cell it would test, is unchanged. */
+    uint32_t free_steps = 0u;
     for (;;) {
         if (T > stop)
             return 1;
@@ -1698,8 +1725,15 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
         e = tz < e ? tz : e;
         if (!(e <= VIS_INF))
             return 0; /* a NaN crossing (a ray made elsewhere with an infinite reciprocal) */
-        if (vis_dda_leaf(r, entry, T, e < t1 ? e : t1, VIS_SCENE_ARGS, h))
-            stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
+        if (free_steps) {
+            VIS_DDA_VISIT(entry);
+            --free_steps;
+        } else {
+            uint32_t clear;
+            if (vis_dda_leaf(r, entry, T, e < t1 ? e : t1, &clear, VIS_SCENE_ARGS, h))
+                stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
+            free_steps = clear ? clear - 1u : 0u;
+        }
         if (e == VIS_INF)
             return 1;
         float lim = vis_t_limit(e);
@@ -1722,10 +1756,14 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
             last = (set & 4u) && tz > last ? tz : last;
             if (e <= stop) {
                 for (uint32_t sub = 1u; sub < set; ++sub)
-                    if ((sub & set) == sub)
-                        vis_dda_leaf(r,
-                                     entry + ((sub & 1u) ? dx : 0u) + ((sub & 2u) ? dy : 0u) + ((sub & 4u) ? dz : 0u),
-                                     e, last, VIS_SCENE_ARGS, h);
+                    if ((sub & set) == sub) {
+                        uint32_t at = entry + ((sub & 1u) ? dx : 0u) + ((sub & 2u) ? dy : 0u) + ((sub & 4u) ? dz : 0u);
+                        uint32_t clear;
+                        if (free_steps)
+                            VIS_DDA_VISIT(at); /* within the steps known empty, as the next cell */
+                        else
+                            vis_dda_leaf(r, at, e, last, &clear, VIS_SCENE_ARGS, h);
+                    }
                 stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
             }
             lim = vis_t_limit(last); /* without a cluster, last is e and lim already this */

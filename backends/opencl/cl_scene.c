@@ -6,8 +6,10 @@
  *  - a changed leaf: its 64-byte header, its bucket table (E0+E1+E2+4 entries), its bucketed
  *    and loose quads, and its triangles — only the used part of each slot;
  *  - a changed object: its 16-byte slot;
- *  - the object_leaves range [lo, hi) that edits rewrote.
- * The tree (nodes, ropes) never changes after creation and is sent once.
+ *  - the object_leaves range [lo, hi) that edits rewrote;
+ *  - the cell map entries whose clearance an edit lowered (trace_core.h, VIS_CELL_CLEAR).
+ * The tree (nodes, ropes, the cell map's leaves) never changes after creation and is sent
+ * once.
  *
  * Those ranges are staged: copied into pinned host memory, sent with one write and put in
  * place by one kernel (kernels/upload.cl), instead of one clEnqueueWriteBuffer per range —
@@ -48,7 +50,8 @@ enum stage_array {
     STAGE_QUADS,
     STAGE_TRIS,
     STAGE_OBJECTS,
-    STAGE_OBJECT_LEAVES
+    STAGE_OBJECT_LEAVES,
+    STAGE_ROPE_INDEX
 };
 
 _Static_assert(sizeof(vis_flat_leaf) % 4 == 0 && sizeof(vis_flat_tri) % 4 == 0 && sizeof(vis_flat_object) % 4 == 0,
@@ -182,8 +185,9 @@ static int stage_flush(upload_state *u)
     size_t bytes = (size_t)(STAGE_HEADER_WORDS + u->words) * sizeof(cl_uint);
     cl_int e = clEnqueueWriteBuffer(b->queue, b->stage_dev, CL_FALSE, 0, bytes, b->stage_host, 0, NULL, NULL);
     cl_kernel k = b->stage_scatter;
-    const cl_mem *args[] = {&b->stage_dev,    &b->stage_dev, &sc->leaves.mem,  &sc->buckets.mem,
-                            &sc->quads.mem,   &sc->tris.mem, &sc->objects.mem, &sc->object_leaves.mem};
+    const cl_mem *args[] = {&b->stage_dev,  &b->stage_dev,    &sc->leaves.mem,        &sc->buckets.mem,
+                            &sc->quads.mem, &sc->tris.mem,    &sc->objects.mem,       &sc->object_leaves.mem,
+                            &sc->rope_index.mem};
     for (cl_uint i = 0; e == CL_SUCCESS && i < sizeof args / sizeof args[0]; ++i)
         e = clSetKernelArg(k, i, sizeof(cl_mem), args[i]);
     size_t local = 64, global = (size_t)u->ranges * local;
@@ -386,6 +390,15 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
             return VIS_ERROR_BACKEND;
         }
         st = stage_range(u, &sc->objects, STAGE_OBJECTS, v->objects, ch->objects[i], 1, "objects");
+    }
+    if (st == VIS_OK && ch->rope_index_hi > ch->rope_index_lo) {
+        if (ch->rope_index_hi > sc->rope_index.valid) {
+            snprintf(u->err, u->err_size, "internal: changed rope index entries [%u, %u) of %zu", ch->rope_index_lo,
+                     ch->rope_index_hi, sc->rope_index.valid);
+            return VIS_ERROR_BACKEND;
+        }
+        st = stage_range(u, &sc->rope_index, STAGE_ROPE_INDEX, v->rope_index, ch->rope_index_lo,
+                         ch->rope_index_hi - ch->rope_index_lo, "cell map");
     }
     if (st == VIS_OK && ch->object_leaf_hi > ch->object_leaf_lo) {
         uint32_t hi = ch->object_leaf_hi < v->object_leaf_count ? ch->object_leaf_hi : v->object_leaf_count;

@@ -326,14 +326,17 @@ static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const
     rope_fill(rs, first + 1, rc0, c1, depth + 1, child);
 }
 
-/* The DDA method's map (trace_core.h, vis_traverse_dda): the leaf of every cell, x fastest,
- * at rope_index[cell_map + cell]. The walk repeats build_node's splits. */
+/* The DDA method's map (trace_core.h, vis_traverse_dda): the entry of every cell, x fastest,
+ * at rope_index[cell_map + cell]: its leaf, and the largest clearance, since every leaf is
+ * empty. The walk repeats build_node's splits. */
+_Static_assert(VIS_MAX_KD_NODES <= 1u << VIS_CELL_LEAF_BITS, "a map entry's leaf fits below its clearance");
 static void fill_cell_map(vis_scene *s, uint32_t node, const uint32_t c0[3], const uint32_t c1[3])
 {
     uint32_t info = s->nodes[node].info;
     if ((info & 3u) == VIS_NODE_LEAF) {
         /* Full depth: every leaf is one cell. */
-        s->rope_index[s->cell_map + c0[0] + s->cells[0] * (c0[1] + s->cells[1] * c0[2])] = info >> 2;
+        s->rope_index[s->cell_map + c0[0] + s->cells[0] * (c0[1] + s->cells[1] * c0[2])] =
+            info >> 2 | VIS_CELL_CLEAR_MAX << VIS_CELL_LEAF_BITS;
         return;
     }
     uint32_t axis = info & 3u, first = info >> 2;
@@ -378,6 +381,78 @@ static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
     if (s->cell_map)
         fill_cell_map(s, 0, zero, cells);
     return VIS_OK;
+}
+
+/* ---- the cell map's clearances ------------------------------------------------------- */
+
+/* The cell of leaf li at full depth: its corner is (float)c * cell_size (build_node), so
+ * the rounded quotient is the cell, checked against the map; a corner that rounding made
+ * ambiguous (cells past 2^24 on an axis) is found by a search of the map. */
+static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
+{
+    const uint32_t *map = s->rope_index + s->cell_map;
+    uint32_t c[3];
+    for (int a = 0; a < 3; ++a) {
+        double q = floor((double)s->leaves[li].lo[a] / (double)s->desc.cell_size + 0.5);
+        c[a] = q < 0.0 ? 0u : q >= (double)s->cells[a] ? s->cells[a] - 1u : (uint32_t)q;
+    }
+    uint32_t i = c[0] + s->cells[0] * (c[1] + s->cells[1] * c[2]);
+    if (VIS_CELL_LEAF(map[i]) == li)
+        return i;
+    for (i = 0; VIS_CELL_LEAF(map[i]) != li; ++i) {
+    } /* every leaf is the entry of exactly one cell */
+    return i;
+}
+
+/* Lowers entry i's clearance to c where it is higher; whether it did. */
+static int lower_clearance(vis_scene *s, uint32_t i, uint32_t c)
+{
+    uint32_t *e = &s->rope_index[s->cell_map + i];
+    if (VIS_CELL_CLEAR(*e) <= c)
+        return 0;
+    *e = VIS_CELL_LEAF(*e) | c << VIS_CELL_LEAF_BITS;
+    vis_range_widen(&s->dirty_map_lo, &s->dirty_map_hi, i, i + 1u);
+    return 1;
+}
+
+/* The clearance of every cell is min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to
+ * the nearest cell whose leaf has held primitives). When leaf li gets its first, each cell
+ * at distance r < VIS_CELL_CLEAR_MAX takes min(its own, r), shell by shell outwards. The
+ * clearances are 1-Lipschitz (a minimum of distances): when no cell of shell r changed, each
+ * cell of shell r + 1 has a neighbour in shell r with a clearance <= r, so its own is <= r + 1
+ * already, and the walk stops there. Only the steps after an edit that fills an empty cell
+ * pay this; a leaf emptied again keeps the clearances around it (lower than they could be,
+ * which skips less and is never wrong). */
+void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
+{
+    if (!s->cell_map)
+        return;
+    const int64_t n[3] = {s->cells[0], s->cells[1], s->cells[2]};
+    uint32_t i = leaf_cell_index(s, li);
+    const int64_t c[3] = {i % s->cells[0], i / s->cells[0] % s->cells[1], i / s->cells[0] / s->cells[1]};
+    for (int64_t r = 0; r < (int64_t)VIS_CELL_CLEAR_MAX; ++r) {
+        int64_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = c[a] - r < 0 ? 0 : c[a] - r;
+            hi[a] = c[a] + r > n[a] - 1 ? n[a] - 1 : c[a] + r;
+        }
+        int changed = 0;
+        for (int64_t z = lo[2]; z <= hi[2]; ++z)
+            for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+                uint32_t row = (uint32_t)(s->cells[0] * ((uint64_t)y + s->cells[1] * (uint64_t)z));
+                if (z == c[2] - r || z == c[2] + r || y == c[1] - r || y == c[1] + r) {
+                    for (int64_t x = lo[0]; x <= hi[0]; ++x)
+                        changed |= lower_clearance(s, row + (uint32_t)x, (uint32_t)r);
+                } else { /* inside the shell on y and z: only its two x faces */
+                    if (c[0] - r >= 0)
+                        changed |= lower_clearance(s, row + (uint32_t)(c[0] - r), (uint32_t)r);
+                    if (r > 0 && c[0] + r < n[0])
+                        changed |= lower_clearance(s, row + (uint32_t)(c[0] + r), (uint32_t)r);
+                }
+            }
+        if (!changed)
+            return;
+    }
 }
 
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)

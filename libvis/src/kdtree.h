@@ -33,6 +33,11 @@ vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vi
  * afterwards); sets s->kd_depth, node, leaf and rope counts. */
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan);
 
+/* Lowers the cell map's clearances (trace_core.h, VIS_CELL_CLEAR) around leaf li, which has
+ * just got its first primitives, and widens [s->dirty_map_lo, s->dirty_map_hi) over the map
+ * entries changed. Nothing without a cell map. */
+void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li);
+
 /* Leaf indices overlapped by the box (see kdtree.c for the boundary rule). Writes at most
  * `cap` and returns the total count. */
 uint32_t vis_kdtree_leaves_of_box(const vis_scene *s, const float lo[3], const float hi[3], uint32_t *out, uint32_t cap);

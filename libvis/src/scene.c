@@ -159,17 +159,8 @@ static int mark_object(vis_scene *s, uint32_t slot)
 
 static void mark_object_leaves(vis_scene *s, uint32_t lo, uint32_t hi)
 {
-    if (lo >= hi)
-        return;
-    if (s->dirty_ol_lo >= s->dirty_ol_hi) {
-        s->dirty_ol_lo = lo;
-        s->dirty_ol_hi = hi;
-    } else {
-        if (lo < s->dirty_ol_lo)
-            s->dirty_ol_lo = lo;
-        if (hi > s->dirty_ol_hi)
-            s->dirty_ol_hi = hi;
-    }
+    if (lo < hi)
+        vis_range_widen(&s->dirty_ol_lo, &s->dirty_ol_hi, lo, hi);
 }
 
 /* ---- create / destroy ---------------------------------------------------------------- */
@@ -726,6 +717,7 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
     vis_leaf_host *lh = &s->leaf_host[li];
     uint32_t slot = pe ? pe->slot : VIS_NO_OBJECT;
     int mesh_in = pe && in_list(lh, slot);
+    int was_empty = !(lf->quad_count | lf->loose_count | lf->tri_count);
     vis_flat_quad *g = NULL;
     uint32_t ng = 0, gcap = 0;
     vis_status st = gather_leaf_alloc(s, li, slot, pe ? pe->mesh : NULL, pe ? s->objects[slot].leaf_count : 0, mesh_in,
@@ -821,6 +813,8 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
                 s->tris[lf->tri_offset + t_out++] = oh->tris[t];
     }
     lf->tri_count = t_out;
+    if (was_empty && (lf->quad_count | lf->loose_count | lf->tri_count))
+        vis_kdtree_leaf_filled(s, li);
     vis_scene_mark_leaf(s, li);
     return VIS_OK;
 }
