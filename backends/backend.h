@@ -133,7 +133,10 @@ typedef struct vis_scene_changes {
     const uint32_t *objects;
     uint32_t object_count;
     uint32_t object_leaf_lo, object_leaf_hi;
-    uint32_t rope_index_lo, rope_index_hi; /* rope_index entries rewritten: cell map clearances */
+    /* Cells whose map entry (the clearance, trace_core.h VIS_CELL_CLEAR) changed lie in the box
+     * [map_lo, map_hi] (inclusive, cell coordinates); none when map_changed is 0. */
+    int map_changed;
+    uint32_t map_lo[3], map_hi[3];
 } vis_scene_changes;
 
 /* The buffers of an effects pass (vis_trace_effects): ids always; the others NULL when

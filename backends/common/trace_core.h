@@ -157,7 +157,9 @@ typedef struct vis_rope_node {
 #define VIS_CELL_LEAF_BITS 26u
 #define VIS_CELL_LEAF(e) ((e) & ((1u << VIS_CELL_LEAF_BITS) - 1u))
 #define VIS_CELL_CLEAR(e) ((e) >> VIS_CELL_LEAF_BITS)
+#ifndef VIS_CELL_CLEAR_MAX
 #define VIS_CELL_CLEAR_MAX 8u
+#endif
 /* Deepest short stack (and rope level) a pass may ask for. vis.h defines the same name with
  * the same tokens (the device compiler cannot include vis.h); backends/backend.h asserts
  * that the two agree. */

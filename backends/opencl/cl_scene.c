@@ -325,6 +325,27 @@ static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *
     return st;
 }
 
+/* The cell map entries of the box of cells an edit changed, one range per row of the box. */
+static int upload_map_box(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v, const vis_scene_changes *ch)
+{
+    const uint32_t *n = v->cells;
+    if (!v->cell_map || ch->map_hi[0] >= n[0] || ch->map_hi[1] >= n[1] || ch->map_hi[2] >= n[2] ||
+        ch->map_lo[0] > ch->map_hi[0] || ch->map_lo[1] > ch->map_hi[1] || ch->map_lo[2] > ch->map_hi[2]) {
+        snprintf(u->err, u->err_size, "internal: changed cell box (%u,%u,%u)-(%u,%u,%u) of a %ux%ux%u map",
+                 ch->map_lo[0], ch->map_lo[1], ch->map_lo[2], ch->map_hi[0], ch->map_hi[1], ch->map_hi[2], n[0], n[1],
+                 n[2]);
+        return VIS_ERROR_BACKEND;
+    }
+    int st = VIS_OK;
+    for (uint32_t z = ch->map_lo[2]; z <= ch->map_hi[2] && st == VIS_OK; ++z)
+        for (uint32_t y = ch->map_lo[1]; y <= ch->map_hi[1] && st == VIS_OK; ++y) {
+            size_t first = v->cell_map + ch->map_lo[0] + (size_t)n[0] * (y + (size_t)n[1] * z);
+            st = stage_range(u, &sc->rope_index, STAGE_ROPE_INDEX, v->rope_index, first,
+                             ch->map_hi[0] - ch->map_lo[0] + 1u, "cell map");
+        }
+    return st;
+}
+
 static int sync_full(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v)
 {
     /* Pools get headroom so that the first edits that grow them need no reallocation. */
@@ -391,15 +412,8 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
         }
         st = stage_range(u, &sc->objects, STAGE_OBJECTS, v->objects, ch->objects[i], 1, "objects");
     }
-    if (st == VIS_OK && ch->rope_index_hi > ch->rope_index_lo) {
-        if (ch->rope_index_hi > sc->rope_index.valid) {
-            snprintf(u->err, u->err_size, "internal: changed rope index entries [%u, %u) of %zu", ch->rope_index_lo,
-                     ch->rope_index_hi, sc->rope_index.valid);
-            return VIS_ERROR_BACKEND;
-        }
-        st = stage_range(u, &sc->rope_index, STAGE_ROPE_INDEX, v->rope_index, ch->rope_index_lo,
-                         ch->rope_index_hi - ch->rope_index_lo, "cell map");
-    }
+    if (st == VIS_OK && ch->map_changed)
+        st = upload_map_box(u, sc, v, ch);
     if (st == VIS_OK && ch->object_leaf_hi > ch->object_leaf_lo) {
         uint32_t hi = ch->object_leaf_hi < v->object_leaf_count ? ch->object_leaf_hi : v->object_leaf_count;
         if (hi > ch->object_leaf_lo)

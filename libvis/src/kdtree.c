@@ -404,14 +404,12 @@ static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
     return i;
 }
 
-/* Lowers entry i's clearance to c where it is higher; whether it did. */
-static int lower_clearance(vis_scene *s, uint32_t i, uint32_t c)
+/* Lowers map entry *e's clearance to c where it is higher; whether it did. */
+static int lower_clearance(uint32_t *e, uint32_t c)
 {
-    uint32_t *e = &s->rope_index[s->cell_map + i];
     if (VIS_CELL_CLEAR(*e) <= c)
         return 0;
     *e = VIS_CELL_LEAF(*e) | c << VIS_CELL_LEAF_BITS;
-    vis_range_widen(&s->dirty_map_lo, &s->dirty_map_hi, i, i + 1u);
     return 1;
 }
 
@@ -428,10 +426,12 @@ void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
     if (!s->cell_map)
         return;
     const int64_t n[3] = {s->cells[0], s->cells[1], s->cells[2]};
+    uint32_t *map = s->rope_index + s->cell_map;
     uint32_t i = leaf_cell_index(s, li);
     const int64_t c[3] = {i % s->cells[0], i / s->cells[0] % s->cells[1], i / s->cells[0] / s->cells[1]};
-    for (int64_t r = 0; r < (int64_t)VIS_CELL_CLEAR_MAX; ++r) {
-        int64_t lo[3], hi[3];
+    int64_t lo[3], hi[3];
+    int64_t r = 0;
+    for (; r < (int64_t)VIS_CELL_CLEAR_MAX; ++r) {
         for (int a = 0; a < 3; ++a) {
             lo[a] = c[a] - r < 0 ? 0 : c[a] - r;
             hi[a] = c[a] + r > n[a] - 1 ? n[a] - 1 : c[a] + r;
@@ -439,20 +439,31 @@ void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
         int changed = 0;
         for (int64_t z = lo[2]; z <= hi[2]; ++z)
             for (int64_t y = lo[1]; y <= hi[1]; ++y) {
-                uint32_t row = (uint32_t)(s->cells[0] * ((uint64_t)y + s->cells[1] * (uint64_t)z));
+                uint32_t *row = map + s->cells[0] * ((uint64_t)y + s->cells[1] * (uint64_t)z);
                 if (z == c[2] - r || z == c[2] + r || y == c[1] - r || y == c[1] + r) {
                     for (int64_t x = lo[0]; x <= hi[0]; ++x)
-                        changed |= lower_clearance(s, row + (uint32_t)x, (uint32_t)r);
+                        changed |= lower_clearance(&row[x], (uint32_t)r);
                 } else { /* inside the shell on y and z: only its two x faces */
                     if (c[0] - r >= 0)
-                        changed |= lower_clearance(s, row + (uint32_t)(c[0] - r), (uint32_t)r);
+                        changed |= lower_clearance(&row[c[0] - r], (uint32_t)r);
                     if (r > 0 && c[0] + r < n[0])
-                        changed |= lower_clearance(s, row + (uint32_t)(c[0] + r), (uint32_t)r);
+                        changed |= lower_clearance(&row[c[0] + r], (uint32_t)r);
                 }
             }
         if (!changed)
-            return;
+            break;
     }
+    /* Every entry changed lies in the box of the last shell that changed. None did (r = 0)
+     * where the cell had held primitives before. */
+    if (r == 0)
+        return;
+    for (int a = 0; a < 3; ++a) {
+        uint32_t l = (uint32_t)(c[a] - (r - 1) < 0 ? 0 : c[a] - (r - 1));
+        uint32_t h = (uint32_t)(c[a] + (r - 1) > n[a] - 1 ? n[a] - 1 : c[a] + (r - 1));
+        s->dirty_map_lo[a] = s->dirty_map && s->dirty_map_lo[a] < l ? s->dirty_map_lo[a] : l;
+        s->dirty_map_hi[a] = s->dirty_map && s->dirty_map_hi[a] > h ? s->dirty_map_hi[a] : h;
+    }
+    s->dirty_map = 1;
 }
 
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)

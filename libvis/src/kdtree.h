@@ -34,8 +34,8 @@ vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vi
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan);
 
 /* Lowers the cell map's clearances (trace_core.h, VIS_CELL_CLEAR) around leaf li, which has
- * just got its first primitives, and widens [s->dirty_map_lo, s->dirty_map_hi) over the map
- * entries changed. Nothing without a cell map. */
+ * just got its first primitives, and widens the box of changed cells (s->dirty_map_lo/hi)
+ * over them. Nothing without a cell map. */
 void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li);
 
 /* Leaf indices overlapped by the box (see kdtree.c for the boundary rule). Writes at most

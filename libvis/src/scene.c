@@ -159,8 +159,17 @@ static int mark_object(vis_scene *s, uint32_t slot)
 
 static void mark_object_leaves(vis_scene *s, uint32_t lo, uint32_t hi)
 {
-    if (lo < hi)
-        vis_range_widen(&s->dirty_ol_lo, &s->dirty_ol_hi, lo, hi);
+    if (lo >= hi)
+        return;
+    if (s->dirty_ol_lo >= s->dirty_ol_hi) {
+        s->dirty_ol_lo = lo;
+        s->dirty_ol_hi = hi;
+    } else {
+        if (lo < s->dirty_ol_lo)
+            s->dirty_ol_lo = lo;
+        if (hi > s->dirty_ol_hi)
+            s->dirty_ol_hi = hi;
+    }
 }
 
 /* ---- create / destroy ---------------------------------------------------------------- */

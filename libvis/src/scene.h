@@ -112,7 +112,8 @@ struct vis_scene {
     uint32_t dirty_object_count, dirty_object_cap;
     uint8_t *object_dirty_flag;
     uint32_t dirty_ol_lo, dirty_ol_hi;
-    uint32_t dirty_map_lo, dirty_map_hi; /* cell map entries whose clearance changed (kdtree.c) */
+    int dirty_map;            /* cell map entries changed (kdtree.c), all in the box below  */
+    uint32_t dirty_map_lo[3], dirty_map_hi[3];
 
     void *backend_data;       /* the context backend's copy of this scene                    */
     uint64_t synced_generation;
@@ -142,18 +143,6 @@ void vis_scene_visit_object_quads(const vis_scene *scene, uint32_t slot,
                                   void (*visit)(void *user, const vis_flat_quad *q), void *user);
 
 /* Saturating arithmetic for sizes that may not fit (plans of trees too big to build). */
-/* Widens the range [*lo, *hi) (empty when *lo >= *hi) over [a, b), a < b. */
-static inline void vis_range_widen(uint32_t *lo, uint32_t *hi, uint32_t a, uint32_t b)
-{
-    if (*lo >= *hi) {
-        *lo = a;
-        *hi = b;
-        return;
-    }
-    *lo = a < *lo ? a : *lo;
-    *hi = b > *hi ? b : *hi;
-}
-
 static inline uint64_t vis_sat_add(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
 static inline uint64_t vis_sat_mul(uint64_t a, uint64_t b) { return b && a > UINT64_MAX / b ? UINT64_MAX : a * b; }
 

@@ -66,10 +66,9 @@ static vis_status sync_owner(vis_scene *s)
     ch.object_count = s->dirty_object_count;
     ch.object_leaf_lo = s->dirty_ol_lo;
     ch.object_leaf_hi = s->dirty_ol_hi;
-    if (s->dirty_map_lo < s->dirty_map_hi) {
-        ch.rope_index_lo = s->cell_map + s->dirty_map_lo;
-        ch.rope_index_hi = s->cell_map + s->dirty_map_hi;
-    }
+    ch.map_changed = s->dirty_map;
+    memcpy(ch.map_lo, s->dirty_map_lo, sizeof ch.map_lo);
+    memcpy(ch.map_hi, s->dirty_map_hi, sizeof ch.map_hi);
     char err[1024] = "";
     int st = ctx->backend.ops->scene_sync(ctx->backend.impl, &s->backend_data, &view, &ch, err, sizeof err);
     if (st != VIS_OK)
@@ -81,7 +80,7 @@ static vis_status sync_owner(vis_scene *s)
     s->dirty_leaf_count = 0;
     s->dirty_object_count = 0;
     s->dirty_ol_lo = s->dirty_ol_hi = 0;
-    s->dirty_map_lo = s->dirty_map_hi = 0;
+    s->dirty_map = 0;
     s->dirty_full = 0;
     s->synced_generation = s->generation;
     return VIS_OK;
