@@ -157,9 +157,10 @@ typedef struct vis_rope_node {
 #define VIS_CELL_LEAF_BITS 26u
 #define VIS_CELL_LEAF(e) ((e) & ((1u << VIS_CELL_LEAF_BITS) - 1u))
 #define VIS_CELL_CLEAR(e) ((e) >> VIS_CELL_LEAF_BITS)
-#ifndef VIS_CELL_CLEAR_MAX
-#define VIS_CELL_CLEAR_MAX 8u
-#endif
+/* 4: the views measured read the same cells with 8 (the counts in docs/performance.md, "Empty
+ * cells stepped over unread"), and a leaf's first primitives then rewrite at most 7^3 entries,
+ * not 15^3 (on gen:default's build 4 k instructions per filled leaf instead of 14 k). */
+#define VIS_CELL_CLEAR_MAX 4u
 /* Deepest short stack (and rope level) a pass may ask for. vis.h defines the same name with
  * the same tokens (the device compiler cannot include vis.h); backends/backend.h asserts
  * that the two agree. */

@@ -21,18 +21,12 @@ vis_traversal vis_trace_auto_stack(const vis_context *ctx, vis_traversal t)
     return t == VIS_TRAVERSAL_AUTO && ctx->info.kind != VIS_BACKEND_CPU ? VIS_TRAVERSAL_STACK : t;
 }
 
-vis_traversal vis_trace_auto_for_views(const vis_context *ctx, vis_traversal t, uint32_t count)
-{
-    return count > 1u ? vis_trace_auto_stack(ctx, t) : t;
-}
-
 /* The method as backends number it (trace_core.h, VIS_TRAVERSAL_ID_*). AUTO is resolved here,
- * once: the CPU traces packets; one view on a GPU walks the cell grid per ray (dda), which
- * measured a little faster there than the stack method (docs/opencl.md, "dda as the GPU
- * default for one view"; launches of several views resolve AUTO before this, with
- * vis_trace_auto_for_views); other devices (PoCL) run the stack method. A scene without a
- * cell map gets the stack method in vis_trace_make_setup. PACKET is the CPU's tile packets or
- * a device's work-group tile walk (backends/opencl/kernels/tile.cl). */
+ * once: the CPU traces packets; a GPU walks the cell grid per ray (dda), which measured faster
+ * there than the stack method for one view and for batches (docs/opencl.md, "dda as the GPU
+ * default for one view" and "Batches walk the cell grid"); other devices (PoCL) run the stack
+ * method. A scene without a cell map gets the stack method in vis_trace_make_setup. PACKET is
+ * the CPU's tile packets or a device's work-group tile walk (backends/opencl/kernels/tile.cl). */
 static uint32_t kernel_traversal(const vis_context *ctx, vis_traversal t)
 {
     if (t == VIS_TRAVERSAL_PACKET)
@@ -210,7 +204,6 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
     if ((st = vis_trace_desc_resolve(ctx, desc, &d)) != VIS_OK ||
         (st = vis_trace_check_plain_effects(ctx, &d, "vis_trace_batch")) != VIS_OK)
         return st;
-    d.traversal = vis_trace_auto_for_views(ctx, d.traversal, count);
     size_t pixels = (size_t)d.width * d.height;
     /* W, H <= 2^14 and count < 2^32: the product fits 64 bits, and a capacity that holds it
      * (a size_t) makes every offset i * pixels below fit size_t. */

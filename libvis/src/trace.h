@@ -11,10 +11,6 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
 
 /* Shared with trace_drawlist.c and trace_effects.c: the float ray setup of a view (camera
  * checked, fog applied), the clock, and the timing record of a call that began at t0. */
-/* AUTO for a launch of `count` views on a device: the stack method when there are several
- * (the batch kernels of the cell-grid walk measured ~25 % slower than the stack method's on
- * the H200, docs/opencl.md), else `t` unchanged (vis_trace_make_setup resolves it). */
-vis_traversal vis_trace_auto_for_views(const vis_context *ctx, vis_traversal t, uint32_t count);
 /* AUTO as the stack method on a device (OpenCL), `t` unchanged otherwise: the effects pass,
  * whose dda programs were not timed on a GPU (docs/opencl.md). */
 vis_traversal vis_trace_auto_stack(const vis_context *ctx, vis_traversal t);

@@ -72,7 +72,6 @@ static vis_status run(vis_context *ctx, vis_scene *scene, const vis_trace_desc *
         st = vis_trace_check_plain_effects(ctx, &d, c->fn);
     if (st != VIS_OK)
         return st;
-    d.traversal = vis_trace_auto_for_views(ctx, d.traversal, c->count);
     uint64_t pixels = (uint64_t)d.width * d.height;
     /* Scratch, one block: the setups; for the CPU path the IDs of one view and the counts. */
     const vis_backend_ops *ops = ctx->backend.ops;
