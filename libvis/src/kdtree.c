@@ -387,7 +387,8 @@ static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
 
 /* The cell of leaf li at full depth: its corner is (float)c * cell_size (build_node), so
  * the rounded quotient is the cell, checked against the map; a corner that rounding made
- * ambiguous (cells past 2^24 on an axis) is found by a search of the map. */
+ * ambiguous (cells past 2^24 on an axis) is found by a search of the map. Every leaf is the
+ * entry of exactly one cell (leaf_count of them). */
 static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
 {
     const uint32_t *map = s->rope_index + s->cell_map;
@@ -399,8 +400,8 @@ static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
     uint32_t i = c[0] + s->cells[0] * (c[1] + s->cells[1] * c[2]);
     if (VIS_CELL_LEAF(map[i]) == li)
         return i;
-    for (i = 0; VIS_CELL_LEAF(map[i]) != li; ++i) {
-    } /* every leaf is the entry of exactly one cell */
+    for (i = 0; i < s->leaf_count && VIS_CELL_LEAF(map[i]) != li; ++i) {
+    }
     return i;
 }
 
@@ -428,6 +429,15 @@ void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
     const int64_t n[3] = {s->cells[0], s->cells[1], s->cells[2]};
     uint32_t *map = s->rope_index + s->cell_map;
     uint32_t i = leaf_cell_index(s, li);
+    if (i >= s->leaf_count) { /* cannot happen (see leaf_cell_index); no clearance is then safe */
+        for (i = 0; i < s->leaf_count; ++i)
+            lower_clearance(&map[i], 0u);
+        s->dirty_map = 1;
+        memset(s->dirty_map_lo, 0, sizeof s->dirty_map_lo);
+        for (int a = 0; a < 3; ++a)
+            s->dirty_map_hi[a] = s->cells[a] - 1u;
+        return;
+    }
     const int64_t c[3] = {i % s->cells[0], i / s->cells[0] % s->cells[1], i / s->cells[0] / s->cells[1]};
     int64_t lo[3], hi[3];
     int64_t r = 0;
