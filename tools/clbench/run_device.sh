@@ -6,6 +6,12 @@
 #   run_device.sh        everything (about 4 minutes on the lent H200)
 #   run_device.sh 1      conformance, registers, gen:default (methods, draw list, batches)
 #   run_device.sh 2      gen:city and gen:large, PoCL, vis bench with edits
+#   run_device.sh 3      the questions left open on 2026-12-05 (docs/opencl.md, "Batches walk
+#                        the cell grid"): batches of 256, AUTO (now dda) against stack, on three
+#                        worlds; register caps and work-group shapes for the dda batches; the
+#                        server's chunk passes on the GPU, dda (AUTO) against stack (needs vis
+#                        built with Jansson and replays/NAME32.jsonl from
+#                        `vis query --simulate 32 --ticks 256 --scene gen:NAME --seed 1`)
 cd "$(dirname "$0")"
 mkdir -p /etc/OpenCL/vendors && echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd
 export LD_LIBRARY_PATH=$PWD/lib:$LD_LIBRARY_PATH
@@ -58,5 +64,29 @@ if [ "$PHASE" = all ] || [ "$PHASE" = 2 ]; then
   echo "== vis bench with single-voxel edits on the GPU"
   timeout 60 ./vis bench --scene gen:default --backend opencl --frames 10 --edits 200 > "$O/vis_bench_edits.log" 2>&1
   echo "rc=$?"; tail -30 "$O/vis_bench_edits.log"
+fi
+if [ "$PHASE" = 3 ]; then
+  for s in gen:default gen:city gen:large; do for round in 1 2; do for t in 0 1; do
+    echo "$s batch 256, traversal $t (0 AUTO, 1 stack), round $round: $(timeout 90 ./vis_clbench --scene $s \
+      --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 --traversal $t 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done; done; done
+  for R in 56 64 72 80 96; do
+    echo "gen:default dda batch, -cl-nv-maxrregcount=$R: $(VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=$R timeout 60 \
+      ./vis_clbench --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done
+  for T in 8x4 16x4; do
+    echo "gen:default dda batch, tile $T: $(VIS_OPENCL_TILE=$T timeout 60 ./vis_clbench --device NVIDIA --conformance 0 \
+      --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done
+  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  for round in 1 2; do for s in city default maze; do for t in auto stack; do
+    echo "query $s --chunk-traversal $t round $round: $(./vis query --scene gen:$s --replay replays/${s}32.jsonl \
+      --threads 2 --backend opencl --chunk-traversal $t --json --out "$O/q_${s}_${t}_$round.jsonl" 2>&1 | head -c 400)"
+  done; done; done
+  for s in city default maze; do # the lists must not depend on the method
+    cmp -s <(sed 's/"ms":[0-9.]*,//' "$O/q_${s}_auto_1.jsonl") <(sed 's/"ms":[0-9.]*,//' "$O/q_${s}_stack_1.jsonl") &&
+      echo "$s: the same lists with both methods" || echo "$s: THE LISTS DIFFER"
+  done
+  rm -f "$O"/q_*.jsonl
 fi
 date -u

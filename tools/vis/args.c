@@ -389,7 +389,7 @@ static const opt_spec options[] = {
     {"--res", OPT_RES, "WxH", "ID buffer size (default 512x512)", p_res},
     {"--method", OPT_METHOD, "ray|zbuf", "ray pass (default) or the software z-buffer culler", p_method},
     {"--ids", OPT_IDS, "object|leaf", "object IDs (default) or kd-leaf IDs", p_ids},
-    {"--traversal", OPT_TRAVERSAL, "NAME", "kd-tree traversal: auto (default: packet on the CPU; on an OpenCL GPU dda for one view, stack for batches and effects; stack on other OpenCL devices), packet, stack, bruteforce, restart, pushdown, shortstack[:N], ropes, ropes-shortstack[:N], cached-stack[:N], dda; bench: all", p_traversal},
+    {"--traversal", OPT_TRAVERSAL, "NAME", "kd-tree traversal: auto (default: packet on the CPU; on an OpenCL GPU dda for one view and for batches, stack for effects; stack on other OpenCL devices), packet, stack, bruteforce, restart, pushdown, shortstack[:N], ropes, ropes-shortstack[:N], cached-stack[:N], dda; bench: all", p_traversal},
     {"--backend", OPT_BACKEND, "auto|cpu|opencl", "backend (default auto)", p_backend},
     {"--threads", OPT_THREADS, "N|all", "CPU backend threads (default all cores)", p_threads},
     {"--repeat", OPT_REPEAT, "N", "passes to time; the median is reported", p_repeat},

@@ -397,8 +397,8 @@ typedef enum vis_id_mode {
  * bit (docs/traversal.md, "Exactness"). */
 typedef enum vis_traversal {
     VIS_TRAVERSAL_AUTO = 0,       /* the backend's fastest (default): PACKET on the CPU;
-                                     on an OpenCL GPU DDA for one view (STACK on a scene
-                                     without a cell map) and STACK for batches and effects
+                                     on an OpenCL GPU DDA for one view and for batches (STACK
+                                     on a scene without a cell map) and STACK for effects
                                      passes; STACK on other OpenCL devices                   */
     VIS_TRAVERSAL_STACK = 1,      /* full stack, 8-byte entries, one ray at a time            */
     VIS_TRAVERSAL_BRUTEFORCE = 2, /* no tree: every primitive of every object (the reference) */
