@@ -473,7 +473,8 @@ static void test_edit_uploads_only_changed_bytes(void **state)
  * around them (trace_core.h, VIS_CELL_CLEAR), which the cell-grid walk reads to step over
  * empty cells unread: the device must get them with the edit, or its walk would step over
  * the new objects. A long, mostly empty world (clearances up to the maximum along the view),
- * then boxes dropped into cells the view's rays cross, each edit traced at once. */
+ * then boxes dropped into cells the view's rays cross, each edit traced at once, then three
+ * far apart traced together. */
 static void test_edit_fills_empty_cells(void **state)
 {
     (void)state;
@@ -501,6 +502,16 @@ static void test_edit_fills_empty_cells(void **state)
         if (compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, what) == 0)
             fail_msg("%s: the view hits nothing", what);
     }
+    /* Several fills far apart before one trace: one upload of the box around all of them. */
+    static const float at[3][3] = {{40, 44, 4}, {200, 2, 80}, {360, 30, 40}};
+    for (uint32_t k = 0; k < 3; ++k) {
+        float hi[3] = {at[k][0] + 5.0f, at[k][1] + 5.0f, at[k][2] + 5.0f};
+        tobj *o = add_obj(&w, 20u + k);
+        obj_box(o, at[k], hi);
+        set_obj(p.cpu_scene, o);
+        set_obj(p.cl_scene, o);
+    }
+    compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, "after three boxes at once");
     pair_free(&p);
     free_world(&w);
     vis_context_destroy(cl);
