@@ -748,8 +748,7 @@ static void test_cell_clearance(void **state)
             assert_int_equal(vis_scene_set_object(s, id, &m), VIS_OK);
         }
         for (uint32_t c = 0; c < nc; ++c) {
-            const vis_flat_leaf *lf = &s->leaves[VIS_CELL_LEAF(s->rope_index[s->cell_map + c])];
-            held[c] |= (lf->quad_count | lf->loose_count | lf->tri_count) != 0u;
+            held[c] |= (uint8_t)vis_leaf_has_primitives(&s->leaves[VIS_CELL_LEAF(s->rope_index[s->cell_map + c])]);
         }
         if (e % 10 != 9 && e + 1 != edits)
             continue;

@@ -99,6 +99,13 @@ typedef struct vis_flat_leaf {
     uint32_t table_offset;  /* the object table in the quad pool (a word index)             */
 } vis_flat_leaf;
 
+/* Whether a leaf holds anything a ray can hit: the walks' test for an empty leaf, and what
+ * the cell map's clearances and the packets' occupancy flags are kept from. */
+VIS_INLINE int vis_leaf_has_primitives(const VIS_GLOBAL vis_flat_leaf *lf)
+{
+    return (lf->quad_count | lf->loose_count | lf->tri_count) != 0u;
+}
+
 /* A quad as given (24 bytes; loose quads are stored so): meta = object_index << 8 | flags << 2 | axis. */
 typedef struct vis_flat_quad {
     float plane, u0, v0, u1, v1;
@@ -1683,7 +1690,7 @@ VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb
     if (*clear)
         return 0;
     const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[VIS_CELL_LEAF(e)];
-    if (!(leaf->quad_count | leaf->loose_count | leaf->tri_count))
+    if (!vis_leaf_has_primitives(leaf))
         return 0;
     vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
     return 1;

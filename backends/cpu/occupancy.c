@@ -1,11 +1,6 @@
 /* occupancy.c — see occupancy.h. */
 #include "cpu/occupancy.h"
 
-static int leaf_has_primitives(const vis_flat_leaf *lf)
-{
-    return lf->quad_count + lf->loose_count + lf->tri_count > 0u;
-}
-
 void vis_occupancy_free(vis_occupancy *occ)
 {
     vis_host_free(occ->alloc, occ->parent);
@@ -45,7 +40,7 @@ static vis_status rebuild(vis_occupancy *occ, const vis_scene_view *view)
     for (uint32_t i = n; i-- > 0;) {
         uint32_t info = view->nodes[i].info;
         if ((info & 3u) == VIS_NODE_LEAF)
-            occ->occupied[i] = (uint8_t)leaf_has_primitives(&view->leaves[info >> 2]);
+            occ->occupied[i] = (uint8_t)vis_leaf_has_primitives(&view->leaves[info >> 2]);
         else
             occ->occupied[i] = occ->occupied[info >> 2] | occ->occupied[(info >> 2) + 1u];
     }
@@ -59,7 +54,7 @@ vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, co
         return rebuild(occ, view);
     for (uint32_t i = 0; i < changes->leaf_count; ++i) {
         uint32_t node = occ->leaf_node[changes->leaves[i]];
-        uint8_t flag = (uint8_t)leaf_has_primitives(&view->leaves[changes->leaves[i]]);
+        uint8_t flag = (uint8_t)vis_leaf_has_primitives(&view->leaves[changes->leaves[i]]);
         /* Up the tree while a flag changes; an ancestor's flag is the OR of its children. */
         while (node != UINT32_MAX && occ->occupied[node] != flag) {
             occ->occupied[node] = flag;

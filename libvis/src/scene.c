@@ -726,7 +726,7 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
     vis_leaf_host *lh = &s->leaf_host[li];
     uint32_t slot = pe ? pe->slot : VIS_NO_OBJECT;
     int mesh_in = pe && in_list(lh, slot);
-    int was_empty = !(lf->quad_count | lf->loose_count | lf->tri_count);
+    int was_empty = !vis_leaf_has_primitives(lf);
     vis_flat_quad *g = NULL;
     uint32_t ng = 0, gcap = 0;
     vis_status st = gather_leaf_alloc(s, li, slot, pe ? pe->mesh : NULL, pe ? s->objects[slot].leaf_count : 0, mesh_in,
@@ -822,7 +822,7 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
                 s->tris[lf->tri_offset + t_out++] = oh->tris[t];
     }
     lf->tri_count = t_out;
-    if (was_empty && (lf->quad_count | lf->loose_count | lf->tri_count))
+    if (was_empty && vis_leaf_has_primitives(lf))
         vis_kdtree_leaf_filled(s, li);
     vis_scene_mark_leaf(s, li);
     return VIS_OK;

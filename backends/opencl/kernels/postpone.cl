@@ -111,8 +111,7 @@ VIS_INLINE void vis_traverse_postpone(const vis_ray *r, const vis_ray_setup *s, 
                 popped = 0;
             } else {
                 uint leaf = info >> 2;
-                const VIS_GLOBAL vis_flat_leaf *lf = &leaves[leaf];
-                if ((lf->quad_count | lf->loose_count | lf->tri_count) != 0u) {
+                if (vis_leaf_has_primitives(&leaves[leaf])) {
 #pragma unroll
                     for (int i = 0; i < VIS_CL_POSTPONE; ++i)
                         if (i == n) {

@@ -74,8 +74,7 @@ VIS_INLINE int vis_tile_empty_leaf(const __global vis_kd_node *nodes, const __gl
     uint info = nodes[node].info;
     if ((info & 3u) != VIS_NODE_LEAF)
         return 0;
-    const __global vis_flat_leaf *leaf = &leaves[info >> 2];
-    return leaf->quad_count == 0u && leaf->loose_count == 0u && leaf->tri_count == 0u;
+    return !vis_leaf_has_primitives(&leaves[info >> 2]);
 }
 
 /* One work-item's pixel (x, y) of view s, traced by its group's walk. Every item of the
