@@ -512,6 +512,21 @@ static void test_edit_fills_empty_cells(void **state)
         set_obj(p.cl_scene, o);
     }
     compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, "after three boxes at once");
+    /* Cells emptied again: the six boxes removed (the clearances around them rise), then a
+     * box dropped where one was, before one trace: the upload carries the raised clearances
+     * and the ones lowered after them. */
+    for (uint32_t k = 0; k < 6; ++k) {
+        assert_int_equal(vis_scene_remove_object(p.cpu_scene, 10u + k), VIS_OK);
+        assert_int_equal(vis_scene_remove_object(p.cl_scene, 10u + k), VIS_OK);
+    }
+    compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, "after the six boxes were removed");
+    const float lo1[3] = {243, 18, 41}, hi1[3] = {247, 26, 50};
+    tobj *o = add_obj(&w, 30u);
+    obj_box(o, lo1, hi1);
+    set_obj(p.cpu_scene, o);
+    set_obj(p.cl_scene, o);
+    if (compare_view(&p, &cam, 40, 32, VIS_TRAVERSAL_DDA + 1u, "after a box where the clearances rose") == 0)
+        fail_msg("the view hits nothing");
     pair_free(&p);
     free_world(&w);
     vis_context_destroy(cl);

@@ -159,8 +159,8 @@ typedef struct vis_rope_node {
  * it), and above them the cell's clearance: 0 where the leaf may hold primitives, else a
  * number c >= 1 such that every cell within c - 1 steps of it on each axis (Chebyshev
  * distance c - 1) has an empty leaf, at most VIS_CELL_CLEAR_MAX. libvis keeps it at the
- * distance to the nearest cell that ever held primitives since the scene was created: an
- * edit that empties a leaf leaves it lower than it could be, never higher (kdtree.c). */
+ * distance to the nearest cell whose leaf holds primitives, through every edit that fills or
+ * empties a leaf (kdtree.c). */
 #define VIS_CELL_LEAF_BITS 26u
 #define VIS_CELL_LEAF(e) ((e) & ((1u << VIS_CELL_LEAF_BITS) - 1u))
 #define VIS_CELL_CLEAR(e) ((e) >> VIS_CELL_LEAF_BITS)

@@ -405,6 +405,16 @@ static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
     return i;
 }
 
+/* Widens the box of changed map entries (s->dirty_map_lo/hi) over cells lo..hi. */
+static void widen_dirty_map(vis_scene *s, const uint32_t lo[3], const uint32_t hi[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        s->dirty_map_lo[a] = s->dirty_map && s->dirty_map_lo[a] < lo[a] ? s->dirty_map_lo[a] : lo[a];
+        s->dirty_map_hi[a] = s->dirty_map && s->dirty_map_hi[a] > hi[a] ? s->dirty_map_hi[a] : hi[a];
+    }
+    s->dirty_map = 1;
+}
+
 /* Lowers map entry *e's clearance to c where it is higher; whether it did. */
 static int lower_clearance(uint32_t *e, uint32_t c)
 {
@@ -415,13 +425,12 @@ static int lower_clearance(uint32_t *e, uint32_t c)
 }
 
 /* The clearance of every cell is min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to
- * the nearest cell whose leaf has held primitives). When leaf li gets its first, each cell
+ * the nearest cell whose leaf holds primitives). When leaf li gets its first, each cell
  * at distance r < VIS_CELL_CLEAR_MAX takes min(its own, r), shell by shell outwards. The
  * clearances are 1-Lipschitz (a minimum of distances): when no cell of shell r changed, each
  * cell of shell r + 1 has a neighbour in shell r with a clearance <= r, so its own is <= r + 1
  * already, and the walk stops there. Only the steps after an edit that fills an empty cell
- * pay this; a leaf emptied again keeps the clearances around it (lower than they could be,
- * which skips less and is never wrong). */
+ * pay this; a leaf emptied again raises them (vis_kdtree_leaf_emptied). */
 void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
 {
     if (!s->cell_map)
@@ -432,10 +441,8 @@ void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
     if (i >= s->leaf_count) { /* cannot happen (see leaf_cell_index); no clearance is then safe */
         for (i = 0; i < s->leaf_count; ++i)
             lower_clearance(&map[i], 0u);
-        s->dirty_map = 1;
-        memset(s->dirty_map_lo, 0, sizeof s->dirty_map_lo);
-        for (int a = 0; a < 3; ++a)
-            s->dirty_map_hi[a] = s->cells[a] - 1u;
+        const uint32_t first[3] = {0, 0, 0}, last[3] = {s->cells[0] - 1u, s->cells[1] - 1u, s->cells[2] - 1u};
+        widen_dirty_map(s, first, last);
         return;
     }
     const int64_t c[3] = {i % s->cells[0], i / s->cells[0] % s->cells[1], i / s->cells[0] / s->cells[1]};
@@ -467,13 +474,111 @@ void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
      * where the cell had held primitives before. */
     if (r == 0)
         return;
+    uint32_t l[3], h[3];
     for (int a = 0; a < 3; ++a) {
-        uint32_t l = (uint32_t)(c[a] - (r - 1) < 0 ? 0 : c[a] - (r - 1));
-        uint32_t h = (uint32_t)(c[a] + (r - 1) > n[a] - 1 ? n[a] - 1 : c[a] + (r - 1));
-        s->dirty_map_lo[a] = s->dirty_map && s->dirty_map_lo[a] < l ? s->dirty_map_lo[a] : l;
-        s->dirty_map_hi[a] = s->dirty_map && s->dirty_map_hi[a] > h ? s->dirty_map_hi[a] : h;
+        l[a] = (uint32_t)(c[a] - (r - 1) < 0 ? 0 : c[a] - (r - 1));
+        h[a] = (uint32_t)(c[a] + (r - 1) > n[a] - 1 ? n[a] - 1 : c[a] + (r - 1));
     }
-    s->dirty_map = 1;
+    widen_dirty_map(s, l, h);
+}
+
+/* The cells whose clearance a leaf's emptying can raise lie within VIS_CELL_CLEAR_MAX - 1
+ * of its cell (farther ones had the cap from it already); their clearances depend on the
+ * cells within as much again. CLEAR_REGION is that region's side. */
+#define CLEAR_REACH ((int64_t)VIS_CELL_CLEAR_MAX - 1)
+#define CLEAR_REGION (4 * CLEAR_REACH + 1)
+
+/* One pass of the distance transform along axis a over a region of m[0] x m[1] x m[2]
+ * values (x fastest): dst[cell] = the least max(|k|, src[cell + k along a]) over |k| <=
+ * VIS_CELL_CLEAR_MAX, cells outside the region taking the cap, for the cells of the box
+ * [blo, bhi] only. After three passes over 0 (a cell with primitives) or the cap (an empty
+ * one), a cell holds min(cap, its Chebyshev distance to the nearest cell with primitives):
+ * the cube of radius r is the product of three segments, so a cube's minimum is three
+ * segments' minima in turn. Each pass computes only what the next one reads. */
+static void clearance_pass(const uint8_t *src, uint8_t *dst, const int64_t m[3], int a, const int64_t blo[3],
+                           const int64_t bhi[3])
+{
+    const int64_t stride = a == 0 ? 1 : a == 1 ? m[0] : m[0] * m[1], cap = VIS_CELL_CLEAR_MAX;
+    int64_t p[3];
+    for (p[2] = blo[2]; p[2] <= bhi[2]; ++p[2])
+        for (p[1] = blo[1]; p[1] <= bhi[1]; ++p[1])
+            for (p[0] = blo[0]; p[0] <= bhi[0]; ++p[0]) {
+                const int64_t at = p[0] + m[0] * (p[1] + m[1] * p[2]);
+                int64_t best = src[at];
+                for (int64_t k = 1; k < best && k <= cap; ++k) {
+                    int64_t lo = p[a] - k >= 0 ? src[at - k * stride] : cap;
+                    int64_t hi = p[a] + k < m[a] ? src[at + k * stride] : cap;
+                    int64_t v = lo < hi ? lo : hi;
+                    v = v > k ? v : k;
+                    best = v < best ? v : best;
+                }
+                dst[at] = (uint8_t)best;
+            }
+}
+
+/* When leaf li has lost its last primitive, the clearances within CLEAR_REACH of its cell
+ * are computed again from the cells within twice that (a distance transform over at most
+ * CLEAR_REGION^3 cells, 2,197 at the cap of 4), so every clearance stays what
+ * vis_kdtree_leaf_filled's comment says: the distance to the nearest cell with primitives
+ * now. Only the edits that empty a cell pay this. */
+void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li)
+{
+    if (!s->cell_map)
+        return;
+    uint32_t *map = s->rope_index + s->cell_map;
+    uint32_t ci = leaf_cell_index(s, li);
+    if (ci >= s->leaf_count)
+        return; /* cannot happen (see leaf_cell_index); the clearances only stay lower */
+    const int64_t c[3] = {ci % s->cells[0], ci / s->cells[0] % s->cells[1], ci / s->cells[0] / s->cells[1]};
+    /* The region (lo, m: its corner and size in the map), and in its own coordinates the
+     * box of cells whose clearance can change (ilo..ihi) and the whole region (0..m - 1). */
+    int64_t lo[3], m[3], ilo[3], ihi[3], all_lo[3] = {0, 0, 0}, all_hi[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = c[a] - 2 * CLEAR_REACH < 0 ? 0 : c[a] - 2 * CLEAR_REACH;
+        int64_t hi = c[a] + 2 * CLEAR_REACH > (int64_t)s->cells[a] - 1 ? (int64_t)s->cells[a] - 1 : c[a] + 2 * CLEAR_REACH;
+        m[a] = hi - lo[a] + 1;
+        all_hi[a] = m[a] - 1;
+        ilo[a] = (c[a] - CLEAR_REACH < lo[a] ? lo[a] : c[a] - CLEAR_REACH) - lo[a];
+        ihi[a] = (c[a] + CLEAR_REACH > hi ? hi : c[a] + CLEAR_REACH) - lo[a];
+    }
+    /* The map says which cells hold primitives: a clearance of 0 is a cell's own (every
+     * clearance is exact, this function and vis_kdtree_leaf_filled keep it so; after their
+     * fallbacks some are lower, which only keeps more of them low), but for the cell that has
+     * just emptied. */
+    uint8_t d[2][CLEAR_REGION * CLEAR_REGION * CLEAR_REGION];
+    for (int64_t z = 0; z < m[2]; ++z)
+        for (int64_t y = 0; y < m[1]; ++y) {
+            const uint32_t *row = map + (uint64_t)lo[0] + s->cells[0] * ((uint64_t)(lo[1] + y) + s->cells[1] * (uint64_t)(lo[2] + z));
+            for (int64_t x = 0; x < m[0]; ++x)
+                d[0][x + m[0] * (y + m[1] * z)] = VIS_CELL_CLEAR(row[x]) ? (uint8_t)VIS_CELL_CLEAR_MAX : 0u;
+        }
+    d[0][(c[0] - lo[0]) + m[0] * ((c[1] - lo[1]) + m[1] * (c[2] - lo[2]))] = (uint8_t)VIS_CELL_CLEAR_MAX;
+    /* x for the changing columns of every row, then y for those of every plane, then z. */
+    const int64_t bx_hi[3] = {ihi[0], all_hi[1], all_hi[2]}, by_hi[3] = {ihi[0], ihi[1], all_hi[2]};
+    const int64_t bx_lo[3] = {ilo[0], all_lo[1], all_lo[2]}, by_lo[3] = {ilo[0], ilo[1], all_lo[2]};
+    clearance_pass(d[0], d[1], m, 0, bx_lo, bx_hi);
+    clearance_pass(d[1], d[0], m, 1, by_lo, by_hi);
+    clearance_pass(d[0], d[1], m, 2, ilo, ihi);
+    /* Every cell within CLEAR_REACH of a changing cell is in the region (or outside the
+     * map), so their values are exact. */
+    uint32_t bl[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX}, bh[3] = {0, 0, 0};
+    for (int64_t z = ilo[2]; z <= ihi[2]; ++z)
+        for (int64_t y = ilo[1]; y <= ihi[1]; ++y)
+            for (int64_t x = ilo[0]; x <= ihi[0]; ++x) {
+                uint32_t *e = &map[(uint64_t)(lo[0] + x) +
+                                   s->cells[0] * ((uint64_t)(lo[1] + y) + s->cells[1] * (uint64_t)(lo[2] + z))];
+                uint32_t v = d[1][x + m[0] * (y + m[1] * z)];
+                if (VIS_CELL_CLEAR(*e) == v)
+                    continue;
+                *e = VIS_CELL_LEAF(*e) | v << VIS_CELL_LEAF_BITS;
+                const uint32_t p[3] = {(uint32_t)(lo[0] + x), (uint32_t)(lo[1] + y), (uint32_t)(lo[2] + z)};
+                for (int a = 0; a < 3; ++a) {
+                    bl[a] = p[a] < bl[a] ? p[a] : bl[a];
+                    bh[a] = p[a] > bh[a] ? p[a] : bh[a];
+                }
+            }
+    if (bl[0] != UINT32_MAX)
+        widen_dirty_map(s, bl, bh);
 }
 
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)

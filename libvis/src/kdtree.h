@@ -38,6 +38,11 @@ vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan);
  * over them. Nothing without a cell map. */
 void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li);
 
+/* Raises the clearances around leaf li, which has just lost its last primitive, to what the
+ * cells around them hold now, and widens the box of changed cells over them. Nothing without
+ * a cell map. */
+void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li);
+
 /* Leaf indices overlapped by the box (see kdtree.c for the boundary rule). Writes at most
  * `cap` and returns the total count. */
 uint32_t vis_kdtree_leaves_of_box(const vis_scene *s, const float lo[3], const float hi[3], uint32_t *out, uint32_t cap);

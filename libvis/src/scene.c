@@ -824,6 +824,8 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
     lf->tri_count = t_out;
     if (was_empty && vis_leaf_has_primitives(lf))
         vis_kdtree_leaf_filled(s, li);
+    else if (!was_empty && !vis_leaf_has_primitives(lf))
+        vis_kdtree_leaf_emptied(s, li);
     vis_scene_mark_leaf(s, li);
     return VIS_OK;
 }
