@@ -38,7 +38,7 @@ static int run_views(bench *b, cli_scene *s, size_t config)
             VIS_OK)
             return cli_fail_vis(CMD, s->ctx, b->views[v].name);
         vis_draw_entry *e = NULL;
-        if (cli_drawlist(s->ctx, scene, b->ids, a->width, a->height, a->ids, &e, &r->visible, NULL) != VIS_OK)
+        if (cli_drawlist(s->ctx, scene, b->ids, a->width, a->height, a->ids, 0, &e, &r->visible, NULL) != VIS_OK)
             return cli_fail_vis(CMD, s->ctx, "vis_drawlist_build");
         free(e);
         ++b->nresults;

@@ -161,7 +161,7 @@ static int ray_pass(const cli_args *a, cli_scene *s, cull_result *r)
         rc = cli_fail_vis(CMD, s->ctx, "vis_trace");
         goto done;
     }
-    if (cli_drawlist(s->ctx, scene, ids, a->width, a->height, a->ids, &r->entries, &r->count, &r->drawlist_ms) !=
+    if (cli_drawlist(s->ctx, scene, ids, a->width, a->height, a->ids, a->repeat, &r->entries, &r->count, &r->drawlist_ms) !=
         VIS_OK) {
         rc = cli_fail_vis(CMD, s->ctx, "vis_drawlist_build");
         goto done;

@@ -128,7 +128,7 @@ int cmd_run(const cli_args *a)
         }
         vis_draw_entry *entries = NULL;
         size_t count = 0;
-        if (cli_drawlist(s.ctx, scene, ids, a->width, a->height, a->ids, &entries, &count, NULL) != VIS_OK) {
+        if (cli_drawlist(s.ctx, scene, ids, a->width, a->height, a->ids, 0, &entries, &count, NULL) != VIS_OK) {
             rc = cli_fail_vis(CMD, s.ctx, "vis_drawlist_build");
             goto done;
         }

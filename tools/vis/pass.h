@@ -41,10 +41,11 @@ void cli_effect_buffers_free(cli_effect_buffers *e);
 vis_status cli_effects_run(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
                            uint32_t passes, const vis_effect_buffers *b, cli_pass_times *out);
 
-/* A draw list of the scene's capacity (entries freed by the caller), built from ids.
- * *out_ms is the time of vis_drawlist_build alone. */
+/* A draw list of the scene's capacity (entries freed by the caller), built from ids. With
+ * out_ms, the list is built once untimed and `repeat` times more (0 counts as 1), and *out_ms
+ * is the median time of vis_drawlist_build alone. */
 vis_status cli_drawlist(vis_context *ctx, const vis_scene *scene, const uint32_t *ids, uint32_t width,
-                        uint32_t height, vis_id_mode mode, vis_draw_entry **out_entries, size_t *out_count,
-                        double *out_ms);
+                        uint32_t height, vis_id_mode mode, uint32_t repeat, vis_draw_entry **out_entries,
+                        size_t *out_count, double *out_ms);
 
 #endif
