@@ -670,6 +670,95 @@ static void test_trace_drawlist(void **state)
     vis_context_destroy(ctx);
 }
 
+/* vis_drawlist_build against a count made here, on ID buffers written by the test (runs of
+ * one ID, single pixels, sky), over objects added in an order unlike their IDs' (so that slot
+ * order is not ID order and the list must be sorted), then after removals and additions that
+ * reuse freed slots; object and leaf IDs (a shallow tree, several objects per leaf). */
+static void expect_list(vis_context *ctx, vis_scene *scene, const uint32_t *ids, uint32_t W, uint32_t H,
+                        vis_id_mode mode, const uint32_t *want, uint32_t max_id)
+{
+    size_t cap = vis_drawlist_bound(scene), n = 0;
+    vis_draw_entry *got = malloc((cap ? cap : 1) * sizeof *got);
+    assert_non_null(got);
+    assert_int_equal(vis_drawlist_build(ctx, scene, ids, W, H, mode, got, cap, &n), VIS_OK);
+    size_t k = 0;
+    for (uint32_t id = 1; id <= max_id; ++id) {
+        if (!want[id])
+            continue;
+        if (k >= n || got[k].id != id || got[k].pixels != want[id])
+            fail_msg("%s IDs: entry %zu is (%u, %u), expected (%u, %u)", mode == VIS_IDS_LEAF ? "leaf" : "object", k,
+                     k < n ? got[k].id : 0u, k < n ? got[k].pixels : 0u, id, want[id]);
+        ++k;
+    }
+    assert_int_equal(n, k);
+    free(got);
+}
+
+static void test_drawlist_counts(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    enum { N = 300, W = 97, H = 61, MAX_ID = 5000 };
+    tworld w;
+    memset(&w, 0, sizeof w);
+    w.size[0] = 160, w.size[1] = 32, w.size[2] = 160;
+    uint64_t rng = 2468;
+    for (uint32_t i = 0; i < N; ++i) { /* IDs falling, then rising: slots are not in ID order */
+        uint32_t id = i < N / 2 ? MAX_ID - 7u * i : 3u + 11u * i;
+        float lo[3] = {(float)(vt_rand(&rng) % 150u), (float)(vt_rand(&rng) % 24u), (float)(vt_rand(&rng) % 150u)};
+        float hi[3] = {lo[0] + 3.0f, lo[1] + 2.0f, lo[2] + 4.0f};
+        obj_box(add_obj(&w, id), lo, hi);
+    }
+    vis_scene *scene = make_scene(ctx, &w, NULL, 4); /* 16 leaves: several objects each */
+    static uint32_t ids[W * H], want[MAX_ID + 1];
+    vis_scene_info info;
+    for (int round = 0; round < 3; ++round) {
+        /* Object IDs: runs of 1..40 pixels of a live object or of sky. */
+        memset(want, 0, sizeof want);
+        for (uint32_t i = 0; i < W * H;) {
+            uint32_t len = 1u + (uint32_t)(vt_rand(&rng) % (vt_rand(&rng) % 2 ? 40u : 2u));
+            const tobj *o = &w.objs[vt_rand(&rng) % w.n];
+            uint32_t id = vt_rand(&rng) % 5 == 0 || o->nq == 0 ? 0u : o->id;
+            for (uint32_t k = 0; k < len && i < W * H; ++k, ++i) {
+                ids[i] = id;
+                want[id] += id != 0;
+            }
+        }
+        want[0] = 0;
+        expect_list(ctx, scene, ids, W, H, VIS_IDS_OBJECT, want, MAX_ID);
+        /* Leaf IDs: every object of the leaf gets the leaf's pixels. */
+        vis_scene_get_info(scene, &info);
+        memset(want, 0, sizeof want);
+        uint32_t objs[2 * N];
+        for (uint32_t i = 0; i < W * H; ++i) {
+            ids[i] = vt_rand(&rng) % 4 == 0 ? 0u : 1u + (uint32_t)(vt_rand(&rng) % info.leaves);
+            uint32_t n = 0;
+            if (ids[i]) {
+                assert_int_equal(vis_scene_leaf_objects(scene, ids[i], objs, 2 * N, &n), VIS_OK);
+                for (uint32_t k = 0; k < n; ++k)
+                    ++want[objs[k]];
+            }
+        }
+        expect_list(ctx, scene, ids, W, H, VIS_IDS_LEAF, want, MAX_ID);
+        /* Free a third of the slots; the next round's additions reuse them. */
+        for (uint32_t i = (uint32_t)round; i < w.n; i += 3) {
+            vis_status r = vis_scene_remove_object(scene, w.objs[i].id);
+            assert_true(r == VIS_OK || r == VIS_ERROR_NOT_FOUND);
+            obj_clear(&w.objs[i]);
+        }
+        for (uint32_t i = 0; i < 40; ++i) {
+            float lo[3] = {(float)(vt_rand(&rng) % 150u), (float)(vt_rand(&rng) % 24u), (float)(vt_rand(&rng) % 150u)};
+            float hi[3] = {lo[0] + 2.0f, lo[1] + 3.0f, lo[2] + 2.0f};
+            tobj *o = add_obj(&w, 1u + 500u * (uint32_t)round + 11u * i); /* below every ID added before */
+            obj_box(o, lo, hi);
+            set_obj(scene, o);
+        }
+    }
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Leaf mode writes the leaf of the hit object; the draw list expands it to the leaf's
  * objects, a superset of the object-mode list. */
 static void test_leaf_ids_and_drawlist(void **state)
@@ -1365,6 +1454,7 @@ int main(void)
         cmocka_unit_test(test_ties_go_to_lowest_id),
         cmocka_unit_test(test_camera_inside_solid),
         cmocka_unit_test(test_far_from_origin),
+        cmocka_unit_test(test_drawlist_counts),
         cmocka_unit_test(test_leaf_ids_and_drawlist),
         cmocka_unit_test(test_trace_drawlist),
         cmocka_unit_test(test_bad_input_rejected),

@@ -57,10 +57,112 @@ size_t vis_drawlist_bound(const vis_scene *scene)
     return n;
 }
 
+/* Words of the bitset of slots seen. */
+static size_t seen_words(const vis_scene *s) { return ((size_t)s->object_slots + 63u) / 64u; }
+
 size_t vis_drawlist_scratch_bytes(const vis_scene *s, vis_id_mode mode)
 {
-    size_t words = (size_t)s->object_slots + (mode == VIS_IDS_LEAF ? (size_t)s->leaf_count + 1 : 0);
+    /* Per object slot its pixel count; a bit per slot, set when it is seen; per leaf its
+     * pixel count (leaf IDs). */
+    size_t words = (size_t)s->object_slots + (s->object_slots & 1u) + 2u * seen_words(s) +
+                   (mode == VIS_IDS_LEAF ? (size_t)s->leaf_count + 1 : 0);
     return (words ? words : 1u) * sizeof(uint32_t);
+}
+
+/* Adds px pixels to slot's count, marking the slot seen (and counting it in *m) at its
+ * first. */
+static void add_pixels(uint32_t *count, uint64_t *seen, size_t *m, uint32_t slot, uint32_t px)
+{
+    if (count[slot] == 0) {
+        seen[slot / 64u] |= 1ull << (slot % 64u);
+        ++*m;
+    }
+    count[slot] += px;
+}
+
+/* Object IDs. Runs of one ID (sky included) are the common case: each run costs one lookup
+ * (none when it repeats the last ID) and one add. */
+static vis_status count_objects(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint64_t n, uint32_t *count,
+                                uint64_t *seen, size_t *m)
+{
+    uint32_t last_id = 0, slot = VIS_NO_OBJECT;
+    for (uint64_t i = 0; i < n;) {
+        uint32_t id = ids[i];
+        uint64_t j = i + 1;
+        while (j < n && ids[j] == id)
+            ++j;
+        if (id != 0) {
+            if (id != last_id) {
+                last_id = id;
+                slot = vis_scene_find(s, id);
+                if (slot == VIS_NO_OBJECT)
+                    return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "ID buffer holds %u, which is no object of the scene", id);
+            }
+            add_pixels(count, seen, m, slot, (uint32_t)(j - i));
+        }
+        i = j;
+    }
+    return VIS_OK;
+}
+
+/* Leaf IDs: each leaf's pixels added to every object of the leaf. */
+static vis_status count_leaves(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint64_t n, uint32_t *count,
+                               uint64_t *seen, size_t *m, uint32_t *leaf_px)
+{
+    uint32_t leaves = s->leaf_count;
+    memset(leaf_px, 0, ((size_t)leaves + 1) * sizeof *leaf_px);
+    for (uint64_t i = 0; i < n; ++i) {
+        uint32_t l = ids[i];
+        if (l > leaves)
+            return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "ID buffer holds leaf %u; the scene has %u leaves", l, leaves);
+        ++leaf_px[l];
+    }
+    for (uint32_t l = 1; l <= leaves; ++l) {
+        if (!leaf_px[l])
+            continue;
+        const vis_leaf_host *lh = &s->leaf_host[l - 1];
+        for (uint32_t k = 0; k < lh->object_count; ++k)
+            add_pixels(count, seen, m, lh->objects[k], leaf_px[l]);
+    }
+    return VIS_OK;
+}
+
+vis_status vis_drawlist_from_ids(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint64_t n,
+                                 vis_id_mode mode, uint32_t *count, vis_draw_entry *out, size_t capacity,
+                                 size_t *out_count)
+{
+    /* Pixel counts indexed by object slot (dense, bounded by the scene), so the scratch does
+     * not depend on how large the caller's IDs are; the bitset of the slots seen keeps the
+     * output from reading every count. */
+    const size_t nw = seen_words(s);
+    uint64_t *seen = (uint64_t *)(count + s->object_slots + (s->object_slots & 1u)); /* 8-byte aligned */
+    memset(count, 0, (size_t)s->object_slots * sizeof *count);
+    memset(seen, 0, nw * sizeof *seen);
+    size_t m = 0;
+    vis_status st = mode == VIS_IDS_OBJECT ? count_objects(ctx, s, ids, n, count, seen, &m)
+                                           : count_leaves(ctx, s, ids, n, count, seen, &m, (uint32_t *)(seen + nw));
+    if (st != VIS_OK)
+        return st;
+    if (m > capacity) {
+        *out_count = m;
+        return vis_fail(ctx, VIS_ERROR_CAPACITY, "draw list has %zu entries, capacity is %zu", m, capacity);
+    }
+    /* In slot order, which is ID order where the objects were added in ID order (every
+     * world the tools load): then the list is sorted already and the sort is skipped. */
+    size_t k = 0;
+    int sorted = 1;
+    for (size_t w = 0; w < nw; ++w)
+        for (uint64_t bits = seen[w]; bits; bits &= bits - 1u) {
+            uint32_t slot = (uint32_t)(w * 64u + (size_t)__builtin_ctzll(bits));
+            out[k].id = s->objects[slot].id;
+            out[k].pixels = count[slot];
+            sorted &= k == 0 || out[k - 1].id < out[k].id;
+            ++k;
+        }
+    if (!sorted)
+        vis_sort_by_id(out, k, sizeof *out); /* heap sort: no allocation, n log n */
+    *out_count = k;
+    return VIS_OK;
 }
 
 static vis_status build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width, uint32_t height,
@@ -74,65 +176,6 @@ static vis_status build(vis_context *ctx, const vis_scene *s, const uint32_t *id
     if (!count)
         return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for draw-list scratch");
     return vis_drawlist_from_ids(ctx, s, ids, (uint64_t)width * height, mode, count, out, capacity, out_count);
-}
-
-vis_status vis_drawlist_from_ids(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint64_t n,
-                                 vis_id_mode mode, uint32_t *count, vis_draw_entry *out, size_t capacity,
-                                 size_t *out_count)
-{
-    /* Pixel counts indexed by object slot (dense, bounded by the scene), so the scratch does
-     * not depend on how large the caller's IDs are. */
-    uint32_t slots = s->object_slots;
-    uint32_t leaves = s->leaf_count;
-    memset(count, 0, vis_drawlist_scratch_bytes(s, mode));
-    if (mode == VIS_IDS_OBJECT) {
-        uint32_t last_id = 0, last_slot = VIS_NO_OBJECT;
-        for (uint64_t i = 0; i < n; ++i) {
-            uint32_t id = ids[i];
-            if (id == 0)
-                continue;
-            if (id != last_id) { /* runs of one ID are the common case */
-                last_id = id;
-                last_slot = vis_scene_find(s, id);
-                if (last_slot == VIS_NO_OBJECT)
-                    return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "ID buffer holds %u, which is no object of the scene", id);
-            }
-            ++count[last_slot];
-        }
-    } else {
-        uint32_t *leaf_px = count + slots;
-        for (uint64_t i = 0; i < n; ++i) {
-            uint32_t l = ids[i];
-            if (l > leaves)
-                return vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "ID buffer holds leaf %u; the scene has %u leaves", l, leaves);
-            ++leaf_px[l];
-        }
-        for (uint32_t l = 1; l <= leaves; ++l) {
-            if (!leaf_px[l])
-                continue;
-            const vis_leaf_host *lh = &s->leaf_host[l - 1];
-            for (uint32_t k = 0; k < lh->object_count; ++k)
-                count[lh->objects[k]] += leaf_px[l];
-        }
-    }
-    size_t m = 0;
-    for (uint32_t i = 0; i < slots; ++i)
-        m += count[i] != 0;
-    if (m > capacity) {
-        *out_count = m;
-        return vis_fail(ctx, VIS_ERROR_CAPACITY, "draw list has %zu entries, capacity is %zu", m, capacity);
-    }
-    size_t k = 0;
-    for (uint32_t i = 0; i < slots; ++i)
-        if (count[i]) {
-            out[k].id = s->objects[i].id;
-            out[k].pixels = count[i];
-            ++k;
-        }
-    /* Slots are not in ID order: sort by ID in place (heap sort: no allocation, n log n). */
-    vis_sort_by_id(out, k, sizeof *out);
-    *out_count = k;
-    return VIS_OK;
 }
 
 vis_status vis_drawlist_build(vis_context *ctx, const vis_scene *s, const uint32_t *ids, uint32_t width,

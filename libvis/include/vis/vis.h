@@ -579,9 +579,10 @@ VIS_API size_t vis_drawlist_bound(const vis_scene *scene);
 
 /* Turns an ID buffer into the draw list: unique object IDs, sorted ascending, leaf IDs
  * expanded to the objects of the leaf, each with its pixel count. Scratch comes from the
- * context: 4 bytes per object slot (the most objects the scene has held at once), plus 4 per
- * leaf in VIS_IDS_LEAF mode; it grows only when that grows, so a warm call allocates nothing. VIS_ERROR_CAPACITY if capacity
- * is below the entry count (nothing is written then). */
+ * context: a little over 4 bytes per object slot (the most objects the scene has held at
+ * once: a count and a bit each), plus 4 per leaf in VIS_IDS_LEAF mode; it grows only when
+ * that grows, so a warm call allocates nothing. VIS_ERROR_CAPACITY if capacity is below the
+ * entry count (nothing is written then). */
 VIS_API vis_status vis_drawlist_build(vis_context *context, const vis_scene *scene, const uint32_t *ids,
                                       uint32_t width, uint32_t height, vis_id_mode mode,
                                       vis_draw_entry *out_entries, size_t capacity, size_t *out_count);
