@@ -670,10 +670,8 @@ static void test_trace_drawlist(void **state)
     vis_context_destroy(ctx);
 }
 
-/* vis_drawlist_build against a count made here, on ID buffers written by the test (runs of
- * one ID, single pixels, sky), over objects added in an order unlike their IDs' (so that slot
- * order is not ID order and the list must be sorted), then after removals and additions that
- * reuse freed slots; object and leaf IDs (a shallow tree, several objects per leaf). */
+/* vis_drawlist_build's list of the ID buffer must be want[id] pixels for every id with any,
+ * ascending, and nothing else. */
 static void expect_list(vis_context *ctx, vis_scene *scene, const uint32_t *ids, uint32_t W, uint32_t H,
                         vis_id_mode mode, const uint32_t *want, uint32_t max_id)
 {
@@ -694,6 +692,10 @@ static void expect_list(vis_context *ctx, vis_scene *scene, const uint32_t *ids,
     free(got);
 }
 
+/* vis_drawlist_build against a count made here, on ID buffers written by the test (runs of
+ * one ID, single pixels, sky), over objects added in an order unlike their IDs' (so that slot
+ * order is not ID order and the list must be sorted), then after removals and additions that
+ * reuse freed slots; object and leaf IDs (a shallow tree, several objects per leaf). */
 static void test_drawlist_counts(void **state)
 {
     (void)state;
@@ -749,7 +751,7 @@ static void test_drawlist_counts(void **state)
         for (uint32_t i = 0; i < 40; ++i) {
             float lo[3] = {(float)(vt_rand(&rng) % 150u), (float)(vt_rand(&rng) % 24u), (float)(vt_rand(&rng) % 150u)};
             float hi[3] = {lo[0] + 2.0f, lo[1] + 3.0f, lo[2] + 2.0f};
-            tobj *o = add_obj(&w, 1u + 500u * (uint32_t)round + 11u * i); /* below every ID added before */
+            tobj *o = add_obj(&w, 1u + 500u * (uint32_t)round + 11u * i); /* an ID not used before */
             obj_box(o, lo, hi);
             set_obj(scene, o);
         }
