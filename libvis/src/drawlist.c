@@ -57,15 +57,14 @@ size_t vis_drawlist_bound(const vis_scene *scene)
     return n;
 }
 
-/* Words of the bitset of slots seen. */
+/* The scratch: a count per object slot, then (at an 8-byte boundary, in 32-bit words from
+ * its start) the bitset of slots seen, of seen_words 64-bit words, then the leaves' counts. */
+static size_t seen_at(const vis_scene *s) { return (size_t)s->object_slots + (s->object_slots & 1u); }
 static size_t seen_words(const vis_scene *s) { return ((size_t)s->object_slots + 63u) / 64u; }
 
 size_t vis_drawlist_scratch_bytes(const vis_scene *s, vis_id_mode mode)
 {
-    /* Per object slot its pixel count; a bit per slot, set when it is seen; per leaf its
-     * pixel count (leaf IDs). */
-    size_t words = (size_t)s->object_slots + (s->object_slots & 1u) + 2u * seen_words(s) +
-                   (mode == VIS_IDS_LEAF ? (size_t)s->leaf_count + 1 : 0);
+    size_t words = seen_at(s) + 2u * seen_words(s) + (mode == VIS_IDS_LEAF ? (size_t)s->leaf_count + 1 : 0);
     return (words ? words : 1u) * sizeof(uint32_t);
 }
 
@@ -135,7 +134,7 @@ vis_status vis_drawlist_from_ids(vis_context *ctx, const vis_scene *s, const uin
      * not depend on how large the caller's IDs are; the bitset of the slots seen keeps the
      * output from reading every count. */
     const size_t nw = seen_words(s);
-    uint64_t *seen = (uint64_t *)(count + s->object_slots + (s->object_slots & 1u)); /* 8-byte aligned */
+    uint64_t *seen = (uint64_t *)(count + seen_at(s)); /* 8-byte aligned: count is */
     memset(count, 0, (size_t)s->object_slots * sizeof *count);
     memset(seen, 0, nw * sizeof *seen);
     size_t m = 0;

@@ -405,6 +405,14 @@ static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
     return i;
 }
 
+/* The coordinates of map cell i (x fastest). */
+static void cell_coords(const vis_scene *s, uint32_t i, int64_t c[3])
+{
+    c[0] = i % s->cells[0];
+    c[1] = i / s->cells[0] % s->cells[1];
+    c[2] = i / s->cells[0] / s->cells[1];
+}
+
 /* Widens the box of changed map entries (s->dirty_map_lo/hi) over cells lo..hi. */
 static void widen_dirty_map(vis_scene *s, const uint32_t lo[3], const uint32_t hi[3])
 {
@@ -445,7 +453,8 @@ void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
         widen_dirty_map(s, first, last);
         return;
     }
-    const int64_t c[3] = {i % s->cells[0], i / s->cells[0] % s->cells[1], i / s->cells[0] / s->cells[1]};
+    int64_t c[3];
+    cell_coords(s, i, c);
     int64_t lo[3], hi[3];
     int64_t r = 0;
     for (; r < (int64_t)VIS_CELL_CLEAR_MAX; ++r) {
@@ -529,7 +538,8 @@ void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li)
     uint32_t ci = leaf_cell_index(s, li);
     if (ci >= s->leaf_count)
         return; /* cannot happen (see leaf_cell_index); the clearances only stay lower */
-    const int64_t c[3] = {ci % s->cells[0], ci / s->cells[0] % s->cells[1], ci / s->cells[0] / s->cells[1]};
+    int64_t c[3];
+    cell_coords(s, ci, c);
     /* The region (lo, m: its corner and size in the map), and in its own coordinates the
      * box of cells whose clearance can change (ilo..ihi) and the whole region (0..m - 1). */
     int64_t lo[3], m[3], ilo[3], ihi[3], all_lo[3] = {0, 0, 0}, all_hi[3];
@@ -561,7 +571,6 @@ void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li)
     clearance_pass(d[0], d[1], m, 2, ilo, ihi);
     /* Every cell within CLEAR_REACH of a changing cell is in the region (or outside the
      * map), so their values are exact. */
-    uint32_t bl[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX}, bh[3] = {0, 0, 0};
     for (int64_t z = ilo[2]; z <= ihi[2]; ++z)
         for (int64_t y = ilo[1]; y <= ihi[1]; ++y)
             for (int64_t x = ilo[0]; x <= ihi[0]; ++x) {
@@ -572,13 +581,8 @@ void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li)
                     continue;
                 *e = VIS_CELL_LEAF(*e) | v << VIS_CELL_LEAF_BITS;
                 const uint32_t p[3] = {(uint32_t)(lo[0] + x), (uint32_t)(lo[1] + y), (uint32_t)(lo[2] + z)};
-                for (int a = 0; a < 3; ++a) {
-                    bl[a] = p[a] < bl[a] ? p[a] : bl[a];
-                    bh[a] = p[a] > bh[a] ? p[a] : bh[a];
-                }
+                widen_dirty_map(s, p, p);
             }
-    if (bl[0] != UINT32_MAX)
-        widen_dirty_map(s, bl, bh);
 }
 
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)
