@@ -1336,6 +1336,84 @@ static void aim_cameras(vis_context *ctx, const voxel_world *vw, uint64_t *rng, 
     free(cams), free(ids), free(pk_ids), free(depth), free(pk_depth), free(dd_ids), free(dd_depth);
 }
 
+/* A batch is one pool run over the tiles of all its views (cpu_backend.c): each view of a
+ * batch equals its own vis_trace, IDs and depths, for views of different fields of view in
+ * one batch (so different packet sizes: 16x16 at 5 degrees, 4x4 on the 90-degree faces a
+ * server traces all around) at a size that is no multiple of a tile, for every method, on the
+ * pool's two threads and on a caller's job system. */
+static void run_jobs_in_reverse(uint32_t count, void (*job)(uint32_t, void *), void *arg, void *user)
+{
+    (void)user;
+    for (uint32_t i = count; i-- > 0;)
+        job(i, arg);
+}
+
+static void test_batch_equals_single_passes(void **state)
+{
+    (void)state;
+    vis_context *pool_ctx = make_cpu_ctx(2);
+    vis_context_desc cd;
+    vis_context_desc_defaults(&cd);
+    cd.threads = 0;
+    cd.parallel_for = run_jobs_in_reverse;
+    vis_context *hook_ctx = NULL;
+    assert_int_equal(vis_context_create(&cd, &hook_ctx), VIS_OK);
+    enum { W = 40, H = 36, PX = W * H, N = 8 };
+    vis_camera cams[N];
+    static const double dirs[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    static const vis_traversal methods[] = {VIS_TRAVERSAL_AUTO, VIS_TRAVERSAL_STACK, VIS_TRAVERSAL_DDA,
+                                            VIS_TRAVERSAL_ROPES};
+    uint32_t *ids = malloc(N * PX * sizeof *ids), *one = malloc(PX * sizeof *one);
+    float *depth = malloc(N * PX * sizeof *depth), *one_depth = malloc(PX * sizeof *one_depth);
+    assert_non_null(ids), assert_non_null(one), assert_non_null(depth), assert_non_null(one_depth);
+    for (int c = 0; c < 2; ++c) {
+        vis_context *ctx = c == 0 ? pool_ctx : hook_ctx;
+        voxel_world vw;
+        voxel_world_open(&vw, ctx, "gen:city:size=64x48x64:seed=2");
+        vis_scene_info info;
+        vis_scene_get_info(vw.scene, &info);
+        const double eye[3] = {info.origin[0] + 30.5, info.origin[1] + 9.25, info.origin[2] + 33.75};
+        for (int i = 0; i < N; ++i) {
+            memset(&cams[i], 0, sizeof cams[i]);
+            memcpy(cams[i].eye, eye, sizeof eye);
+            const double *d = dirs[i % 6];
+            for (int a = 0; a < 3; ++a)
+                cams[i].target[a] = eye[a] + d[a] + (d[1] != 0 && a == 2 ? 1e-3 : 0.0); /* up is +y */
+            cams[i].fovy_deg = i < 6 ? 90.0 : 5.0;
+        }
+        cams[7].target[1] = eye[1] - 0.3; /* the narrow view looks down a street */
+        uint32_t hits = 0;
+        for (size_t m = 0; m < sizeof methods / sizeof methods[0]; ++m) {
+            vis_trace_desc td;
+            vis_trace_desc_defaults(&td);
+            td.width = W, td.height = H;
+            td.traversal = methods[m];
+            assert_int_equal(vis_trace_batch(ctx, vw.scene, cams, N, &td, ids, N * PX, depth, N * PX), VIS_OK);
+            for (int i = 0; i < N; ++i) {
+                assert_int_equal(vis_trace(ctx, vw.scene, &cams[i], &td, one, PX, one_depth, PX), VIS_OK);
+                for (uint32_t k = 0; k < PX; ++k) {
+                    hits += one[k] != 0;
+                    if (one[k] != ids[i * PX + k] || memcmp(&one_depth[k], &depth[i * PX + k], sizeof *depth) != 0)
+                        fail_msg("%s, method %d, view %d, pixel (%u,%u): batch id %u t %.9g, alone id %u t %.9g",
+                                 c ? "job system" : "pool", (int)methods[m], i, k % W, k / W, ids[i * PX + k],
+                                 (double)depth[i * PX + k], one[k], (double)one_depth[k]);
+                }
+            }
+            /* Without depth, the same IDs. */
+            uint32_t *again = malloc(N * PX * sizeof *again);
+            assert_non_null(again);
+            assert_int_equal(vis_trace_batch(ctx, vw.scene, cams, N, &td, again, N * PX, NULL, 0), VIS_OK);
+            assert_memory_equal(again, ids, N * PX * sizeof *ids);
+            free(again);
+        }
+        assert_true(hits > (uint32_t)(sizeof methods / sizeof methods[0]) * N * PX / 4); /* the views see the city */
+        voxel_world_close(&vw);
+    }
+    free(ids), free(one), free(depth), free(one_depth);
+    vis_context_destroy(hook_ctx);
+    vis_context_destroy(pool_ctx);
+}
+
 /* 10^6 rays (5 x 10^4 under VIS_TEST_SCALE=small) aimed at edges and corners of two generated
  * worlds, half built in float and traced per ray, half from cameras traced by the stack method
  * and by packets: no slip (the library seeing farther than the reference's first hit by more
@@ -1461,6 +1539,7 @@ int main(void)
         cmocka_unit_test(test_trace_drawlist),
         cmocka_unit_test(test_bad_input_rejected),
         cmocka_unit_test(test_output_capacity),
+        cmocka_unit_test(test_batch_equals_single_passes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,7 +1,9 @@
 /* cpu_backend.c — the ray pass on CPU threads. Rays go in square tiles (Chang & Ihm 2010
  * use square thread tiles for coherence: neighbouring rays touch the same nodes and leaves),
  * 8x8 for the per-ray methods and VIS_PACKET_SIDE for packets, handed out dynamically by the
- * pool. The scene arrays are the host's own; a sync
+ * pool. A batch of views is one pool run over the tiles of all of them, so that the threads
+ * share out a batch of small passes (a server's 32x32 faces: four tiles each) as they do one
+ * large pass, woken once. The scene arrays are the host's own; a sync
  * only refreshes the subtree occupancy flags the packet method skips empty space with.
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
@@ -30,35 +32,40 @@ typedef struct cpu_backend {
 typedef struct cpu_job {
     const vis_scene_view *view;
     const uint8_t *occupied;
-    const vis_ray_setup *setup;
-    uint32_t *ids;
+    const vis_ray_setup *setup; /* `views` setups of one size and method (a batch), or one */
+    uint32_t views;
+    uint32_t *ids;              /* view i's pixels at + i * width * height, depth likewise */
     float *depth;
-    uint32_t side, tiles_x; /* tile edge in pixels, tiles per row */
-    uint32_t packet_side;   /* packets: vis_packet_side */
+    uint32_t side, tiles_x, tiles; /* tile edge in pixels, tiles per row, tiles per view */
     uint32_t *cost;         /* packets: per-pixel traversal cost, or NULL */
     const vis_effect_setup *effects; /* an effects pass, or NULL */
     const vis_effect_outputs *effect_out;
     atomic_ullong secondary; /* secondary rays cast by the effects pass */
 } cpu_job;
 
-static void trace_tile(void *user, uint32_t tile)
+static void trace_tile(void *user, uint32_t item)
 {
     const cpu_job *job = user;
     const vis_scene_view v = *job->view; /* a local copy: its arrays stay in registers */
-    const vis_ray_setup *s = job->setup;
+    const uint32_t view = item / job->tiles, tile = item % job->tiles;
+    const vis_ray_setup *s = &job->setup[view];
+    const size_t first = (size_t)view * s->width * s->height; /* the view's first pixel */
+    uint32_t *ids = job->ids + first;
+    float *depth = job->depth ? job->depth + first : NULL;
     uint32_t x0 = (tile % job->tiles_x) * job->side, y0 = (tile / job->tiles_x) * job->side;
     if (job->effects) {
         uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
         uint32_t y1 = y0 + job->side < s->height ? y0 + job->side : s->height;
         uint64_t n = s->traversal == VIS_TRAVERSAL_ID_PACKET
                          ? vis_cpu_effects_packet_tile(&v, job->occupied, s, job->effects, job->effect_out,
-                                                       job->packet_side, x0, y0)
+                                                       vis_packet_side(s), x0, y0)
                          : vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
         atomic_fetch_add_explicit((atomic_ullong *)&job->secondary, (unsigned long long)n, memory_order_relaxed);
         return;
     }
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
-        vis_packet_trace_tile(s, &v, job->occupied, job->packet_side, x0, y0, job->ids, job->depth, job->cost);
+        /* Per tile: the views of a batch may differ in field of view, so in packet size. */
+        vis_packet_trace_tile(s, &v, job->occupied, vis_packet_side(s), x0, y0, ids, depth, job->cost);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -69,9 +76,9 @@ static void trace_tile(void *user, uint32_t tile)
             float t;
             vis_trace_pixel(s, x, y, VIS_SCENE_VIEW_ARGS(&v), &id, &t);
             size_t i = (size_t)y * s->width + x;
-            job->ids[i] = id;
-            if (job->depth)
-                job->depth[i] = t;
+            ids[i] = id;
+            if (depth)
+                depth[i] = t;
         }
 }
 
@@ -119,27 +126,33 @@ static void cpu_scene_release(void *impl, void *scene_data)
     vis_host_free(&b->alloc, occ);
 }
 
-static void run_job(cpu_backend *b, cpu_job *job);
-
-static vis_status run_pass(cpu_backend *b, const vis_occupancy *occ, const vis_scene_view *view,
-                           const vis_ray_setup *setup, uint32_t *ids, float *depth, uint32_t *cost)
+/* A job over `views` passes of setup's size and method: its tiles, the first view's first. */
+static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_view *view, const vis_ray_setup *setup,
+                     uint32_t views, uint32_t *ids, float *depth)
 {
     uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
-    cpu_job job = {view, occ->occupied, setup, ids, depth, side, (setup->width + side - 1) / side,
-                   setup->traversal == VIS_TRAVERSAL_ID_PACKET ? vis_packet_side(setup) : 0u, cost, NULL, NULL, 0};
-    run_job(b, &job);
-    return VIS_OK;
+    memset(job, 0, sizeof *job);
+    job->view = view;
+    job->occupied = occ->occupied;
+    job->setup = setup;
+    job->views = views;
+    job->ids = ids;
+    job->depth = depth;
+    job->side = side;
+    job->tiles_x = (setup->width + side - 1) / side;
+    job->tiles = job->tiles_x * ((setup->height + side - 1) / side);
+    atomic_init(&job->secondary, 0u);
 }
 
+/* The job's tiles on the caller's job system or the pool. A batch's tile count is at most
+ * 2^32 - 1: cpu_trace_batch refuses more. */
 static void run_job(cpu_backend *b, cpu_job *job)
 {
-    const vis_ray_setup *setup = job->setup;
-    uint32_t side = job->side;
-    uint32_t tiles = job->tiles_x * ((setup->height + side - 1) / side);
+    uint32_t items = job->views * job->tiles;
     if (b->parallel_for)
-        b->parallel_for(tiles, trace_tile_job, job, b->parallel_for_user);
+        b->parallel_for(items, trace_tile_job, job, b->parallel_for_user);
     else
-        vis_pool_run(b->pool, tiles, trace_tile, job);
+        vis_pool_run(b->pool, items, trace_tile, job);
 }
 
 static vis_status cpu_trace_effects(void *impl, void *scene_data, const vis_scene_view *view,
@@ -147,11 +160,10 @@ static vis_status cpu_trace_effects(void *impl, void *scene_data, const vis_scen
                                     const vis_effect_outputs *out, char *err, size_t err_size)
 {
     (void)err, (void)err_size;
-    const vis_occupancy *occ = scene_data;
-    int packets = setup->traversal == VIS_TRAVERSAL_ID_PACKET;
-    uint32_t side = packets ? VIS_PACKET_SIDE : TILE;
-    cpu_job job = {view, occ->occupied, setup, out->ids, out->depth, side, (setup->width + side - 1) / side,
-                   packets ? vis_packet_side(setup) : 0u, NULL, effects, out, 0};
+    cpu_job job;
+    init_job(&job, scene_data, view, setup, 1, out->ids, out->depth);
+    job.effects = effects;
+    job.effect_out = out;
     run_job(impl, &job);
     if (out->secondary_rays)
         *out->secondary_rays = atomic_load(&job.secondary);
@@ -162,7 +174,24 @@ static vis_status cpu_trace(void *impl, void *scene_data, const vis_scene_view *
                             uint32_t *ids, float *depth, char *err, size_t err_size)
 {
     (void)err, (void)err_size;
-    return run_pass(impl, scene_data, view, setup, ids, depth, NULL);
+    cpu_job job;
+    init_job(&job, scene_data, view, setup, 1, ids, depth);
+    run_job(impl, &job);
+    return VIS_OK;
+}
+
+static vis_status cpu_trace_batch(void *impl, void *scene_data, const vis_scene_view *view,
+                                  const vis_ray_setup *setups, uint32_t count, uint32_t *ids, float *depth, char *err,
+                                  size_t err_size)
+{
+    cpu_job job;
+    init_job(&job, scene_data, view, setups, count, ids, depth);
+    if ((uint64_t)job.tiles * count > UINT32_MAX) {
+        snprintf(err, err_size, "a batch of %u views of %u tiles is over 2^32 tiles", count, job.tiles);
+        return VIS_ERROR_INVALID_ARGUMENT;
+    }
+    run_job(impl, &job);
+    return VIS_OK;
 }
 
 static vis_status cpu_trace_cost(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
@@ -172,7 +201,11 @@ static vis_status cpu_trace_cost(void *impl, void *scene_data, const vis_scene_v
         snprintf(err, err_size, "traversal cost is counted by the packet method only");
         return VIS_ERROR_UNSUPPORTED;
     }
-    return run_pass(impl, scene_data, view, setup, ids, NULL, cost);
+    cpu_job job;
+    init_job(&job, scene_data, view, setup, 1, ids, NULL);
+    job.cost = cost;
+    run_job(impl, &job);
+    return VIS_OK;
 }
 
 void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn parallel_for, void *user)
@@ -190,7 +223,7 @@ static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
 
 static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_scene_release, cpu_trace,
                                         cpu_trace_cost, cpu_last_upload_bytes,
-                                        NULL /* trace_batch: libvis loops */,
+                                        cpu_trace_batch,
                                         NULL /* last_kernel_ms: libvis times the pass */,
                                         NULL /* trace_drawlist: libvis builds lists from the IDs */,
                                         cpu_trace_effects};
