@@ -72,7 +72,7 @@ test-asan: deps
 # parallel_for hook; test_generators and test_mesher: worlds generated and chunks meshed on
 # 1-7 threads). The rest of the suite is single-threaded and would only add minutes.
 # No target_clones there: their ifunc resolvers run before TSan's runtime is up and crash.
-TSAN_TESTS ?= threads generators mesher
+TSAN_TESTS ?= threads generators mesher query
 test-tsan: deps
 	cmake -S . -B $(BUILD_TSAN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="-fsanitize=thread -DVIS_NO_TARGET_CLONES" \
 	  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread" \

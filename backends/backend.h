@@ -209,6 +209,12 @@ vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, 
  * it with threads = 1 so that the pool starts no thread). */
 void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn parallel_for, void *user);
 
+/* Runs job(i, arg) for i in [0, count) on the CPU backend's threads (its pool, or the job
+ * system set above), the caller included; returns when all are done. Not during a pass of
+ * the same backend: one run at a time. */
+void vis_cpu_backend_parallel_for(vis_backend *backend, uint32_t count, void (*job)(uint32_t index, void *arg),
+                                  void *arg);
+
 /* OpenCL backend (only when built with VIS_HAVE_OPENCL). selector: NULL, an index or a
  * name substring. gpu_only (AUTO, nothing named): a GPU or nothing, without starting CPU-only
  * implementations such as PoCL (backends/opencl/cl_loader.c). The ICD loader is opened at

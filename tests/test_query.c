@@ -687,6 +687,12 @@ static void test_threads_deterministic(void **state)
         assert_int_equal(s1.chunk_rays, s2.chunk_rays);
         assert_int_equal(s1.chunk_edit_passes, s2.chunk_edit_passes);
     }
+    /* The viewers on a pool of the query's own (3 threads beside the context's 2) rather than
+     * on the context's CPU threads: the same lists. */
+    size_t n3 = run_ticks_on(make_cpu_ctx(2), 3, &d, b, CAP, &s2);
+    assert_int_equal(n1, n3);
+    assert_memory_equal(a, b, n1 * 4);
+    assert_int_equal(s1.entity_rays, s2.entity_rays);
     assert_true(s1.chunk_edit_passes > 0 && s1.chunk_edit_passes < 2 * 12); /* edits retraced some viewers */
     /* Unsettled pairs waiting (a pair limit too small to settle many): the same lists. */
     d.pair_ray_limit = 3;

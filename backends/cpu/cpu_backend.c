@@ -215,6 +215,29 @@ void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn 
     b->parallel_for_user = user;
 }
 
+typedef struct pool_call {
+    void (*job)(uint32_t index, void *arg);
+    void *arg;
+} pool_call;
+
+static void pool_call_item(void *user, uint32_t index)
+{
+    const pool_call *c = user;
+    c->job(index, c->arg);
+}
+
+void vis_cpu_backend_parallel_for(vis_backend *backend, uint32_t count, void (*job)(uint32_t index, void *arg),
+                                  void *arg)
+{
+    cpu_backend *b = backend->impl;
+    if (b->parallel_for) {
+        b->parallel_for(count, job, arg, b->parallel_for_user);
+        return;
+    }
+    pool_call c = {job, arg};
+    vis_pool_run(b->pool, count, pool_call_item, &c);
+}
+
 static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
 {
     (void)impl, (void)scene_data;

@@ -1,9 +1,31 @@
 /* threadpool.c — persistent workers woken per pass; items handed out by an atomic counter
- * so that fast threads take more tiles (dynamic load balance, no per-pass allocation). */
+ * so that fast threads take more tiles (dynamic load balance, no per-pass allocation).
+ *
+ * Waiting spins for a short while before it sleeps, on both sides: a worker that has just
+ * finished a run, and the caller waiting for the workers to finish. A sleeping thread is woken
+ * through the kernel, and on a virtual machine whose idle virtual CPU has halted that took
+ * 60-90 us per run here (docs/performance.md, "Waking the pool") -- more than a server tick's
+ * small passes take. A pass that follows within the spin finds its workers awake; one that
+ * does not costs each worker SPIN_NS of CPU time after the last pass, then nothing. */
+#if !defined(_POSIX_C_SOURCE) || _POSIX_C_SOURCE < 199309L
+#undef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 199309L /* clock_gettime */
+#endif
 #include "threadpool.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
+#include <time.h>
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define CPU_RELAX() _mm_pause()
+#else
+#define CPU_RELAX() ((void)0)
+#endif
+
+#ifndef SPIN_NS
+#define SPIN_NS 100000 /* how long a waiting thread spins before it sleeps */
+#endif
 
 struct vis_pool {
     const vis_allocator *alloc;
@@ -11,9 +33,9 @@ struct vis_pool {
     pthread_t *workers;
     pthread_mutex_t lock;
     pthread_cond_t wake, done;
-    uint64_t generation; /* bumped per run; workers wait for a new one */
+    atomic_ullong generation; /* bumped per run (under lock); workers wait for a new one */
     int quit;
-    uint32_t running;    /* workers still inside the current run */
+    atomic_uint running;      /* workers still inside the current run (changed under lock) */
     /* current job */
     vis_pool_item_fn fn;
     void *user;
@@ -31,22 +53,45 @@ static void drain(vis_pool *p)
     }
 }
 
+static uint64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
+}
+
+/* Spins until *word != value or SPIN_NS have passed; returns whether it changed. */
+static int spin_while_equal(atomic_ullong *word, unsigned long long value)
+{
+    uint64_t start = now_ns();
+    for (uint32_t i = 1;; ++i) {
+        if (atomic_load_explicit(word, memory_order_acquire) != value)
+            return 1;
+        CPU_RELAX();
+        if (i % 64u == 0 && now_ns() - start > SPIN_NS)
+            return 0;
+    }
+}
+
 static void *worker_main(void *arg)
 {
     vis_pool *p = arg;
-    uint64_t seen = 0;
-    pthread_mutex_lock(&p->lock);
+    unsigned long long seen = 0;
     for (;;) {
-        while (!p->quit && p->generation == seen)
+        /* The next run is usually near: spin, then sleep until it comes. */
+        spin_while_equal(&p->generation, seen);
+        pthread_mutex_lock(&p->lock);
+        while (!p->quit && atomic_load(&p->generation) == seen)
             pthread_cond_wait(&p->wake, &p->lock);
         if (p->quit)
             break;
-        seen = p->generation;
+        seen = atomic_load(&p->generation);
         pthread_mutex_unlock(&p->lock);
         drain(p);
         pthread_mutex_lock(&p->lock);
-        if (--p->running == 0)
+        if (atomic_fetch_sub(&p->running, 1u) == 1u)
             pthread_cond_signal(&p->done);
+        pthread_mutex_unlock(&p->lock);
     }
     pthread_mutex_unlock(&p->lock);
     return NULL;
@@ -62,6 +107,8 @@ vis_status vis_pool_create(uint32_t threads, const vis_allocator *alloc, vis_poo
     p->alloc = alloc;
     p->threads = threads;
     atomic_init(&p->next, 0u);
+    atomic_init(&p->generation, 0u);
+    atomic_init(&p->running, 0u);
     if (pthread_mutex_init(&p->lock, NULL) != 0) {
         vis_host_free(alloc, p);
         return VIS_ERROR_BACKEND;
@@ -119,13 +166,20 @@ void vis_pool_run(vis_pool *p, uint32_t count, vis_pool_item_fn fn, void *user)
     p->user = user;
     p->count = count;
     atomic_store_explicit(&p->next, 0u, memory_order_relaxed);
-    p->running = p->threads - 1;
-    ++p->generation;
+    atomic_store(&p->running, p->threads - 1);
+    atomic_fetch_add(&p->generation, 1u); /* after the job: a spinning worker reads it then */
     pthread_cond_broadcast(&p->wake);
     pthread_mutex_unlock(&p->lock);
     drain(p);
+    /* The workers finish their last items about when the caller does: spin, then sleep. */
+    uint64_t start = now_ns();
+    for (uint32_t i = 1; atomic_load_explicit(&p->running, memory_order_acquire) != 0u; ++i) {
+        CPU_RELAX();
+        if (i % 64u == 0 && now_ns() - start > SPIN_NS)
+            break;
+    }
     pthread_mutex_lock(&p->lock);
-    while (p->running)
+    while (atomic_load(&p->running) != 0u)
         pthread_cond_wait(&p->done, &p->lock);
     pthread_mutex_unlock(&p->lock);
 }

@@ -246,7 +246,9 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
                             (unsigned long long)total);
         }
     }
-    /* Threads: the query's own pool, or the context's job system. */
+    /* Threads: the context's job system, the CPU backend's threads when the count is theirs
+     * (one set of workers: a second pool's threads would compete with the first's for the
+     * cores, docs/server.md "One set of threads"), or the query's own pool. */
     uint32_t threads = d.threads;
     if (threads == 0 && ctx->desc.parallel_for) {
         q->parallel_for = ctx->desc.parallel_for;
@@ -254,7 +256,9 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
     } else {
         if (threads == 0)
             threads = ctx->info.threads ? ctx->info.threads : 1u;
-        if (threads > 1 && vis_pool_create(threads, &ctx->alloc, &q->pool) != VIS_OK) {
+        if (threads > 1 && ctx->info.kind == VIS_BACKEND_CPU && threads == ctx->info.threads)
+            q->cpu_threads = 1;
+        else if (threads > 1 && vis_pool_create(threads, &ctx->alloc, &q->pool) != VIS_OK) {
             query_free(q);
             return vis_fail(ctx, VIS_ERROR_BACKEND, "vis_query_create: could not start %u threads", threads);
         }
@@ -743,6 +747,8 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
     q->view = vis_scene_get_view(q->scene);
     if (q->parallel_for && nv > 1)
         q->parallel_for(nv, viewer_item_pf, q, q->parallel_for_user);
+    else if (q->cpu_threads && nv > 1)
+        vis_cpu_backend_parallel_for(&q->ctx->backend, nv, viewer_item_pf, q);
     else if (q->pool && nv > 1)
         vis_pool_run(q->pool, nv, viewer_item, q);
     else

@@ -45,7 +45,8 @@ struct vis_query {
     vis_context *ctx;
     vis_scene *scene;
     vis_query_desc desc;      /* defaults filled in                                         */
-    vis_pool *pool;           /* NULL: serial or the context's parallel_for                 */
+    vis_pool *pool;           /* NULL: serial, the context's parallel_for or its CPU threads */
+    int cpu_threads;          /* the viewers run on the CPU backend's own threads           */
     vis_parallel_for_fn parallel_for;
     void *parallel_for_user;
     uint64_t tick;

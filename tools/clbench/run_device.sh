@@ -12,6 +12,11 @@
 #                        server's chunk passes on the GPU, dda (AUTO) against stack (needs vis
 #                        built with Jansson and replays/NAME32.jsonl from
 #                        `vis query --simulate 32 --ticks 256 --scene gen:NAME --seed 1`)
+#   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
+#                        shape and register cap for batches"): the dda batches of 256 with
+#                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
+#                        64, alternated, two rounds, on gen:default and gen:large; then the
+#                        32-player replays on both backends (replays/ as for 3)
 cd "$(dirname "$0")"
 mkdir -p /etc/OpenCL/vendors && echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd
 export LD_LIBRARY_PATH=$PWD/lib:$LD_LIBRARY_PATH
@@ -88,5 +93,20 @@ if [ "$PHASE" = 3 ]; then
       echo "$s: the same lists with both methods" || echo "$s: THE LISTS DIFFER"
   done
   rm -f "$O"/q_*.jsonl
+fi
+if [ "$PHASE" = 4 ]; then
+  echo "== test_opencl"
+  timeout 150 ./test_opencl > "$O/test_gpu.log" 2>&1; echo "test_opencl rc=$?"
+  grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu.log"
+  for s in gen:default gen:large; do for round in 1 2; do for T in 8x8 8x4; do for R in 72 64; do
+    echo "$s batch 256, tile $T, maxrregcount $R, round $round: $(VIS_OPENCL_TILE=$T \
+      VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=$R timeout 60 ./vis_clbench --scene $s --device NVIDIA \
+      --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done; done; done; done
+  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  for round in 1 2; do for s in city default maze; do for b in opencl cpu; do
+    echo "query $s --backend $b round $round: $(./vis query --scene gen:$s --replay replays/${s}32.jsonl \
+      --threads 2 --backend $b --json 2>&1 | grep -o '"ms_per_tick":{[^}]*}')"
+  done; done; done
 fi
 date -u

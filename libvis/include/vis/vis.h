@@ -43,7 +43,10 @@
  *    backend and allocator, on the destroying thread: a context that traces scenes of
  *    other contexts needs an allocator that may be called from their threads (malloc may).
  *  - The CPU backend runs its pool's worker threads (or desc.parallel_for) inside the trace
- *    calls; the pool's workers live as long as the context and sleep between passes.
+ *    calls; the pool's workers live as long as the context. After a pass each worker spins
+ *    for up to 0.1 ms, so that a pass following soon finds it awake, then sleeps until the
+ *    next pass. A query (vis_query) whose thread count is the context's runs its viewers on
+ *    these same workers.
  *
  * Environment: the library reads these variables, and no others (docs/opencl.md has the
  * details); none is read by a CPU-only context:
@@ -878,7 +881,9 @@ typedef struct vis_query_desc {
                                   (hills, docs/server.md); sends a few more pairs            */
     uint32_t threads;          /* viewers run in parallel on this many threads (the caller
                                   included); 0 = the context's CPU thread count (its
-                                  parallel_for when it has one), 1 = the calling thread      */
+                                  parallel_for when it has one), 1 = the calling thread. On a
+                                  CPU context, the context's count runs them on its workers;
+                                  another count starts the query's own                       */
 } vis_query_desc;
 
 VIS_API void vis_query_desc_defaults(vis_query_desc *desc);
