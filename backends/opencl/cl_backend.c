@@ -191,10 +191,10 @@ int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first)
 }
 
 cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel k, cl_uint pt_arg, uint32_t width,
-                           uint32_t height, uint32_t views, cl_event *ev)
+                           uint32_t height, uint32_t views, int batch, cl_event *ev)
 {
     size_t global[3], local[3];
-    vis_cl_grid(b, width, height, views, global, local);
+    vis_cl_grid(b, width, height, views, batch, global, local);
     if (!p->persistent)
         return clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, local, 0, NULL, ev);
     /* Persistent threads: as many groups as the device could hold at once if registers
@@ -222,13 +222,14 @@ cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel
 }
 
 /* Launches `k` of `p` over width x height x views (vis_cl_enqueue_pass; pt_arg: where a
- * persistent kernel takes its counter) and reads the outputs back into ids/depth (views *
- * width * height each). Adds the kernel's device time to last_kernel_ms. */
+ * persistent kernel takes its counter; batch: in a batch's tiles) and reads the outputs back
+ * into ids/depth (views * width * height each). Adds the kernel's device time to
+ * last_kernel_ms. */
 static int launch(vis_cl_backend *b, const vis_cl_program *p, cl_kernel k, cl_uint pt_arg, uint32_t width,
-                  uint32_t height, uint32_t views, uint32_t *ids, float *depth, char *err, size_t err_size)
+                  uint32_t height, uint32_t views, int batch, uint32_t *ids, float *depth, char *err, size_t err_size)
 {
     cl_event ev = NULL;
-    cl_int e = vis_cl_enqueue_pass(b, p, k, pt_arg, width, height, views, &ev);
+    cl_int e = vis_cl_enqueue_pass(b, p, k, pt_arg, width, height, views, batch, &ev);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clEnqueueNDRangeKernel", err, err_size);
     size_t n = (size_t)width * height * views;
@@ -257,12 +258,12 @@ void vis_cl_add_event_time(vis_cl_backend *b, cl_event ev)
 
 /* Whole tiles where the device runs them; otherwise one work-item per group (the draw-list
  * kernel sizes its local memory from the group, so the runtime may not pick the size). */
-int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, size_t global[3],
-                size_t local[3])
+void vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, int batch,
+                 size_t global[3], size_t local[3])
 {
-    size_t tx = b->tile[0], ty = b->tile[1];
-    int tiled = b->caps.max_wg >= tx * ty && b->caps.max_item[0] >= tx && b->caps.max_item[1] >= ty;
-    if (!tiled)
+    const size_t *shape = batch ? b->batch_tile : b->tile;
+    size_t tx = shape[0], ty = shape[1];
+    if (!(b->caps.max_wg >= tx * ty && b->caps.max_item[0] >= tx && b->caps.max_item[1] >= ty))
         tx = ty = 1;
     local[0] = tx;
     local[1] = ty;
@@ -270,14 +271,13 @@ int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32
     global[0] = (width + tx - 1) / tx * tx;
     global[1] = (height + ty - 1) / ty * ty;
     global[2] = views;
-    return tiled;
 }
 
-size_t vis_cl_ring_bytes(const vis_cl_backend *b, const vis_ray_setup *setup, int tiled)
+size_t vis_cl_ring_bytes(const vis_ray_setup *setup, const size_t local[3])
 {
     if (setup->traversal == VIS_TRAVERSAL_ID_PACKET)
         return VIS_CL_TILE_LOCAL_BYTES; /* the group's flags and stack, once (kernels/tile.cl) */
-    size_t items = tiled ? b->tile[0] * b->tile[1] : 1u;
+    size_t items = local[0] * local[1];
     uint32_t n = setup->traversal == VIS_TRAVERSAL_ID_CACHED_STACK ? setup->short_stack : 1u;
     if (n < 1u)
         n = 1u;
@@ -425,11 +425,13 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->trace, 12, sizeof write_depth, &write_depth);
     size_t global[3], local[3];
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(p->trace, 13, vis_cl_ring_bytes(b, setup, vis_cl_grid(b, 1, 1, 1, global, local)), NULL);
+    if (e == CL_SUCCESS) {
+        vis_cl_grid(b, 1, 1, 1, 0, global, local);
+        e = clSetKernelArg(p->trace, 13, vis_cl_ring_bytes(setup, local), NULL);
+    }
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
-    return launch(b, p, p->trace, 14, setup->width, setup->height, 1, ids, depth, err, err_size);
+    return launch(b, p, p->trace, 14, setup->width, setup->height, 1, 0, ids, depth, err, err_size);
 }
 
 /* The program of a batch: its cameras' method when they share one, else the generic one;
@@ -484,9 +486,10 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
     if (e == CL_SUCCESS)
         e = clSetKernelArg(p->batch, 12, sizeof write_depth, &write_depth);
     size_t global[3], local[3];
-    if (e == CL_SUCCESS)
-        e = clSetKernelArg(p->batch, 13, vis_cl_ring_bytes(b, &setups[0], vis_cl_grid(b, 1, 1, 1, global, local)),
-                           NULL);
+    if (e == CL_SUCCESS) {
+        vis_cl_grid(b, 1, 1, 1, 1, global, local);
+        e = clSetKernelArg(p->batch, 13, vis_cl_ring_bytes(&setups[0], local), NULL);
+    }
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
     for (uint32_t first = 0; first < count; first += (uint32_t)per) {
@@ -495,7 +498,7 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
                                  NULL, NULL);
         if (e != CL_SUCCESS)
             return vis_cl_fail(e, "clEnqueueWriteBuffer (cameras)", err, err_size);
-        st = launch(b, p, p->batch, 14, W, H, n, ids + (size_t)first * pixels, depth ? depth + (size_t)first * pixels : NULL,
+        st = launch(b, p, p->batch, 14, W, H, n, 1, ids + (size_t)first * pixels, depth ? depth + (size_t)first * pixels : NULL,
                     err, err_size);
         if (st != VIS_OK)
             return st;
@@ -573,7 +576,7 @@ static vis_status cl_trace_effects(void *impl, void *scene_data, const vis_scene
         e = clSetKernelArg(k, 16, sizeof write_depth, &write_depth);
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg", err, err_size);
-    if ((st = launch(b, p, k, 17, setup->width, setup->height, 1, out->ids, out->depth, err, err_size)) != VIS_OK)
+    if ((st = launch(b, p, k, 17, setup->width, setup->height, 1, 0, out->ids, out->depth, err, err_size)) != VIS_OK)
         return st;
     /* launch has finished the queue: the effect buffers are complete. */
     if (out->see_through)
@@ -650,14 +653,18 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         cl_destroy(b);
         return st;
     }
-    /* Work-group shape: square 8x8 tiles unless $VIS_OPENCL_TILE=WxH says otherwise (a
-     * tuning knob; docs/opencl.md). Results never depend on it. */
+    /* Work-group shape: square 8x8 tiles for one view, 8x4 for batches (3 % faster on the
+     * lent H100 for batches of 256, the same for one view within 1 %: docs/opencl.md, "Work-
+     * group shape and register cap for batches"), unless $VIS_OPENCL_TILE=WxH says otherwise
+     * for both (a tuning knob). Results never depend on it. */
     b->tile[0] = b->tile[1] = TILE;
+    b->batch_tile[0] = TILE;
+    b->batch_tile[1] = TILE / 2;
     const char *tile = getenv("VIS_OPENCL_TILE");
     unsigned tw = 0, th = 0;
     if (tile && sscanf(tile, "%ux%u", &tw, &th) == 2 && tw >= 1 && th >= 1 && tw <= 1024 && th <= 1024) {
-        b->tile[0] = tw;
-        b->tile[1] = th;
+        b->tile[0] = b->batch_tile[0] = tw;
+        b->tile[1] = b->batch_tile[1] = th;
     }
     /* Extra build options (a tuning knob like the tile shape): register limits and the like.
      * Options that change results are refused, as cl_program.c never uses them: relaxed or

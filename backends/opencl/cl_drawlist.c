@@ -327,10 +327,11 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
         return st;
 
     size_t global[3], local[3];
-    int tiled = vis_cl_grid(b, W, H, per, global, local);
+    const int batch = count > 1; /* every launch of the call in the same groups */
+    vis_cl_grid(b, W, H, per, batch, global, local);
     cl_int e = set_args(b, p, sc, ids ? b->ids : b->dummy, depth ? b->depth : b->dummy, ids != NULL, depth != NULL,
                         (cl_uint)stride, (cl_uint)view->object_count, setups[0].id_mode,
-                        vis_cl_ring_bytes(b, &setups[0], tiled),
+                        vis_cl_ring_bytes(&setups[0], local),
                         local[0] * local[1] * sizeof(cl_uint));
     if (e != CL_SUCCESS)
         return vis_cl_fail(e, "clSetKernelArg (draw list)", err, err_size);
@@ -352,7 +353,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
             e = clSetKernelArg(p->block_count, 5, sizeof off, &off);
         cl_event ev[4] = {NULL, NULL, NULL, NULL};
         if (e == CL_SUCCESS)
-            e = vis_cl_enqueue_pass(b, p, p->drawlist, 19, W, H, n, &ev[0]);
+            e = vis_cl_enqueue_pass(b, p, p->drawlist, 19, W, H, n, batch, &ev[0]);
         size_t cl_local[2] = {pack_items(b), 1}, cg[2] = {blocks * pack_items(b), n}; /* (blocks, views) */
         if (e == CL_SUCCESS)
             e = clEnqueueNDRangeKernel(b->queue, p->block_count, 2, NULL, cg, cl_local, 0, NULL, &ev[3]);

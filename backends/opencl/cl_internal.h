@@ -177,7 +177,9 @@ typedef struct vis_cl_backend {
     /* Output buffers (grown on demand, never per frame once large enough). */
     cl_mem ids, depth, setups;
     cl_mem dummy;             /* 16 bytes: the depth argument when no depth is asked for */
-    size_t tile[2];           /* work-group shape (8x8 unless $VIS_OPENCL_TILE) */
+    size_t tile[2];           /* work-group shape of one view's pass (8x8 unless $VIS_OPENCL_TILE) */
+    size_t batch_tile[2];     /* and of a batch's (8x4 unless $VIS_OPENCL_TILE; docs/opencl.md,
+                                 "Work-group shape and register cap for batches") */
     char extra_options[256];  /* $VIS_OPENCL_BUILD_OPTIONS: appended to every build (tuning,
                                  e.g. -cl-nv-maxrregcount=64; never options that change results) */
     size_t out_cap;           /* pixels of `ids` */
@@ -285,11 +287,11 @@ const char *vis_cl_batch_register_cap(const char *platform, uint32_t traversal, 
  * and the device (caps.platform, caps.is_gpu, extra_options); makes the persistent kernels'
  * counter when a walk needs it (the only OpenCL call: none for "plain"). */
 int vis_cl_walk_options(vis_cl_backend *b, const char *walk, char *err, size_t err_size);
-/* Enqueues kernel k of program p over width x height x views (vis_cl_grid's tiles; a
- * persistent program gets about as many groups as the device runs at once and its counter and
- * view count as arguments pt_arg and pt_arg + 1). ev: the launch's event. */
+/* Enqueues kernel k of program p over width x height x views (vis_cl_grid's tiles, a batch's
+ * when `batch`; a persistent program gets about as many groups as the device runs at once and
+ * its counter and view count as arguments pt_arg and pt_arg + 1). ev: the launch's event. */
 cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel k, cl_uint pt_arg, uint32_t width,
-                           uint32_t height, uint32_t views, cl_event *ev);
+                           uint32_t height, uint32_t views, int batch, cl_event *ev);
 /* Grows a device buffer to `need` elements of `elem` bytes (never per frame once large). */
 int vis_cl_ensure_buffer(vis_cl_backend *b, cl_mem *mem, size_t *cap, size_t need, size_t elem, cl_mem_flags flags,
                          const char *what, char *err, size_t err_size);
@@ -298,13 +300,14 @@ int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first);
 /* The program for a batch of `count` >= 1 setups (cl_backend.c). */
 int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_t count, vis_cl_program **p,
                          char *err, size_t err_size);
-/* Global and local sizes of a pass over width x height x views in the backend's tiles
- * (local = 1x1 where the device cannot run a whole tile); returns whether it is tiled. */
-int vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, size_t global[3],
-                size_t local[3]);
-/* Bytes of the cached stack's local ring for a pass with this setup (at least one entry per
- * work-item: every kernel takes the argument). */
-size_t vis_cl_ring_bytes(const vis_cl_backend *b, const vis_ray_setup *setup, int tiled);
+/* Global and local sizes of a pass over width x height x views in the backend's tiles, a
+ * batch's when `batch` (every launch of one call takes the same: the kernels' local memory
+ * is sized from them), local = 1x1 where the device cannot run a whole tile. */
+void vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, int batch,
+                 size_t global[3], size_t local[3]);
+/* Bytes of the cached stack's local ring for a pass with this setup in groups of `local`
+ * (vis_cl_grid's; at least one entry per work-item: every kernel takes the argument). */
+size_t vis_cl_ring_bytes(const vis_ray_setup *setup, const size_t local[3]);
 /* Adds the device time of a finished event to b->last_kernel_ms. */
 void vis_cl_add_event_time(vis_cl_backend *b, cl_event ev);
 

@@ -54,8 +54,9 @@
  *    (same syntax); it also makes VIS_BACKEND_AUTO take that device whatever its kind.
  *  - VIS_OPENCL_LIBRARY: the OpenCL ICD loader to open (a path or soname) instead of
  *    libOpenCL.so.1 / libOpenCL.so.
- *  - VIS_OPENCL_TILE=WxH: the OpenCL work-group shape (default 8x8; each 1..1024), a tuning
- *    knob that never changes results; malformed values are ignored.
+ *  - VIS_OPENCL_TILE=WxH: the OpenCL work-group shape (default 8x8 for one view, 8x4 for a
+ *    batch; this sets both; each 1..1024), a tuning knob that never changes results;
+ *    malformed values are ignored.
  *  - VIS_OPENCL_BUILD_OPTIONS: options appended to every OpenCL program build (a tuning knob,
  *    e.g. a register limit); one that changes results (-cl-fast-relaxed-math, -cl-mad-enable,
  *    -cl-unsafe-math-optimizations, -cl-denorms-are-zero, -cl-finite-math-only), a macro
