@@ -4,9 +4,9 @@
  * Waiting spins for a short while before it sleeps, on both sides: a worker that has just
  * finished a run, and the caller waiting for the workers to finish. A sleeping thread is woken
  * through the kernel, and on a virtual machine whose idle virtual CPU has halted that took
- * 60-90 us per run here (docs/performance.md, "Waking the pool") -- more than a server tick's
- * small passes take. A pass that follows within the spin finds its workers awake; one that
- * does not costs each worker SPIN_NS of CPU time after the last pass, then nothing. */
+ * 80-100 us per run (docs/server.md, "One pool run per batch, one set of threads"), ten times
+ * the work of a run of small items. A run that follows within the spin finds its workers
+ * awake; one that does not costs each worker SPIN_NS of CPU time after the last run. */
 #if !defined(_POSIX_C_SOURCE) || _POSIX_C_SOURCE < 199309L
 #undef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
