@@ -104,9 +104,10 @@ if [ "$PHASE" = 4 ]; then
       --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
   done; done; done; done
   ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
-  for round in 1 2; do for s in city default maze; do for b in opencl cpu; do
-    echo "query $s --backend $b round $round: $(./vis query --scene gen:$s --replay replays/${s}32.jsonl \
-      --threads 2 --backend $b --json 2>&1 | grep -o '"ms_per_tick":{[^}]*}')"
+  for round in 1 2; do for s in city default maze; do for b in opencl cpu old-cpu; do
+    v=./vis; [ $b = old-cpu ] && { [ -x old/vis ] || continue; v=old/vis; } # old/: a parent's build
+    echo "query $s --backend $b round $round: $($v query --scene gen:$s --replay replays/${s}32.jsonl \
+      --threads 2 --backend ${b#old-} --json 2>&1 | grep -o '"ms_per_tick":{[^}]*}')"
   done; done; done
 fi
 date -u
