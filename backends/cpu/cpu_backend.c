@@ -126,7 +126,8 @@ static void cpu_scene_release(void *impl, void *scene_data)
     vis_host_free(&b->alloc, occ);
 }
 
-/* A job over `views` passes of setup's size and method: its tiles, the first view's first. */
+/* A job over the `views` passes setup[0..views) (one size and method): its items are the
+ * tiles of view 0, then those of view 1, and so on. */
 static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_view *view, const vis_ray_setup *setup,
                      uint32_t views, uint32_t *ids, float *depth)
 {

@@ -248,7 +248,8 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
     }
     /* Threads: the context's job system, the CPU backend's threads when the count is theirs
      * (one set of workers: a second pool's threads would compete with the first's for the
-     * cores, docs/server.md "One set of threads"), or the query's own pool. */
+     * cores: docs/server.md, "One pool run per batch, one set of threads"), or the query's
+     * own pool. */
     uint32_t threads = d.threads;
     if (threads == 0 && ctx->desc.parallel_for) {
         q->parallel_for = ctx->desc.parallel_for;
