@@ -698,10 +698,11 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         cl_destroy(b);
         return st;
     }
-    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu%s%s; "
-               "stack program \"%s\", batches \"%s\"",
+    vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu "
+               "(batches %zux%zu)%s%s; stack program \"%s\", batches \"%s\"",
                b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
-               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1],
+               b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1], b->batch_tile[0],
+               b->batch_tile[1],
                b->extra_options[0] ? "; extra build options " : "", b->extra_options, b->method_options[0],
                b->batch_options[0]);
     if (!b->caps.fp64)
