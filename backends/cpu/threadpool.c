@@ -60,17 +60,12 @@ static uint64_t now_ns(void)
     return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
 }
 
-/* Spins until *word != value or SPIN_NS have passed; returns whether it changed. */
-static int spin_while_equal(atomic_ullong *word, unsigned long long value)
+/* One step of a wait that spins: pauses, and says whether SPIN_NS have passed since `start`
+ * (read every 64 steps). */
+static int spin_over(uint64_t start, uint32_t step)
 {
-    uint64_t start = now_ns();
-    for (uint32_t i = 1;; ++i) {
-        if (atomic_load_explicit(word, memory_order_acquire) != value)
-            return 1;
-        CPU_RELAX();
-        if (i % 64u == 0 && now_ns() - start > SPIN_NS)
-            return 0;
-    }
+    CPU_RELAX();
+    return step % 64u == 0 && now_ns() - start > SPIN_NS;
 }
 
 static void *worker_main(void *arg)
@@ -79,7 +74,10 @@ static void *worker_main(void *arg)
     unsigned long long seen = 0;
     for (;;) {
         /* The next run is usually near: spin, then sleep until it comes. */
-        spin_while_equal(&p->generation, seen);
+        uint64_t start = now_ns();
+        for (uint32_t i = 1; atomic_load_explicit(&p->generation, memory_order_acquire) == seen; ++i)
+            if (spin_over(start, i))
+                break;
         pthread_mutex_lock(&p->lock);
         while (!p->quit && atomic_load(&p->generation) == seen)
             pthread_cond_wait(&p->wake, &p->lock);
@@ -173,11 +171,9 @@ void vis_pool_run(vis_pool *p, uint32_t count, vis_pool_item_fn fn, void *user)
     drain(p);
     /* The workers finish their last items about when the caller does: spin, then sleep. */
     uint64_t start = now_ns();
-    for (uint32_t i = 1; atomic_load_explicit(&p->running, memory_order_acquire) != 0u; ++i) {
-        CPU_RELAX();
-        if (i % 64u == 0 && now_ns() - start > SPIN_NS)
+    for (uint32_t i = 1; atomic_load_explicit(&p->running, memory_order_acquire) != 0u; ++i)
+        if (spin_over(start, i))
             break;
-    }
     pthread_mutex_lock(&p->lock);
     while (atomic_load(&p->running) != 0u)
         pthread_cond_wait(&p->done, &p->lock);
