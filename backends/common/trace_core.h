@@ -32,6 +32,7 @@
 #  pragma OPENCL FP_CONTRACT OFF
 typedef uint uint32_t;
 typedef int int32_t;
+typedef ulong vis_u64;
 #  define VIS_GLOBAL __global
 #  define VIS_INLINE static inline
 #  define VIS_NOINLINE static inline
@@ -43,6 +44,7 @@ typedef int int32_t;
 #else
 #  include <math.h>
 #  include <stdint.h>
+typedef uint64_t vis_u64;
 #  define VIS_GLOBAL
 #  define VIS_INLINE static inline
 /* A function kept out of line on the CPU, where the small part in front of it should inline
@@ -66,7 +68,9 @@ typedef struct vis_kd_node {
 
 #define VIS_NODE_LEAF 3u
 
-/* A leaf (64 bytes). Its primitives live in two pools: triangles in the triangle pool, quads
+/* A leaf (64 bytes). Its bucket table (at bucket_offset in the bucket pool, vis_bucket_words
+ * entries) holds the bucket offsets (below) and then each bucket's two cover masks
+ * (vis_cover_bits). Its primitives live in two pools: triangles in the triangle pool, quads
  * in the quad pool of 4-byte words, where the leaf's slot holds, in this order:
  *  - its object table at table_offset: the object slots of its packed quads (the table index
  *    is what a packed quad names, so a quad takes one word and not a 24-bit slot);
@@ -124,6 +128,32 @@ typedef struct vis_flat_quad {
 #define VIS_PQ_TABLE(w) ((w) >> 22)
 /* Field i of a leaf's content_box: i = 0..2 the low offset on axis i, 3..5 the high one. */
 #define VIS_BOX_FIELD(b, i) (((b) >> (5u * (i))) & 31u)
+
+/* A bucket's cover masks: where on its plane its packed quads lie, so that the per-ray leaf
+ * walk reads a bucket only when one of its quads can lie at the ray's crossing. Bit j of the
+ * u mask is set when a quad of the bucket covers the unit cell [j, j + 1] of offsets on the
+ * bucket's u axis (a quad [u0, u1] covers [u0, max(u0, u1 - 1)], vis_cover_bits), and the v
+ * mask likewise: the quads' shadows on the two axes, not their rectangles (on the views
+ * measured the two shadows let through about as few buckets as a rectangle mask of 2x2
+ * cells, at less than half the cost of its test: docs/performance.md, "Buckets read only
+ * where their quads lie"). The masks of bucket b are the words at bucket_offset +
+ * vis_bucket_offsets + 2b (u) and + 2b + 1 (v), built with the leaf (libvis/src/scene.c). */
+VIS_INLINE uint32_t vis_bucket_offsets(uint32_t e0, uint32_t e1, uint32_t e2)
+{
+    return e0 + e1 + e2 + 4u; /* one per bucket (axis a, plane 0..E[a]), and the end */
+}
+
+VIS_INLINE uint32_t vis_bucket_words(uint32_t e0, uint32_t e1, uint32_t e2)
+{
+    uint32_t offsets = vis_bucket_offsets(e0, e1, e2);
+    return offsets + 2u * (offsets - 1u);
+}
+
+/* The bits lo..hi (0 <= lo <= hi <= 31); 2u << 31 wraps to 0, which still gives lo..31. */
+VIS_INLINE uint32_t vis_cover_bits(int lo, int hi)
+{
+    return (2u << hi) - (1u << lo);
+}
 
 /* A triangle as traced (40 bytes), meta as for quads (axis bits unused). */
 typedef struct vis_flat_tri {
@@ -678,6 +708,16 @@ VIS_INLINE void vis_crossing_cells(float o, float td, float lo, int c[2])
     vis_crossing_range(o, td, lo, m, c);
 }
 
+/* Whether a quad that a crossing range c (vis_crossing_range) lets through can lie in a
+ * bucket whose cover mask on that axis is `mask`: such a quad has u0 <= c[1] and u1 >= c[0],
+ * so its unit cells [u0, max(u0, u1 - 1)] meet [max(c[0] - 1, 0), c[1]]; an empty range lets
+ * none through. */
+VIS_INLINE int vis_cover_meets(uint32_t mask, const int *c)
+{
+    int lo = c[0] > 0 ? c[0] - 1 : 0;
+    return c[1] >= lo && (mask & vis_cover_bits(lo, c[1])) != 0u;
+}
+
 /* The leaf's loose quads and triangles (always tested: they are not in the content box). */
 VIS_NOINLINE void vis_leaf_loose(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
                                  const VIS_GLOBAL uint32_t *quads, const VIS_GLOBAL vis_flat_tri *tris,
@@ -754,6 +794,7 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
     const VIS_GLOBAL uint32_t *packed = quads + leaf->quad_offset;
     const VIS_GLOBAL uint32_t *table = quads + leaf->table_offset;
     const VIS_GLOBAL uint32_t *bk = buckets + leaf->bucket_offset;
+    const VIS_GLOBAL uint32_t *cover = bk + vis_bucket_offsets((uint32_t)E[0], (uint32_t)E[1], (uint32_t)E[2]);
     for (;;) {
         int a = 0;
         if (tk[1] < tk[a])
@@ -776,13 +817,20 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
             float lu = lo[u], lv = lo[v];
             int cu[2] = {0, -1}, cv[2] = {0, -1};
             uint32_t i = bk[b];
-            if (i < end) {
-                if (per_bucket) {
+            if (i < end) { /* the bucket's cover masks first, u then v: most end here */
+                if (per_bucket)
                     vis_crossing_cells(r->o[u], t * r->d[u], lu, cu);
-                    vis_crossing_cells(r->o[v], t * r->d[v], lv, cv);
-                } else {
+                else
                     vis_crossing_range(r->o[u], t * r->d[u], lu, mg[u], cu);
-                    vis_crossing_range(r->o[v], t * r->d[v], lv, mg[v], cv);
+                if (!vis_cover_meets(cover[2u * b], cu)) {
+                    i = end;
+                } else {
+                    if (per_bucket)
+                        vis_crossing_cells(r->o[v], t * r->d[v], lv, cv);
+                    else
+                        vis_crossing_range(r->o[v], t * r->d[v], lv, mg[v], cv);
+                    if (!vis_cover_meets(cover[2u * b + 1u], cv))
+                        i = end;
                 }
             }
             for (; i < end; ++i) {
@@ -1093,12 +1141,6 @@ VIS_INLINE void vis_traverse_bruteforce(const vis_ray *r, const vis_ray_setup *s
  * leaves, plus some leaves it only touches at the hand-over point, with wider intervals.
  * More leaves can only add real primitives to the minimum, and the termination test is the
  * stack's, so the nearest hit is unchanged. */
-
-#ifdef __OPENCL_VERSION__
-typedef ulong vis_u64;
-#else
-typedef uint64_t vis_u64;
-#endif
 
 /* Index of the highest set bit of m (m != 0). */
 VIS_INLINE uint32_t vis_top_bit(vis_u64 m)

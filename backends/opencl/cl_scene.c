@@ -3,7 +3,7 @@
  * The scene is the flat arrays of trace_core.h, copied once (the first sync writes every
  * array whole). After that, libvis reports what edits touched (backend.h, vis_scene_changes)
  * and only those bytes travel:
- *  - a changed leaf: its 64-byte header, its bucket table (E0+E1+E2+4 entries), its bucketed
+ *  - a changed leaf: its 64-byte header, its bucket table (vis_bucket_words), its bucketed
  *    and loose quads, and its triangles — only the used part of each slot;
  *  - a changed object: its 16-byte slot;
  *  - the object_leaves range [lo, hi) that edits rewrote;
@@ -299,7 +299,7 @@ static uint32_t bucket_entries(const vis_flat_leaf *lf)
 {
     if (lf->dims_z == 0xFFFFFFFFu)
         return 0; /* leaf too large for buckets: every quad is loose */
-    return (lf->dims_xy & 0xFFFFu) + (lf->dims_xy >> 16) + lf->dims_z + 4u;
+    return vis_bucket_words(lf->dims_xy & 0xFFFFu, lf->dims_xy >> 16, lf->dims_z);
 }
 
 static int upload_leaf(upload_state *u, vis_cl_scene *sc, const vis_scene_view *v, uint32_t li)

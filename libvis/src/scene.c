@@ -334,11 +334,29 @@ static void leaf_dims(const vis_flat_leaf *lf, uint32_t E[3])
     E[2] = lf->dims_z;
 }
 
+/* Entries of the leaf's bucket table: offsets, then cover masks (trace_core.h). */
 static uint32_t bucket_table_size(const vis_flat_leaf *lf)
 {
     uint32_t E[3];
     leaf_dims(lf, E);
-    return E[0] + E[1] + E[2] + 4u;
+    return vis_bucket_words(E[0], E[1], E[2]);
+}
+
+/* Each bucket's cover masks from its packed quads (trace_core.h, vis_cover_bits), into the
+ * pairs of words after the nb offsets of bk. */
+static void bucket_cover(uint32_t *bk, uint32_t nb, const uint32_t *packed)
+{
+    uint32_t *cover = bk + nb;
+    for (uint32_t b = 0; b + 1 < nb; ++b) {
+        uint32_t m[2] = {0, 0};
+        for (uint32_t i = bk[b]; i < bk[b + 1]; ++i)
+            for (uint32_t c = 0; c < 2u; ++c) { /* fields c (low) and c + 2 (high): u, then v */
+                int lo = (int)VIS_PQ_FIELD(packed[i], c), hi = (int)VIS_PQ_FIELD(packed[i], c + 2u) - 1;
+                m[c] |= vis_cover_bits(lo, hi > lo ? hi : lo);
+            }
+        cover[2 * b] = m[0];
+        cover[2 * b + 1] = m[1];
+    }
 }
 
 /* Bucket index of a quad in the leaf, or UINT32_MAX if it is "loose" (its plane is not an
@@ -793,18 +811,22 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
         else
             dst_loose[nl++] = g[i];
     if (bk) {
-        for (uint32_t k = 1; k < nb; ++k)
+        uint32_t E[3];
+        leaf_dims(lf, E);
+        uint32_t no = vis_bucket_offsets(E[0], E[1], E[2]);
+        for (uint32_t k = 1; k < no; ++k)
             bk[k] += bk[k - 1];
         for (uint32_t i = 0; i < ng; ++i)
             if (gb[i] != UINT32_MAX)
                 dst[bk[gb[i]]++] = gw[i];
-        for (uint32_t k = nb - 1; k > 0; --k)
+        for (uint32_t k = no - 1; k > 0; --k)
             bk[k] = bk[k - 1];
         bk[0] = 0;
         /* Within a bucket, ascending u0 lets the traversal stop at the first quad that starts
          * beyond the crossing point (trace_core.h). Stable, so equal u0 keep their order. */
-        for (uint32_t k = 0; k + 1 < nb; ++k)
+        for (uint32_t k = 0; k + 1 < no; ++k)
             sort_by_u0(dst + bk[k], bk[k + 1] - bk[k]);
+        bucket_cover(bk, no, dst);
     }
     lf->content_box = content_box(lf, g, gb, ng);
     vis_free(s->ctx, g);
