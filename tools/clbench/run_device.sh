@@ -12,6 +12,11 @@
 #                        server's chunk passes on the GPU, dda (AUTO) against stack (needs vis
 #                        built with Jansson and replays/NAME32.jsonl from
 #                        `vis query --simulate 32 --ticks 256 --scene gen:NAME --seed 1`)
+#   run_device.sh 5      the bucket cover masks (docs/opencl.md, "Bucket cover masks on the
+#                        GPU"): test_opencl and the bit-for-bit comparison, then this tree
+#                        against a parent's build in old/ (vis, vis_clbench), alternated, two
+#                        rounds: batches of 256 on gen:default and gen:large, one view per
+#                        camera of gen:default, and the methods' table on gen:default
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -109,5 +114,27 @@ if [ "$PHASE" = 4 ]; then
     echo "query $s --backend $b round $round: $($v query --scene gen:$s --replay replays/${s}32.jsonl \
       --threads 2 --backend ${b#old-} --json 2>&1 | grep -o '"ms_per_tick":{[^}]*}')"
   done; done; done
+fi
+if [ "$PHASE" = 5 ]; then
+  echo "== test_opencl"
+  timeout 150 ./test_opencl > "$O/test_gpu.log" 2>&1; echo "test_opencl rc=$?"
+  grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu.log"
+  timeout 150 ./vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 > "$O/conf.log" 2>&1
+  echo "conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf.log" | tail -3
+  for s in gen:default gen:large; do for round in 1 2; do for b in new old; do
+    c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
+    echo "$s batch 256, $b, round $round: $(timeout 60 $c --scene $s --device NVIDIA --conformance 0 --passes 0 \
+      --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done; done; done
+  for round in 1 2; do for b in new old; do
+    c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
+    timeout 60 $c --device NVIDIA --conformance 0 --drawlist 1 --reps 10 > "$O/views_${b}_$round.log" 2>&1
+    echo "gen:default one view, $b, round $round (rc=$?):"; grep -E "^(default|ground|horizon|overview|topdown|walk-)" "$O/views_${b}_$round.log"
+  done; done
+  for b in new old; do
+    c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
+    timeout 90 $c --device NVIDIA --conformance 0 --passes 0 --methods 1 --reps 10 > "$O/methods_$b.log" 2>&1
+    echo "gen:default methods, $b (rc=$?):"; cat "$O/methods_$b.log" | tail -25
+  done
 fi
 date -u
