@@ -718,6 +718,18 @@ VIS_INLINE int vis_cover_meets(uint32_t mask, const int *c)
     return c[1] >= lo && (mask & vis_cover_bits(lo, c[1])) != 0u;
 }
 
+/* The crossing range c on one axis of a bucket's plane (vis_crossing_range with the leaf's
+ * margin m, or vis_crossing_cells where the leaf has none) and whether the bucket's cover
+ * mask on that axis meets it. */
+VIS_INLINE int vis_crossing_covered(float o, float td, float lo, float m, int per_bucket, uint32_t mask, int *c)
+{
+    if (per_bucket)
+        vis_crossing_cells(o, td, lo, c);
+    else
+        vis_crossing_range(o, td, lo, m, c);
+    return vis_cover_meets(mask, c);
+}
+
 /* The leaf's loose quads and triangles (always tested: they are not in the content box). */
 VIS_NOINLINE void vis_leaf_loose(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
                                  const VIS_GLOBAL uint32_t *quads, const VIS_GLOBAL vis_flat_tri *tris,
@@ -808,31 +820,18 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
             break; /* every axis walked, or past the best hit / far plane */
         if (t >= r->t_near) {
             uint32_t b = (uint32_t)(base[a] + k[a]);
-            uint32_t end = bk[b + 1u];
+            uint32_t i = bk[b], end = bk[b + 1u];
             /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach
              * the crossing's range (vis_crossing_cells) is one the exact test would miss;
-             * one whose u0 starts past it ends the bucket, as every quad after it does too. */
+             * one whose u0 starts past it ends the bucket, as every quad after it does too.
+             * The bucket's cover masks come first, u then v: most buckets end there. */
             uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
             uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
             float lu = lo[u], lv = lo[v];
-            int cu[2] = {0, -1}, cv[2] = {0, -1};
-            uint32_t i = bk[b];
-            if (i < end) { /* the bucket's cover masks first, u then v: most end here */
-                if (per_bucket)
-                    vis_crossing_cells(r->o[u], t * r->d[u], lu, cu);
-                else
-                    vis_crossing_range(r->o[u], t * r->d[u], lu, mg[u], cu);
-                if (!vis_cover_meets(cover[2u * b], cu)) {
-                    i = end;
-                } else {
-                    if (per_bucket)
-                        vis_crossing_cells(r->o[v], t * r->d[v], lv, cv);
-                    else
-                        vis_crossing_range(r->o[v], t * r->d[v], lv, mg[v], cv);
-                    if (!vis_cover_meets(cover[2u * b + 1u], cv))
-                        i = end;
-                }
-            }
+            int cu[2], cv[2];
+            if (i < end && !(vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, cover[2u * b], cu) &&
+                             vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)))
+                i = end;
             for (; i < end; ++i) {
                 uint32_t w = packed[i];
                 int u0 = (int)VIS_PQ_FIELD(w, 0u);
