@@ -415,9 +415,9 @@ static void test_random_worlds_bit_identical(void **state)
 }
 
 /* The exact bytes of one chunk edit: the leaf header (64), its bucket table (16+16+16+4
- * offsets and 51 pairs of cover masks, 4 bytes each), its object table (one 4-byte word) and its quads (packed: one word
- * each, their coordinates are whole offsets in the leaf), the object slot (16) and its one
- * leaf index (4) — nothing else. */
+ * offsets and 51 pairs of cover masks, 4 bytes each), its object table (one 4-byte word) and
+ * its quads (packed: one word each, their coordinates are whole offsets in the leaf), the
+ * object slot (16) and its one leaf index (4) — nothing else. */
 static void test_edit_uploads_only_changed_bytes(void **state)
 {
     (void)state;

@@ -13,7 +13,7 @@
 #                        built with Jansson and replays/NAME32.jsonl from
 #                        `vis query --simulate 32 --ticks 256 --scene gen:NAME --seed 1`)
 #   run_device.sh 5      the bucket cover masks (docs/opencl.md, "Bucket cover masks on the
-#                        GPU"): test_opencl and the bit-for-bit comparison, then this tree
+#                        GPU", not yet run): test_opencl and the bit-for-bit comparison, then this tree
 #                        against a parent's build in old/ (vis, vis_clbench), alternated, two
 #                        rounds: batches of 256 on gen:default and gen:large, one view per
 #                        camera of gen:default, and the methods' table on gen:default
