@@ -21,6 +21,8 @@
 #include "scene_builder.h"
 #include "test_support.h"
 #include "vis/vis.h"
+#include "voxelworld/vw.h"
+#include "world_scene.h"
 
 #define ENT_BASE 1000u /* entity object IDs in the truth scene */
 
@@ -136,6 +138,251 @@ static int listed(vis_query *q, uint32_t viewer, uint32_t id, uint32_t *reason)
             return 1;
         }
     return 0;
+}
+
+/* ---- solid ground (vis_query_desc.solid) ---------------------------------------------- */
+
+/* A 64 x 48 x 64 voxel world of rolling hills (a sum of cosines, 1 to 40 voxels high), meshed
+ * by voxelworld as the tools do: no quads inside the hills. heights[x + 64 z] is the first
+ * air voxel of column (x, z). */
+static vw_world *hill_world(uint64_t *rng, int32_t heights[64 * 64])
+{
+    vw_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.size[0] = 64;
+    d.size[1] = 48;
+    d.size[2] = 64;
+    vw_world *w = NULL;
+    vw_error err;
+    assert_int_equal(vw_world_create(&d, &w, &err), VW_OK);
+    double f[3][2], ph[3][2];
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 2; ++k) {
+            f[i][k] = (1.0 + (double)i) * 6.283185307179586 / 64.0 * (0.5 + vt_rand_unit(rng));
+            ph[i][k] = 6.283185307179586 * vt_rand_unit(rng);
+        }
+    for (int64_t z = 0; z < 64; ++z)
+        for (int64_t x = 0; x < 64; ++x) {
+            double h = 14.0;
+            for (int i = 0; i < 3; ++i)
+                h += (12.0 / (1.0 + i)) * cos(f[i][0] * (double)x + ph[i][0]) * cos(f[i][1] * (double)z + ph[i][1]);
+            int32_t top = (int32_t)(h < 1.0 ? 1.0 : h > 40.0 ? 40.0 : h);
+            heights[x + 64 * z] = top;
+            int64_t lo[3] = {x, 0, z}, hi[3] = {x + 1, top, z + 1};
+            assert_int_equal(vw_world_fill(w, lo, hi, 1), VW_OK);
+        }
+    return w;
+}
+
+static void hill_chunk_to_truth(uint32_t chunk, uint32_t id, const vw_mesh *mesh, void *user)
+{
+    (void)chunk;
+    vis_quad *q = malloc((mesh->count ? mesh->count : 1) * sizeof *q);
+    assert_non_null(q);
+    world_scene_convert_quads(mesh->quads, mesh->count, q);
+    vis_mesh m = {q, (uint32_t)mesh->count, NULL, 0};
+    assert_int_equal(vis_scene_set_object(user, id, &m), VIS_OK);
+    free(q);
+}
+
+/* The truth for a voxel world: its chunk meshes plus entity j as object ENT_BASE + j. */
+static vis_scene *hill_truth(vis_context *ctx, world_scene *ws, const vis_query_entity *en, uint32_t ne)
+{
+    vis_scene_desc sd;
+    memset(&sd, 0, sizeof sd);
+    sd.size[0] = 64.0f;
+    sd.size[1] = 48.0f;
+    sd.size[2] = 64.0f;
+    sd.cell_size = 16.0f;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &sd, &s), VIS_OK);
+    vw_error err;
+    assert_int_equal(world_scene_for_each_object(ws, hill_chunk_to_truth, s, &err), 0);
+    for (uint32_t j = 0; j < ne; ++j) {
+        tobj o;
+        memset(&o, 0, sizeof o);
+        o.id = ENT_BASE + j;
+        float lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = (float)en[j].box_min[k];
+            hi[k] = (float)en[j].box_max[k];
+        }
+        obj_box(&o, lo, hi);
+        set_obj(s, &o);
+        obj_clear(&o);
+    }
+    return s;
+}
+
+/* Someone standing on the hills at a random column. */
+static void hill_spot(uint64_t *rng, const int32_t heights[64 * 64], double out[3])
+{
+    int x = 1 + (int)(vt_rand(rng) % 62), z = 1 + (int)(vt_rand(rng) % 62);
+    out[0] = x + 0.2 + 0.6 * vt_rand_unit(rng);
+    out[1] = (double)heights[x + 64 * z];
+    out[2] = z + 0.2 + 0.6 * vt_rand_unit(rng);
+}
+
+/* Hills: with the world's solid voxels (world_scene_solid) the proof settles pairs whose
+ * segments run through a hill, which the quads alone leave unchecked (a voxel mesh has no
+ * quads inside a hill): more pairs hidden, fewer unchecked, fewer rays. With or without it,
+ * no entity with a pixel in the dense truth from the true eye is hidden. */
+static void test_solid_ground(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5011d001;
+    vis_context *ctx = make_cpu_ctx(2);
+    uint32_t hidden[2] = {0, 0}, unchecked[2] = {0, 0}, visible = 0;
+    uint64_t rays[2] = {0, 0}, tests[2] = {0, 0};
+    int rounds = vt_small() ? 2 : 4;
+    for (int round = 0; round < rounds; ++round) {
+        int32_t *heights = malloc(64 * 64 * sizeof *heights);
+        assert_non_null(heights);
+        vw_world *w = hill_world(&rng, heights);
+        world_scene *ws = NULL;
+        vw_error err;
+        assert_int_equal(world_scene_create(ctx, w, NULL, &ws, NULL, &err), 0);
+        enum { NV = 6, NE = 24 };
+        vis_query_viewer vw[NV];
+        vis_query_entity en[NE];
+        for (uint32_t i = 0; i < NV; ++i) {
+            memset(&vw[i], 0, sizeof vw[i]);
+            vw[i].id = 1 + i;
+            hill_spot(&rng, heights, vw[i].eye);
+            vw[i].eye[1] += 1.6;
+            vw[i].velocity[0] = 4.0 * vt_rand_unit(&rng) - 2.0;
+            vw[i].velocity[2] = 4.0 * vt_rand_unit(&rng) - 2.0;
+            vw[i].latency_ms = 50.0;
+        }
+        for (uint32_t j = 0; j < NE; ++j) {
+            memset(&en[j], 0, sizeof en[j]);
+            en[j].id = 100 + j;
+            double at[3];
+            hill_spot(&rng, heights, at);
+            for (int k = 0; k < 3; ++k) {
+                en[j].box_min[k] = at[k] - (k == 1 ? 0.0 : 0.3);
+                en[j].box_max[k] = at[k] + (k == 1 ? 1.8 : 0.3);
+            }
+        }
+        vis_scene *truth = hill_truth(ctx, ws, en, NE);
+        int seen[NV][NE];
+        memset(seen, 0, sizeof seen);
+        for (uint32_t i = 0; i < NV; ++i)
+            truth_pass(ctx, truth, vw[i].eye, vt_small() ? 256 : 384, NE, seen[i]);
+        for (int with = 0; with < 2; ++with) {
+            vis_query_desc d;
+            vis_query_desc_defaults(&d);
+            if (with) {
+                d.solid = world_scene_solid;
+                d.solid_user = ws;
+            }
+            vis_query *q = NULL;
+            assert_int_equal(vis_query_create(ctx, world_scene_scene(ws), &d, &q), VIS_OK);
+            vis_query_stats st;
+            assert_int_equal(vis_query_run(q, vw, NV, en, NE, &st), VIS_OK);
+            for (uint32_t i = 0; i < NV; ++i)
+                for (uint32_t j = 0; j < NE; ++j) {
+                    if (seen[i][j] && !listed(q, i, en[j].id, NULL))
+                        fail_msg("round %d, solid %d, viewer %u: entity %u has pixels in the truth but was hidden",
+                                 round, with, i, en[j].id);
+                    visible += (uint32_t)(with && seen[i][j]);
+                }
+            hidden[with] += st.pairs_hidden;
+            unchecked[with] += st.pairs_unchecked;
+            rays[with] += st.entity_rays;
+            tests[with] += st.solid_tests;
+            vis_query_destroy(q);
+        }
+        vis_scene_destroy(truth);
+        world_scene_destroy(ws);
+        vw_world_destroy(w);
+        free(heights);
+    }
+    print_message("truly visible %u; hidden %u -> %u, unchecked %u -> %u, rays %llu -> %llu, solid tests %llu\n",
+                  visible, hidden[0], hidden[1], unchecked[0], unchecked[1], (unsigned long long)rays[0],
+                  (unsigned long long)rays[1], (unsigned long long)tests[1]);
+    assert_true(visible > 0);
+    assert_int_equal(tests[0], 0);
+    assert_true(tests[1] > 0);
+    assert_true(hidden[1] > hidden[0]);
+    assert_true(unchecked[1] < unchecked[0]);
+    assert_true(rays[1] < rays[0]);
+    vis_context_destroy(ctx);
+}
+
+/* A ridge along z (30 voxels high at x = 32, a step down every voxel on each side) between a
+ * viewer and an entity standing at its feet: the quads alone leave the pair unchecked, the
+ * solid voxels prove it hidden, the next tick answers from the cache, and a tunnel dug
+ * through the ridge on the line of sight (voxels set to air, the scene updated) is seen by
+ * the tick after the edit. */
+static void test_solid_edit_tunnel(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    vw_world_desc wd;
+    memset(&wd, 0, sizeof wd);
+    wd.size[0] = 64;
+    wd.size[1] = 48;
+    wd.size[2] = 64;
+    vw_world *w = NULL;
+    vw_error err;
+    assert_int_equal(vw_world_create(&wd, &w, &err), VW_OK);
+    for (int64_t x = 0; x < 64; ++x) {
+        int64_t top = 30 - 2 * (x < 32 ? 32 - x : x - 32);
+        int64_t lo[3] = {x, 0, 0}, hi[3] = {x + 1, top > 1 ? top : 1, 64};
+        assert_int_equal(vw_world_fill(w, lo, hi, 1), VW_OK);
+    }
+    world_scene *ws = NULL;
+    assert_int_equal(world_scene_create(ctx, w, NULL, &ws, NULL, &err), 0);
+    vis_query_viewer v;
+    memset(&v, 0, sizeof v);
+    v.id = 1;
+    v.eye[0] = 6.5;
+    v.eye[1] = 2.6;
+    v.eye[2] = 32.5;
+    vis_query_entity e;
+    memset(&e, 0, sizeof e);
+    e.id = 2;
+    double elo[3] = {56.2, 1.0, 32.2}, ehi[3] = {56.8, 2.8, 32.8};
+    memcpy(e.box_min, elo, sizeof elo);
+    memcpy(e.box_max, ehi, sizeof ehi);
+    uint32_t reason = 0;
+    vis_query_stats st;
+    /* The quads alone, within a few rays: no face of the ridge covers the crossings of its
+     * first hits, and its inside has none. */
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.pair_ray_limit = 4;
+    d.margin = 1.0; /* regions taller than a step of the ridge */
+    vis_query *plain = NULL;
+    assert_int_equal(vis_query_create(ctx, world_scene_scene(ws), &d, &plain), VIS_OK);
+    assert_int_equal(vis_query_run(plain, &v, 1, &e, 1, &st), VIS_OK);
+    assert_true(listed(plain, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_UNCHECKED);
+    vis_query_destroy(plain);
+    d.solid = world_scene_solid;
+    d.solid_user = ws;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, world_scene_scene(ws), &d, &q), VIS_OK);
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_false(listed(q, 0, 2, NULL));
+    assert_int_equal(st.pairs_hidden, 1);
+    assert_true(st.solid_tests > 0);
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 1);
+    assert_false(listed(q, 0, 2, NULL));
+    /* The tunnel: x through the ridge, y in [1, 4), z in [31, 35). */
+    int64_t tlo[3] = {10, 1, 31}, thi[3] = {54, 4, 35};
+    assert_int_equal(vw_world_fill(w, tlo, thi, 0), VW_OK);
+    assert_int_equal(world_scene_update(ws, NULL, &err), 0);
+    assert_int_equal(vis_query_run(q, &v, 1, &e, 1, &st), VIS_OK);
+    assert_int_equal(st.pairs_cached, 0);
+    assert_true(listed(q, 0, 2, &reason));
+    assert_int_equal(reason, VIS_QUERY_SEEN);
+    vis_query_destroy(q);
+    world_scene_destroy(ws);
+    vw_world_destroy(w);
+    vis_context_destroy(ctx);
 }
 
 /* Random worlds, viewers and entities: no entity with a pixel in the dense truth is hidden,
@@ -1525,6 +1772,19 @@ static void test_cli_simulate_replay(void **state)
         vt_run_free(&r);
     }
     assert_true(rays[1] < rays[0]);
+    /* --solid reaches the library: the maze's solid walls are asked about by default, and
+     * never with --solid off. */
+    for (int off = 0; off < 2; ++off) {
+        r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --json%s", MAZE, qpath("maze.jsonl"),
+                   off ? " --solid off" : "");
+        vt_assert_exit(r, 0);
+        const char *k = strstr(r.out, "\"solid_tests_per_tick\":");
+        assert_non_null(k);
+        double tests = strtod(k + strlen("\"solid_tests_per_tick\":"), NULL);
+        if (off ? tests != 0.0 : !(tests > 0.0))
+            fail_msg("--solid %s: %g solid tests per tick", off ? "off" : "on", tests);
+        vt_run_free(&r);
+    }
     r = vt_run(VIS_EXE, qdir, NULL,
                "query --scene %s --replay %s --compare --truth-every 8 --truth-res 128 --json --out %s", MAZE,
                qpath("maze.jsonl"), qpath("out.jsonl"));
@@ -1667,7 +1927,7 @@ static void test_cli_hostile_replay(void **state)
     vt_run_free(&r);
     const char *bad_opts[] = {"--chunk-move -1", "--chunk-move nan", "--chunk-move 1e6", "--chunk-traversal shortstack:3",
                               "--chunk-traversal warp", "--chunk-traversal", "--chunks", "--unsettled-ticks 0",
-                              "--unsettled-ticks 1025", "--unsettled-ticks"};
+                              "--unsettled-ticks 1025", "--unsettled-ticks", "--solid maybe", "--solid"};
     for (size_t i = 0; i < sizeof bad_opts / sizeof bad_opts[0]; ++i) {
         r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s %s", MAZE, qpath("long.jsonl"), bad_opts[i]);
         vt_assert_exit(r, 2);
@@ -1684,6 +1944,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_never_hides_visible), cmocka_unit_test(test_latency_peek),
+        cmocka_unit_test(test_solid_ground),         cmocka_unit_test(test_solid_edit_tunnel),
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
         cmocka_unit_test(test_slack_cache),        cmocka_unit_test(test_unsettled_wait),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),

@@ -289,6 +289,65 @@ static void test_materials(void **state)
     vw_world_destroy(w);
 }
 
+/* vw_world_box_opaque against a voxel-by-voxel answer: random boxes (empty, reaching outside
+ * the world, across chunks) over a world at a negative origin with holes, a see-through
+ * material and uniform chunks (opaque, see-through, air). */
+static int box_opaque_ref(const vw_world *w, const int64_t lo[3], const int64_t hi[3])
+{
+    if (!(lo[0] < hi[0] && lo[1] < hi[1] && lo[2] < hi[2]))
+        return 0;
+    for (int64_t z = lo[2]; z < hi[2]; ++z)
+        for (int64_t y = lo[1]; y < hi[1]; ++y)
+            for (int64_t x = lo[0]; x < hi[0]; ++x) {
+                vw_voxel v = vw_world_get(w, x, y, z);
+                if (!v || (vw_world_material(w, v)->flags & VW_MAT_SEE_THROUGH))
+                    return 0;
+            }
+    return 1;
+}
+
+static void test_box_opaque(void **state)
+{
+    (void)state;
+    vw_world *w = make_world(16, -32, -16, -48, 64, 48, 64); /* x [-32, 32), y [-16, 32), z [-48, 16) */
+    vw_material glass = {0xFFFFFFFFu, VW_MAT_SEE_THROUGH};
+    assert_int_equal(vw_world_set_material(w, 7, &glass), VW_OK);
+    int64_t all_lo[3] = {-32, -16, -48}, all_hi[3] = {32, 16, 16};
+    assert_int_equal(vw_world_fill(w, all_lo, all_hi, 1), VW_OK); /* the lower two thirds opaque */
+    uint64_t rng = 77;
+    for (int i = 0; i < 300; ++i) /* holes and glass in the opaque part */
+        assert_int_equal(vw_world_set(w, -32 + (int64_t)(vt_rand(&rng) % 64), -16 + (int64_t)(vt_rand(&rng) % 32),
+                                      -48 + (int64_t)(vt_rand(&rng) % 64), (vw_voxel)(i % 3 == 0 ? 7 : 0)),
+                         VW_OK);
+    int64_t g_lo[3] = {0, 0, -16}, g_hi[3] = {16, 16, 0};
+    assert_int_equal(vw_world_fill(w, g_lo, g_hi, 7), VW_OK); /* a uniform see-through chunk */
+    int64_t lo[3] = {-32, -16, -48}, hi[3] = {-16, 0, -32}; /* a whole chunk, opaque */
+    assert_int_equal(vw_world_fill(w, lo, hi, 2), VW_OK);
+    assert_int_equal(vw_world_box_opaque(w, lo, hi), 1);
+    int64_t out_hi[3] = {-16, 0, -32}, out_lo[3] = {-33, -16, -48}; /* one column outside */
+    assert_int_equal(vw_world_box_opaque(w, out_lo, out_hi), 0);
+    int64_t empty_hi[3] = {-32, 0, -32};
+    assert_int_equal(vw_world_box_opaque(w, lo, empty_hi), 0);
+    assert_int_equal(vw_world_box_opaque(w, g_lo, g_hi), 0);
+    int opaque = 0;
+    for (int i = 0; i < 4000; ++i) {
+        int64_t a[3], b[3];
+        for (int k = 0; k < 3; ++k) {
+            int64_t o = k == 0 ? -34 : k == 1 ? -18 : -50, span = k == 1 ? 52 : 68;
+            a[k] = o + (int64_t)(vt_rand(&rng) % (uint64_t)span);
+            b[k] = a[k] + (int64_t)(vt_rand(&rng) % 9) - 1; /* empty, inverted, up to 7 wide */
+        }
+        int want = box_opaque_ref(w, a, b);
+        int got = vw_world_box_opaque(w, a, b);
+        if (got != want)
+            fail_msg("box [%lld,%lld) x [%lld,%lld) x [%lld,%lld): %d, want %d", (long long)a[0], (long long)b[0],
+                     (long long)a[1], (long long)b[1], (long long)a[2], (long long)b[2], got, want);
+        opaque += want;
+    }
+    assert_true(opaque > 100); /* the random boxes are not all refused */
+    vw_world_destroy(w);
+}
+
 static void test_chunk_index(void **state)
 {
     (void)state;
@@ -535,6 +594,7 @@ int main(void)
         cmocka_unit_test(test_uniform_compaction),
         cmocka_unit_test(test_materials),
         cmocka_unit_test(test_chunk_index),
+        cmocka_unit_test(test_box_opaque),
         cmocka_unit_test(test_dirty),
         cmocka_unit_test(test_dirty_many_chunks),
         cmocka_unit_test(test_create_over_budget),

@@ -24,6 +24,20 @@
  * piece is halved along its longest axis. Every piece must be proven; a budget of rays bounds
  * the work, and an unfinished proof is UNKNOWN (reported visible by the caller).
  *
+ * Solid ground. A voxel mesh has no quads inside solid matter, so a plane through a hill finds
+ * nothing there to cover R with, and pairs on either side of one stay unsettled. When the
+ * caller says where the world is solid (vis_query_solid_fn), the plane x[a] = p also blocks
+ * when the box of unit cells [p - 1, p + 1] x [ceil(u0) - 1, floor(u1) + 1] x [ceil(v0) - 1,
+ * floor(v1) + 1] is solid: R (on u, v: [u0, u1] x [v0, v1]) lies in the box's open interior,
+ * and a segment from an eye outside solid matter to a point X there enters the matter before
+ * X, at a face toward a cell outside it, which the callback's contract makes an opaque quad:
+ * the segment is blocked there (closed quads; a float ray of a pass crosses plane p inside
+ * R's widening, inside the box too). Such planes are tried where the centre segment runs
+ * between two of its hits at least 2 voxels apart on its main axis (in terrain: from where
+ * it enters a hill to where it leaves it), at the integer plane nearest the middle. A box
+ * test is not a ray: it is counted apart (solid_tests), at most one per hit, and never of
+ * more than VIS_QUERY_SOLID_MAX_CELLS cells.
+ *
  * Limits, on the side of reporting: only quads in integer planes are found as candidates
  * (voxel meshes have no others), and triangles and see-through quads never occlude. */
 #include <math.h>
@@ -326,6 +340,36 @@ static int plane_covers(const vis_scene_view *view, const vis_occ_box *e, const 
     return !g.overflow && g.count > 0 && covered(&g);
 }
 
+/* The solid-ground test of plane x[a] = p (see the top of this file): 1 when the caller says
+ * the box of cells around R is solid. */
+static int solid_covers(const vis_occ_solid *solid, const vis_occ_box *e, const vis_occ_box *b, uint32_t a, double p,
+                        uint32_t *tests)
+{
+    occ_rect r = crossing_rect(e, b, a, p);
+    uint32_t u = a == 2 ? 0u : a + 1u, v = a == 0 ? 2u : a - 1u;
+    double lo[3], hi[3];
+    lo[a] = p - 1.0;
+    hi[a] = p + 1.0;
+    lo[u] = ceil(r.u0) - 1.0;
+    hi[u] = floor(r.u1) + 1.0;
+    lo[v] = ceil(r.v0) - 1.0;
+    hi[v] = floor(r.v1) + 1.0;
+    double cells = 1.0;
+    int32_t ilo[3], ihi[3];
+    for (int k = 0; k < 3; ++k) {
+        /* Scene-local coordinates are floats of at most 2^24 or so; anything else is no box. */
+        if (!(lo[k] >= -2147483648.0 && hi[k] <= 2147483647.0 && lo[k] < hi[k]))
+            return 0;
+        cells *= hi[k] - lo[k];
+        ilo[k] = (int32_t)lo[k];
+        ihi[k] = (int32_t)hi[k];
+    }
+    if (cells > (double)VIS_QUERY_SOLID_MAX_CELLS)
+        return 0;
+    ++*tests;
+    return solid->fn(solid->user, ilo, ihi) == 1;
+}
+
 static void centre(const vis_occ_box *x, double c[3])
 {
     for (int i = 0; i < 3; ++i)
@@ -367,8 +411,12 @@ static double extent(const vis_occ_box *x)
 }
 
 vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
-                            uint32_t limit, uint32_t *rays, double witness[6])
+                            uint32_t limit, const vis_occ_solid *solid, uint32_t *rays, uint32_t *solid_tests,
+                            double witness[6])
 {
+    uint32_t boxes = 0;
+    if (solid && !solid->fn)
+        solid = NULL;
     vis_occ_box st_e[OCC_STACK], st_b[OCC_STACK];
     int sp = 0;
     st_e[sp] = *eye;
@@ -403,14 +451,29 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
         for (int hit = 0; hit < OCC_HITS && !proven && !cut; ++hit) {
             if (hit > 0) {
                 double d[3] = {cb[0] - x[0], cb[1] - x[1], cb[2] - x[2]};
-                double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), from[3];
+                double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), from[3], prev[3];
                 if (!(len > 4e-3) || spent >= limit)
                     break;
                 for (int k = 0; k < 3; ++k)
                     from[k] = x[k] + d[k] / len * 2e-3;
+                memcpy(prev, x, sizeof prev);
                 ++spent;
                 if (segment_raw(view, from, cb, x))
                     break; /* nothing more on the way to B's centre */
+                if (solid) {
+                    /* Between two hits: inside a hill, when they are where the segment
+                     * enters and leaves it. */
+                    uint32_t m = 0;
+                    for (uint32_t k = 1; k < 3; ++k)
+                        if (fabs(x[k] - prev[k]) > fabs(x[m] - prev[m]))
+                            m = k;
+                    double p = floor(0.5 * (prev[m] + x[m]) + 0.5);
+                    if (fabs(x[m] - prev[m]) >= 2.0 && separates(&e, &b, m, p) &&
+                        solid_covers(solid, &e, &b, m, p, &boxes)) {
+                        proven = 1;
+                        break;
+                    }
+                }
             }
             for (uint32_t a = 0; a < 3 && !proven && !cut; ++a) {
                 double p = floor(x[a] + 0.5);
@@ -462,5 +525,7 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
         ++sp;
     }
     *rays += spent;
+    if (solid_tests)
+        *solid_tests += boxes;
     return result;
 }

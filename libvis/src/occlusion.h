@@ -16,12 +16,21 @@ typedef enum vis_occ_result {
     VIS_OCC_UNKNOWN     /* the ray limit (or the work stack) ran out first                    */
 } vis_occ_result;
 
+/* Where the caller says the world is solid (vis_query_desc.solid); fn NULL: never asked. */
+typedef struct vis_occ_solid {
+    vis_query_solid_fn fn;
+    void *user;
+} vis_occ_solid;
+
 /* Decides E against B spending at most `limit` rays (a segment cast and a plane coverage test
- * count one each); adds the rays spent to *rays. On VIS_OCC_SEEN, witness (may be NULL) gets
- * the unblocked segment: its end in E (witness[0..2]) and its end in B (witness[3..5]).
- * Reads the scene's host arrays: the caller holds the scene's lock shared. Allocates nothing; safe to call from several threads. */
+ * count one each); adds the rays spent to *rays and the boxes asked of solid (may be NULL) to
+ * *solid_tests. On VIS_OCC_SEEN, witness (may be NULL) gets the unblocked segment: its end in
+ * E (witness[0..2]) and its end in B (witness[3..5]). Reads the scene's host arrays: the
+ * caller holds the scene's lock shared. Allocates nothing; safe to call from several threads
+ * (solid->fn then is too). */
 vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
-                            uint32_t limit, uint32_t *rays, double witness[6]);
+                            uint32_t limit, const vis_occ_solid *solid, uint32_t *rays, uint32_t *solid_tests,
+                            double witness[6]);
 
 /* One segment from a to b (scene-local): 1 when it crosses no opaque primitive, 0 otherwise;
  * hit_point (may be NULL) gets the blocking hit. See-through quads (VIS_PRIM_SEE_THROUGH)

@@ -530,12 +530,16 @@ static int edit_touches_pair(const vis_query *q, size_t p)
         lo[k] = fmin(e->lo[k], b->lo[k]);
         hi[k] = seen ? fmax(e->lo[k], b->lo[k]) : fmax(e->hi[k], b->hi[k]);
     }
+    /* A solid-ground proof (occlusion.c) also rests on the cells within one voxel of its
+     * planes' rectangles, which may reach that far past the two regions' box. */
+    const double reach = q->desc.solid ? 1.0 : 0.0;
     for (uint32_t c = 0; c < q->change_count; ++c) {
         const vis_scene_edit_box *ch = &q->changes[c];
         int apart = 0;
         for (int k = 0; k < 3 && !apart; ++k) {
             double m = fmax(fabs((double)ch->lo[k]), fabs((double)ch->hi[k]));
-            double slack = PAIR_EDIT_SLACK_ABS + PAIR_EDIT_SLACK_REL * fmax(m, fmax(fabs(lo[k]), fabs(hi[k])));
+            double slack =
+                reach + PAIR_EDIT_SLACK_ABS + PAIR_EDIT_SLACK_REL * fmax(m, fmax(fabs(lo[k]), fabs(hi[k])));
             apart = (double)ch->hi[k] + slack < lo[k] || (double)ch->lo[k] - slack > hi[k];
         }
         if (!apart)
@@ -574,16 +578,20 @@ static void grow_ahead(const vis_query *q, const vis_occ_box *b, const double ve
  * ticks). A proof cut short by the ray budget is not kept: the budget, not the proof,
  * ended it. */
 static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box,
-                           const double eye_vel[3], const double box_vel[3], uint64_t left)
+                           const double eye_vel[3], const double box_vel[3], uint64_t left, uint64_t *solid_tests)
 {
     uint32_t lim = left < q->desc.pair_ray_limit ? (uint32_t)left : q->desc.pair_ray_limit;
+    const vis_occ_solid solid = {q->desc.solid, q->desc.solid_user};
+    uint32_t tests = 0;
     vis_occ_box ge, gb;
     grow_ahead(q, eye, eye_vel, &ge);
     grow_ahead(q, box, box_vel, &gb);
     uint32_t spent = 0;
     double w[6];
     if (q->pair_state[p] == PAIR_HIDDEN && (!box_in(&ge, eye) || !box_in(&gb, box))) {
-        vis_occ_result res = vis_occ_test(&q->view, &ge, &gb, lim, &spent, w);
+        vis_occ_result res = vis_occ_test(&q->view, &ge, &gb, lim, &solid, &spent, &tests, w);
+        *solid_tests += tests;
+        tests = 0;
         if (res == VIS_OCC_HIDDEN) {
             q->pair_eye[p] = ge;
             q->pair_box[p] = gb;
@@ -598,7 +606,8 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
     }
     /* The exact regions get a whole pair limit of their own, within what is left. */
     uint32_t lim2 = left - spent < q->desc.pair_ray_limit ? (uint32_t)(left - spent) : q->desc.pair_ray_limit;
-    vis_occ_result res = lim2 ? vis_occ_test(&q->view, eye, box, lim2, &spent, w) : VIS_OCC_UNKNOWN;
+    vis_occ_result res = lim2 ? vis_occ_test(&q->view, eye, box, lim2, &solid, &spent, &tests, w) : VIS_OCC_UNKNOWN;
+    *solid_tests += tests;
     if (res == VIS_OCC_SEEN) {
         q->pair_state[p] = PAIR_SEEN;
         memcpy(q->pair_eye[p].lo, w, sizeof q->pair_eye[p].lo);
@@ -650,7 +659,8 @@ static void viewer_job(vis_query *q, uint32_t i)
         } else if (left == 0) {
             q->pair_state[p] = PAIR_NONE;
         } else {
-            uint32_t spent = prove_pair(q, p, eye, &boxes[j], v->velocity, q->in_entities[j].velocity, left);
+            uint32_t spent =
+                prove_pair(q, p, eye, &boxes[j], v->velocity, q->in_entities[j].velocity, left, &r->solid_tests);
             left -= spent;
             r->rays += spent;
         }
@@ -769,6 +779,7 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
         for (uint32_t i = 0; i < nv; ++i) {
             const vis_qresult *r = &q->results[i];
             s.entity_rays += r->rays;
+            s.solid_tests += r->solid_tests;
             s.pairs += r->pairs;
             s.pairs_cached += r->cached;
             s.pairs_seen += r->seen;

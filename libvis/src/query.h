@@ -38,6 +38,7 @@ typedef struct vis_qresult {
     uint32_t hit_count;
     uint32_t pairs, cached, seen, hidden, unchecked, held;
     uint64_t rays;
+    uint64_t solid_tests;     /* boxes asked of desc.solid                                  */
     uint64_t budget;          /* rays this viewer may spend this tick                       */
 } vis_qresult;
 

@@ -338,6 +338,19 @@ void world_scene_destroy(world_scene *ws)
     free(ws);
 }
 
+int world_scene_solid(void *user, const int32_t lo[3], const int32_t hi[3])
+{
+    const world_scene *ws = user;
+    vw_world_info info;
+    vw_world_get_info(ws->world, &info);
+    int64_t min[3], max[3];
+    for (int a = 0; a < 3; ++a) {
+        min[a] = info.origin[a] + lo[a];
+        max[a] = info.origin[a] + hi[a];
+    }
+    return vw_world_box_opaque(ws->world, min, max);
+}
+
 vis_scene *world_scene_scene(const world_scene *ws) { return ws->scene; }
 vw_world *world_scene_world(const world_scene *ws) { return ws->world; }
 vis_context *world_scene_context(const world_scene *ws) { return ws->ctx; }

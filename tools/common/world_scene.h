@@ -81,6 +81,12 @@ int world_scene_for_each_object(world_scene *ws, world_scene_chunk_fn fn, void *
  * mapped to VIS_PRIM_*). Exact for coordinates below 2^24. */
 void world_scene_convert_quads(const vw_quad *in, size_t count, vis_quad *out);
 
+/* A vis_query_solid_fn over the world's voxels, `user` being the world_scene: the box of
+ * scene-local cells is solid when vw_world_box_opaque says every voxel in it is opaque (the
+ * scene's origin is the world's). Reads the world only: safe on the query's threads while
+ * nothing edits it. */
+int world_scene_solid(void *user, const int32_t lo[3], const int32_t hi[3]);
+
 /* The scene bounds in world units (double): min = world origin, max = origin + size. */
 void world_scene_bounds(const vw_world *world, double out_min[3], double out_max[3]);
 

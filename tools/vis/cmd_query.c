@@ -42,6 +42,8 @@ static void usage(FILE *f)
             "  --hold N             ticks an entity stays sent after it was seen (default 0)\n"
             "  --slack X            voxels a proof reaches ahead along each velocity, kept while\n"
             "                       both stay inside (default 0.5; 0: re-prove on any move)\n"
+            "  --solid on|off       let the proof use where the world's voxels are opaque, so that\n"
+            "                       pairs on either side of a hill settle (default on)\n"
             "  --chunk-res N        chunk pass resolution per face (default 32)\n"
             "  --chunk-every N      re-trace a viewer's chunks every N ticks (default 32)\n"
             "  --chunk-range X      the chunk pass's far plane in voxels (default 0: unlimited)\n"
@@ -74,7 +76,7 @@ int cmd_query(int argc, char **argv)
 
 typedef struct qopts {
     const char *scene, *replay, *out;
-    int json, compare, around;
+    int json, compare, around, no_solid;
     uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, unsettled, hold, chunk_res, chunk_every;
     uint32_t truth_res, truth_every, edit_every, viewer_budget, chunk_budget;
     uint64_t budget, seed;
@@ -195,6 +197,11 @@ static int parse_args(int argc, char **argv, qopts *o)
             rc = parse_u32(a, v, 0, UINT32_MAX, &o->viewer_budget);
         } else if (!strcmp(a, "--pair-limit")) {
             rc = parse_u32(a, v, 1, 4096, &o->pair_limit);
+        } else if (!strcmp(a, "--solid")) {
+            if (!strcmp(v, "on") || !strcmp(v, "off"))
+                o->no_solid = v[1] == 'f';
+            else
+                rc = (fprintf(stderr, "vis query: --solid '%s': on or off\n", v), -1);
         } else if (!strcmp(a, "--unsettled-ticks")) {
             rc = parse_u32(a, v, 1, 1024, &o->unsettled);
         } else if (!strcmp(a, "--hold")) {
@@ -335,7 +342,7 @@ typedef struct acc {
     uint64_t rays, sent, pairs, chunk_rays, chunks_sent, chunk_views;
     uint64_t fn, leaks, truly_hidden, truly_visible, chunk_fn, truth_chunks;
     double chunk_ms;      /* Luanti: its chunk checks, summed                            */
-    uint64_t unchecked, held, cached, viewer_ticks;
+    uint64_t unchecked, held, cached, viewer_ticks, solid_tests;
 } acc;
 
 static int acc_push(acc *a, double ms)
@@ -421,8 +428,9 @@ static void print_method(FILE *f, const char *name, acc *a, uint64_t ticks, uint
                     (unsigned long long)a->chunk_fn, (unsigned long long)a->truth_chunks,
                     a->chunk_ms / (double)a->chunk_views);
         if (a->viewer_ticks)
-            fprintf(f, ",\"unchecked_per_tick\":%.2f,\"held_per_tick\":%.2f,\"cached_per_tick\":%.2f",
-                    (double)a->unchecked / t, (double)a->held / t, (double)a->cached / t);
+            fprintf(f, ",\"unchecked_per_tick\":%.2f,\"held_per_tick\":%.2f,\"cached_per_tick\":%.2f,"
+                       "\"solid_tests_per_tick\":%.1f",
+                    (double)a->unchecked / t, (double)a->held / t, (double)a->cached / t, (double)a->solid_tests / t);
         fprintf(f, "}");
         return;
     }
@@ -433,8 +441,9 @@ static void print_method(FILE *f, const char *name, acc *a, uint64_t ticks, uint
                 (unsigned long long)a->truly_visible, 100.0 * leak);
     fprintf(f, "\n");
     if (a->viewer_ticks)
-        fprintf(f, "  %-8s pairs per tick: %.1f unchecked (budget or pair limit), %.1f held, %.1f from the cache\n", "",
-                (double)a->unchecked / t, (double)a->held / t, (double)a->cached / t);
+        fprintf(f, "  %-8s pairs per tick: %.1f unchecked (budget or pair limit), %.1f held, %.1f from the cache; "
+                   "%.1f solid-ground tests\n",
+                "", (double)a->unchecked / t, (double)a->held / t, (double)a->cached / t, (double)a->solid_tests / t);
     if (chunks && a->chunk_views)
         fprintf(f, "  %-8s chunks: %.1f sent per viewer, %.0f rays per viewer, %llu of %llu truly visible missed%s",
                 "", (double)a->chunks_sent / (double)a->chunk_views, chunk_rays_per_view(a),
@@ -531,6 +540,10 @@ static int run_replay(const qopts *o)
     qd.chunk_pass_budget = o->chunk_budget;
     qd.chunk_traversal = vc_traversal_method(o->chunk_traversal);
     qd.threads = o->threads;
+    if (!o->no_solid) {
+        qd.solid = world_scene_solid;
+        qd.solid_user = s.ws;
+    }
     if (vis_query_create(s.ctx, scene, &qd, &q) != VIS_OK) {
         rc = cli_fail_vis(CMD, s.ctx, "vis_query_create");
         goto done;
@@ -639,6 +652,7 @@ static int run_replay(const qopts *o)
         ours.unchecked += st.pairs_unchecked;
         ours.held += st.pairs_held;
         ours.cached += st.pairs_cached;
+        ours.solid_tests += st.solid_tests;
         ours.viewer_ticks += t.viewer_count;
         ++ticks;
         int truth_now = o->compare && (ticks - 1) % o->truth_every == 0;

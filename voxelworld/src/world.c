@@ -330,6 +330,50 @@ vw_voxel vw_world_get(const vw_world *w, int64_t x, int64_t y, int64_t z)
     return c->voxels[(r[0] & m) + ((r[1] & m) << s) + ((r[2] & m) << (2 * s))];
 }
 
+int vw_world_box_opaque(const vw_world *w, const int64_t min[3], const int64_t max[3])
+{
+    if (!w || !min || !max)
+        return 0;
+    uint32_t lo[3], hi[3]; /* relative, [lo, hi) */
+    for (int a = 0; a < 3; a++) {
+        if (!(min[a] < max[a]))
+            return 0;
+        uint64_t d0 = (uint64_t)min[a] - (uint64_t)w->origin[a], d1 = (uint64_t)max[a] - 1u - (uint64_t)w->origin[a];
+        if (d0 >= (uint64_t)w->size[a] || d1 >= (uint64_t)w->size[a])
+            return 0; /* reaches outside the world, which is empty */
+        lo[a] = (uint32_t)d0;
+        hi[a] = (uint32_t)d1 + 1u;
+    }
+    const int s = w->chunk_shift;
+    const uint32_t m = (uint32_t)w->chunk_size - 1;
+    /* Chunk by chunk: a uniform chunk answers for all its voxels at once. */
+    for (uint32_t cz = lo[2] >> s; cz <= (hi[2] - 1) >> s; cz++)
+        for (uint32_t cy = lo[1] >> s; cy <= (hi[1] - 1) >> s; cy++)
+            for (uint32_t cx = lo[0] >> s; cx <= (hi[0] - 1) >> s; cx++) {
+                const vwi_chunk *c = &w->chunk[vwi_index(w, (int32_t)cx, (int32_t)cy, (int32_t)cz)];
+                if (!c->voxels) {
+                    if (!c->uniform || (w->material[c->uniform].flags & VW_MAT_SEE_THROUGH))
+                        return 0;
+                    continue;
+                }
+                const uint32_t c0[3] = {cx << s, cy << s, cz << s};
+                uint32_t b0[3], b1[3]; /* the box inside this chunk, chunk-relative */
+                const uint32_t cc[3] = {cx, cy, cz};
+                for (int a = 0; a < 3; a++) {
+                    b0[a] = (cc[a] << s) > lo[a] ? 0u : lo[a] & m;
+                    b1[a] = ((cc[a] + 1u) << s) < hi[a] ? m + 1u : hi[a] - c0[a];
+                }
+                for (uint32_t z = b0[2]; z < b1[2]; z++)
+                    for (uint32_t y = b0[1]; y < b1[1]; y++) {
+                        const uint8_t *row = c->voxels + (y << s) + (z << (2 * s));
+                        for (uint32_t x = b0[0]; x < b1[0]; x++)
+                            if (!row[x] || (w->material[row[x]].flags & VW_MAT_SEE_THROUGH))
+                                return 0;
+                    }
+            }
+    return 1;
+}
+
 void vwi_mark_dirty(vw_world *w, uint32_t i)
 {
     uint64_t bit = 1ull << (i & 63);

@@ -821,6 +821,19 @@ typedef struct vis_query vis_query;
 #define VIS_QUERY_MAX_CHUNK_RES 256u
 #define VIS_QUERY_MAX_LATENCY_MS 2000.0
 #define VIS_QUERY_MAX_SPEED 1000.0   /* voxels per second, any velocity or peek speed     */
+#define VIS_QUERY_SOLID_MAX_CELLS 1024u /* the largest box vis_query_solid_fn is asked about  */
+
+/* Where the world is solid, for the entity proof (optional: vis_query_desc.solid). Returns 1
+ * only when every unit cell [x, x + 1] x [y, y + 1] x [z, z + 1] with lo <= (x, y, z) < hi
+ * (scene-local integer coordinates, as vis_quad's) is filled with opaque matter whose every
+ * face toward a cell outside that matter is covered by the scene's opaque quads: what a voxel
+ * mesher gives opaque voxels (faces toward air, see-through voxels and the world's outside;
+ * voxelworld's vw_world_box_opaque answers it); 0 otherwise, or when unsure. Asked during
+ * vis_query_run only, from the query's threads at once (it must be safe for that), about boxes
+ * of at most VIS_QUERY_SOLID_MAX_CELLS cells; it must answer for the world the scene holds
+ * during that call (an edit reaches the scene before the next run). A wrong 1 can hide a
+ * visible entity; 0 is always safe. */
+typedef int (*vis_query_solid_fn)(void *user, const int32_t lo[3], const int32_t hi[3]);
 
 typedef struct vis_query_desc {
     uint32_t max_viewers;      /* viewers per tick, 1..VIS_QUERY_MAX_VIEWERS; default 64     */
@@ -885,6 +898,13 @@ typedef struct vis_query_desc {
                                   parallel_for when it has one), 1 = the calling thread. On a
                                   CPU context, the context's count runs them on its workers;
                                   another count starts the query's own                       */
+    vis_query_solid_fn solid;  /* NULL (default): not asked. Otherwise a plane through solid
+                                  matter, where a voxel mesh has no quads, also blocks the
+                                  segments that cross it there: pairs whose segments run
+                                  through hills are proven hidden (docs/server.md, "Proofs
+                                  through solid ground"). Eye positions inside solid matter
+                                  are not protected (a player's eye is in the open)          */
+    void *solid_user;          /* handed to solid                                            */
 } vis_query_desc;
 
 VIS_API void vis_query_desc_defaults(vis_query_desc *desc);
@@ -927,6 +947,7 @@ typedef struct vis_query_stats {
     uint64_t tick;             /* ticks run so far, this one included                         */
     uint64_t entity_rays;      /* segments cast and plane tests (each counts one ray)         */
     uint64_t chunk_rays;       /* pixels of the chunk passes traced this tick                  */
+    uint64_t solid_tests;      /* boxes asked of vis_query_desc.solid (not counted as rays)    */
     uint32_t pairs;            /* viewer-entity pairs (the viewer's own entity excluded)      */
     uint32_t pairs_cached;     /* answered from an earlier tick's proof: its eye region and
                                   swept box still lie inside the regions it covered (or an
