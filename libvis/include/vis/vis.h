@@ -830,9 +830,10 @@ typedef struct vis_query vis_query;
  * mesher gives opaque voxels (faces toward air, see-through voxels and the world's outside;
  * voxelworld's vw_world_box_opaque answers it); 0 otherwise, or when unsure. Asked during
  * vis_query_run only, from the query's threads at once (it must be safe for that), about boxes
- * of at most VIS_QUERY_SOLID_MAX_CELLS cells; it must answer for the world the scene holds
- * during that call (an edit reaches the scene before the next run). A wrong 1 can hide a
- * visible entity; 0 is always safe. */
+ * of at most VIS_QUERY_SOLID_MAX_CELLS cells; it must answer for the world whose meshes the
+ * scene holds during that call (edit the world and the scene together, between runs). A wrong
+ * 1 can hide a visible entity; 0 is always safe. Not counted as rays
+ * (vis_query_stats.solid_tests). */
 typedef int (*vis_query_solid_fn)(void *user, const int32_t lo[3], const int32_t hi[3]);
 
 typedef struct vis_query_desc {
