@@ -106,10 +106,9 @@ static void truth_pass(vis_context *ctx, vis_scene *truth, const double eye[3], 
     free(ids);
 }
 
-/* The truth scene: the walls plus entity j as object ENT_BASE + j (its box at time 0). */
-static vis_scene *truth_scene(vis_context *ctx, const tworld *w, const vis_query_entity *en, uint32_t ne)
+/* Entity j as box object ENT_BASE + j of the truth scene s (its box at time 0). */
+static void add_entity_boxes(vis_scene *s, const vis_query_entity *en, uint32_t ne)
 {
-    vis_scene *s = make_scene(ctx, w, NULL, 0);
     for (uint32_t j = 0; j < ne; ++j) {
         tobj o;
         memset(&o, 0, sizeof o);
@@ -123,6 +122,13 @@ static vis_scene *truth_scene(vis_context *ctx, const tworld *w, const vis_query
         set_obj(s, &o);
         obj_clear(&o);
     }
+}
+
+/* The truth scene: the walls plus the entities (add_entity_boxes). */
+static vis_scene *truth_scene(vis_context *ctx, const tworld *w, const vis_query_entity *en, uint32_t ne)
+{
+    vis_scene *s = make_scene(ctx, w, NULL, 0);
+    add_entity_boxes(s, en, ne);
     return s;
 }
 
@@ -145,7 +151,7 @@ static int listed(vis_query *q, uint32_t viewer, uint32_t id, uint32_t *reason)
 /* A 64 x 48 x 64 voxel world of rolling hills (a sum of cosines, 1 to 40 voxels high), meshed
  * by voxelworld as the tools do: no quads inside the hills. heights[x + 64 z] is the first
  * air voxel of column (x, z). */
-static vw_world *hill_world(uint64_t *rng, int32_t heights[64 * 64])
+static vw_world *empty_64x48x64(void)
 {
     vw_world_desc d;
     memset(&d, 0, sizeof d);
@@ -155,6 +161,12 @@ static vw_world *hill_world(uint64_t *rng, int32_t heights[64 * 64])
     vw_world *w = NULL;
     vw_error err;
     assert_int_equal(vw_world_create(&d, &w, &err), VW_OK);
+    return w;
+}
+
+static vw_world *hill_world(uint64_t *rng, int32_t heights[64 * 64])
+{
+    vw_world *w = empty_64x48x64();
     double f[3][2], ph[3][2];
     for (int i = 0; i < 3; ++i)
         for (int k = 0; k < 2; ++k) {
@@ -185,7 +197,7 @@ static void hill_chunk_to_truth(uint32_t chunk, uint32_t id, const vw_mesh *mesh
     free(q);
 }
 
-/* The truth for a voxel world: its chunk meshes plus entity j as object ENT_BASE + j. */
+/* The truth for a voxel world: its chunk meshes plus the entities (add_entity_boxes). */
 static vis_scene *hill_truth(vis_context *ctx, world_scene *ws, const vis_query_entity *en, uint32_t ne)
 {
     vis_scene_desc sd;
@@ -198,19 +210,7 @@ static vis_scene *hill_truth(vis_context *ctx, world_scene *ws, const vis_query_
     assert_int_equal(vis_scene_create(ctx, &sd, &s), VIS_OK);
     vw_error err;
     assert_int_equal(world_scene_for_each_object(ws, hill_chunk_to_truth, s, &err), 0);
-    for (uint32_t j = 0; j < ne; ++j) {
-        tobj o;
-        memset(&o, 0, sizeof o);
-        o.id = ENT_BASE + j;
-        float lo[3], hi[3];
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = (float)en[j].box_min[k];
-            hi[k] = (float)en[j].box_max[k];
-        }
-        obj_box(&o, lo, hi);
-        set_obj(s, &o);
-        obj_clear(&o);
-    }
+    add_entity_boxes(s, en, ne);
     return s;
 }
 
@@ -319,14 +319,8 @@ static void test_solid_edit_tunnel(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(1);
-    vw_world_desc wd;
-    memset(&wd, 0, sizeof wd);
-    wd.size[0] = 64;
-    wd.size[1] = 48;
-    wd.size[2] = 64;
-    vw_world *w = NULL;
+    vw_world *w = empty_64x48x64();
     vw_error err;
-    assert_int_equal(vw_world_create(&wd, &w, &err), VW_OK);
     for (int64_t x = 0; x < 64; ++x) {
         int64_t top = 30 - 2 * (x < 32 ? 32 - x : x - 32);
         int64_t lo[3] = {x, 0, 0}, hi[3] = {x + 1, top > 1 ? top : 1, 64};
