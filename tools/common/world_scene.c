@@ -13,6 +13,7 @@ struct world_scene {
     vis_context *ctx;
     vis_scene *scene;
     vw_world *world;
+    int64_t origin[3];          /* the world's, which is the scene's                         */
     uint32_t chunk_count;
     uint8_t *present;           /* per chunk: 1 if its object is in the scene               */
     uint32_t object_count;
@@ -286,6 +287,8 @@ int world_scene_create(vis_context *ctx, vw_world *world, const world_scene_opti
     ws->ctx = ctx;
     ws->world = world;
     ws->chunk_count = info.chunk_count;
+    for (int a = 0; a < 3; ++a)
+        ws->origin[a] = info.origin[a];
     ws->present = calloc(info.chunk_count ? info.chunk_count : 1, 1);
     ws->dirty = malloc((info.chunk_count ? info.chunk_count : 1) * sizeof *ws->dirty);
     if (!ws->present || !ws->dirty) {
@@ -341,12 +344,10 @@ void world_scene_destroy(world_scene *ws)
 int world_scene_solid(void *user, const int32_t lo[3], const int32_t hi[3])
 {
     const world_scene *ws = user;
-    vw_world_info info;
-    vw_world_get_info(ws->world, &info);
     int64_t min[3], max[3];
     for (int a = 0; a < 3; ++a) {
-        min[a] = info.origin[a] + lo[a];
-        max[a] = info.origin[a] + hi[a];
+        min[a] = ws->origin[a] + lo[a];
+        max[a] = ws->origin[a] + hi[a];
     }
     return vw_world_box_opaque(ws->world, min, max);
 }
