@@ -721,7 +721,7 @@ VIS_INLINE int vis_cover_meets(uint32_t mask, const int *c)
 /* The crossing range c on one axis of a bucket's plane (vis_crossing_range with the leaf's
  * margin m, or vis_crossing_cells where the leaf has none) and whether the bucket's cover
  * mask on that axis meets it. */
-VIS_INLINE int vis_crossing_covered(float o, float td, float lo, float m, int per_bucket, uint32_t mask, int *c)
+VIS_INLINE int vis_crossing_covered(float o, float td, float lo, float m, int per_bucket, uint32_t mask, int c[2])
 {
     if (per_bucket)
         vis_crossing_cells(o, td, lo, c);
