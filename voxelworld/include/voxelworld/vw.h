@@ -121,11 +121,12 @@ const vw_material *vw_world_material(const vw_world *world, uint32_t index);
 vw_voxel vw_world_get(const vw_world *world, int64_t x, int64_t y, int64_t z);
 vw_status vw_world_set(vw_world *world, int64_t x, int64_t y, int64_t z, vw_voxel value);
 
-/* 1 when every voxel of the box [min, max) (absolute voxels, non-empty on every axis) lies in
- * the world and holds an opaque material (one without VW_MAT_SEE_THROUGH); 0 otherwise. The
- * mesher gives such voxels an opaque face toward every voxel that is not opaque and toward
- * the world's outside, which is what vis_query_solid_fn asks for. Reads only: safe from
- * several threads while nothing writes the world. */
+/* 1 when every voxel of the box [min, max) (absolute voxels) lies in the world and holds an
+ * opaque material (one without VW_MAT_SEE_THROUGH); 0 otherwise, and for a box empty on an
+ * axis. The mesher gives such voxels an opaque face toward every voxel that is not opaque and
+ * toward the world's outside, which is what vis_query_solid_fn asks for. Costs at most one
+ * read per voxel of the box (one per uniform chunk it meets), and stops at the first voxel
+ * that is not opaque. Reads only: safe from several threads while nothing writes the world. */
 int vw_world_box_opaque(const vw_world *world, const int64_t min[3], const int64_t max[3]);
 
 /* Fills the box [min, max) (absolute voxels, clipped to the world) with one value. */
