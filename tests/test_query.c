@@ -148,9 +148,7 @@ static int listed(vis_query *q, uint32_t viewer, uint32_t id, uint32_t *reason)
 
 /* ---- solid ground (vis_query_desc.solid) ---------------------------------------------- */
 
-/* A 64 x 48 x 64 voxel world of rolling hills (a sum of cosines, 1 to 40 voxels high), meshed
- * by voxelworld as the tools do: no quads inside the hills. heights[x + 64 z] is the first
- * air voxel of column (x, z). */
+/* An empty 64 x 48 x 64 voxel world. */
 static vw_world *empty_64x48x64(void)
 {
     vw_world_desc d;
@@ -164,6 +162,9 @@ static vw_world *empty_64x48x64(void)
     return w;
 }
 
+/* A 64 x 48 x 64 voxel world of rolling hills (a sum of cosines, 1 to 40 voxels high), meshed
+ * by voxelworld as the tools do: no quads inside the hills. heights[x + 64 z] is the first
+ * air voxel of column (x, z). */
 static vw_world *hill_world(uint64_t *rng, int32_t heights[64 * 64])
 {
     vw_world *w = empty_64x48x64();

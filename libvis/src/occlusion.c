@@ -343,7 +343,7 @@ static int plane_covers(const vis_scene_view *view, const vis_occ_box *e, const 
 /* The solid-ground test of plane x[a] = p (see the top of this file): 1 when the caller says
  * the box of cells around R is solid. */
 static int solid_covers(const vis_occ_solid *solid, const vis_occ_box *e, const vis_occ_box *b, uint32_t a, double p,
-                        uint32_t *tests)
+                        uint64_t *tests)
 {
     occ_rect r = crossing_rect(e, b, a, p);
     uint32_t u = a == 2 ? 0u : a + 1u, v = a == 0 ? 2u : a - 1u;
@@ -411,10 +411,9 @@ static double extent(const vis_occ_box *x)
 }
 
 vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
-                            uint32_t limit, const vis_occ_solid *solid, uint32_t *rays, uint32_t *solid_tests,
+                            uint32_t limit, const vis_occ_solid *solid, uint32_t *rays, uint64_t *solid_tests,
                             double witness[6])
 {
-    uint32_t boxes = 0;
     if (solid && !solid->fn)
         solid = NULL;
     vis_occ_box st_e[OCC_STACK], st_b[OCC_STACK];
@@ -469,7 +468,7 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
                             m = k;
                     double p = floor(0.5 * (prev[m] + x[m]) + 0.5);
                     if (fabs(x[m] - prev[m]) >= 2.0 && separates(&e, &b, m, p) &&
-                        solid_covers(solid, &e, &b, m, p, &boxes)) {
+                        solid_covers(solid, &e, &b, m, p, solid_tests)) {
                         proven = 1;
                         break;
                     }
@@ -525,7 +524,5 @@ vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, 
         ++sp;
     }
     *rays += spent;
-    if (solid_tests)
-        *solid_tests += boxes;
     return result;
 }

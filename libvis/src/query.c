@@ -582,16 +582,13 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
 {
     uint32_t lim = left < q->desc.pair_ray_limit ? (uint32_t)left : q->desc.pair_ray_limit;
     const vis_occ_solid solid = {q->desc.solid, q->desc.solid_user};
-    uint32_t tests = 0;
     vis_occ_box ge, gb;
     grow_ahead(q, eye, eye_vel, &ge);
     grow_ahead(q, box, box_vel, &gb);
     uint32_t spent = 0;
     double w[6];
     if (q->pair_state[p] == PAIR_HIDDEN && (!box_in(&ge, eye) || !box_in(&gb, box))) {
-        vis_occ_result res = vis_occ_test(&q->view, &ge, &gb, lim, &solid, &spent, &tests, w);
-        *solid_tests += tests;
-        tests = 0;
+        vis_occ_result res = vis_occ_test(&q->view, &ge, &gb, lim, &solid, &spent, solid_tests, w);
         if (res == VIS_OCC_HIDDEN) {
             q->pair_eye[p] = ge;
             q->pair_box[p] = gb;
@@ -606,8 +603,8 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
     }
     /* The exact regions get a whole pair limit of their own, within what is left. */
     uint32_t lim2 = left - spent < q->desc.pair_ray_limit ? (uint32_t)(left - spent) : q->desc.pair_ray_limit;
-    vis_occ_result res = lim2 ? vis_occ_test(&q->view, eye, box, lim2, &solid, &spent, &tests, w) : VIS_OCC_UNKNOWN;
-    *solid_tests += tests;
+    vis_occ_result res =
+        lim2 ? vis_occ_test(&q->view, eye, box, lim2, &solid, &spent, solid_tests, w) : VIS_OCC_UNKNOWN;
     if (res == VIS_OCC_SEEN) {
         q->pair_state[p] = PAIR_SEEN;
         memcpy(q->pair_eye[p].lo, w, sizeof q->pair_eye[p].lo);
