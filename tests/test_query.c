@@ -1383,13 +1383,15 @@ static void test_edit_retraces_few(void **state)
         assert_false(chunk_listed(q, i, 10, NULL));
         assert_list_fresh(ctx, scene, q, i, &v[i]);
     }
-    /* Behind the in-view viewer, in the open for the all-around one: only the latter. */
+    /* Behind the in-view viewer, in the open for the all-around one: only the latter, and
+     * only its two faces that look at the box (-x, and +z where the box's far corner passes
+     * the 45-degree edge between them: it spans x -8..-6 and z 3..7 from the eye). */
     float back_lo[3] = {2, 1, 33}, back_hi[3] = {4, 4, 37};
     set_box(scene, 11, back_lo, back_hi);
     assert_int_equal(vis_query_run(q, v, 2, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 1);
     assert_int_equal(st.chunk_edit_passes, 1);
-    assert_int_equal(st.chunk_rays, 6 * 32 * 32);
+    assert_int_equal(st.chunk_rays, 2 * 32 * 32);
     assert_false(chunk_listed(q, 0, 11, NULL));
     assert_true(chunk_listed(q, 1, 11, NULL));
     for (uint32_t i = 0; i < 2; ++i)
@@ -1440,11 +1442,48 @@ static void test_edit_retraces_few(void **state)
     vis_context_destroy(ctx);
 }
 
-/* The chunk pass budget: at most chunk_pass_budget viewers traced per tick; those left wait,
- * new viewers first, then those an edit reached, then the rest, the oldest list first, then
- * input order; a viewer an edit reached stays due until traced even when no edit comes on the
- * later tick; every list, once traced, is a fresh pass's. */
-static void test_chunk_pass_budget(void **state)
+/* Whether every ID of viewer i's list is in a fresh pass's list from camera v: a list whose
+ * faces are not all traced yet holds only IDs a full pass names. Returns the list's size. */
+static size_t assert_list_within_fresh(vis_context *ctx, vis_scene *scene, vis_query *q, uint32_t i,
+                                       const vis_query_viewer *v)
+{
+    enum { CAP = 6 * 32 * 32 };
+    static uint32_t kept[CAP], fresh[CAP];
+    size_t nk = 0, nf = 0, j = 0;
+    assert_int_equal(vis_query_chunks(q, i, kept, CAP, &nk), VIS_OK);
+    vis_query *q2 = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, NULL, &q2), VIS_OK);
+    assert_int_equal(vis_query_run(q2, v, 1, NULL, 0, NULL), VIS_OK);
+    assert_int_equal(vis_query_chunks(q2, 0, fresh, CAP, &nf), VIS_OK);
+    vis_query_destroy(q2);
+    for (size_t k = 0; k < nk; ++k) { /* both sorted */
+        while (j < nf && fresh[j] < kept[k])
+            ++j;
+        assert_true(j < nf && fresh[j] == kept[k]);
+    }
+    return nk;
+}
+
+/* A box of half-side 0.25 `dist` voxels from the eye along one axis (sign: +1 or -1), centred
+ * on the eye on the others: only the face looking that way sees it. */
+static void box_beside(vis_scene *scene, uint32_t id, const double eye[3], int axis, float sign, float dist)
+{
+    float lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        float c = (float)eye[k] + (k == axis ? sign * dist : 0.0f);
+        lo[k] = c - 0.25f;
+        hi[k] = c + 0.25f;
+    }
+    set_box(scene, id, lo, hi);
+}
+
+/* The chunk face budget: at most chunk_face_budget faces traced per tick; those left wait,
+ * faces of viewers with no list first, then faces an edit reached, then the rest, the oldest
+ * trace first, then input order, then face order; a face an edit reached stays due until
+ * traced even when no edit comes on the later tick; a list holds only what a full pass names
+ * while faces wait, and once every face is traced it is a fresh pass's. An edit retraces only
+ * the faces it reaches. */
+static void test_chunk_face_budget(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(2);
@@ -1452,82 +1491,86 @@ static void test_chunk_pass_budget(void **state)
     tworld w;
     walls_world(&w, &rng, 24);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
-    enum { NV = 5 };
+    enum { NV = 5, RAYS = 32 * 32 };
     vis_query_viewer v[NV + 1];
     for (uint32_t i = 0; i < NV + 1; ++i) {
         random_viewer(&rng, i + 1, &v[i]);
         if (i % 2)
-            memset(v[i].dir, 0, sizeof v[i].dir); /* all around */
+            memset(v[i].dir, 0, sizeof v[i].dir); /* all around: viewers 1, 3 and 5 */
     }
     vis_query_desc d;
     vis_query_desc_defaults(&d);
     d.chunk_every = 100000; /* still viewers: passes only when new, edited or owed */
-    d.chunk_pass_budget = 2;
+    d.chunk_face_budget = 4;
     vis_query *q = NULL;
     assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
     vis_query_stats st;
     size_t n = 0;
-    /* Tick 1: five new viewers, two traced (input order), three wait with no list. */
+    /* 15 faces of five new viewers, four per tick in input and face order. Tick 1: viewer 0's
+     * face and viewer 1's faces 0..2; viewer 1's list is partial, the others have none. */
     assert_int_equal(vis_query_run(q, v, NV, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 2);
-    assert_int_equal(st.chunk_passes_deferred, 3);
-    for (uint32_t i = 0; i < NV; ++i) {
+    assert_int_equal(st.chunk_rays, 4 * RAYS);
+    assert_int_equal(st.chunk_faces_deferred, 11);
+    assert_list_fresh(ctx, scene, q, 0, &v[0]);
+    assert_true(assert_list_within_fresh(ctx, scene, q, 1, &v[1]) > 0);
+    for (uint32_t i = 2; i < NV; ++i) {
         assert_int_equal(vis_query_chunks(q, i, NULL, 0, &n), VIS_OK);
-        if (i < 2)
-            assert_list_fresh(ctx, scene, q, i, &v[i]);
-        else
-            assert_int_equal(n, 0);
+        assert_int_equal(n, 0);
     }
-    /* Tick 2: the next two in input order. */
+    /* Tick 2: viewer 1's last three faces and viewer 2's. */
     assert_int_equal(vis_query_run(q, v, NV, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 2);
-    assert_int_equal(st.chunk_passes_deferred, 1);
-    for (uint32_t i = 0; i < 4; ++i)
+    assert_int_equal(st.chunk_faces_deferred, 7);
+    for (uint32_t i = 0; i < 3; ++i)
         assert_list_fresh(ctx, scene, q, i, &v[i]);
-    assert_int_equal(vis_query_chunks(q, 4, NULL, 0, &n), VIS_OK);
-    assert_int_equal(n, 0);
-    /* Tick 3: a sixth viewer joins, listed first in the input; with viewer 5 still waiting,
-     * two are due and both traced. */
+    /* Tick 3: a sixth viewer (all around) joins, listed first in the input. Every face left
+     * is a new viewer's and none was traced, so the input order decides: the newcomer's faces
+     * 0..3 go before those of viewers 3 and 4, which waited. */
     vis_query_viewer w6[NV + 1];
     w6[0] = v[NV];
     memcpy(w6 + 1, v, sizeof v[0] * NV);
     assert_int_equal(vis_query_run(q, w6, NV + 1, NULL, 0, &st), VIS_OK);
-    assert_int_equal(st.chunk_passes, 2);
-    assert_int_equal(st.chunk_passes_deferred, 0);
+    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_faces_deferred, 9);
+    assert_true(assert_list_within_fresh(ctx, scene, q, 0, &w6[0]) > 0);
+    for (int t = 0; t < 3; ++t)
+        assert_int_equal(vis_query_run(q, w6, NV + 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_faces_deferred, 0);
     for (uint32_t i = 0; i < NV + 1; ++i)
         assert_list_fresh(ctx, scene, q, i, &w6[i]);
-    /* An edit that every viewer sees (a box at each eye's side, inside the world): the
-     * edited viewers are traced two per tick over the following ticks, with no further edit,
+    /* A box beside each eye (seen by the all-around viewers at least): the reached faces are
+     * traced at most four per tick, every viewer with a face traced counted as an edit's,
      * until each list is a fresh pass's again. */
-    uint32_t passes = 0, edit_passes = 0;
-    for (uint32_t i = 0; i < NV + 1; ++i) {
-        float lo[3], hi[3];
-        for (int k = 0; k < 3; ++k) {
-            float side = w6[i].eye[k] > 32.0 ? -2.0f : 1.5f; /* towards the world's middle */
-            lo[k] = (float)w6[i].eye[k] + side;
-            hi[k] = lo[k] + 0.5f;
-        }
-        set_box(scene, 500 + i, lo, hi);
-    }
+    for (uint32_t i = 0; i < NV + 1; ++i)
+        box_beside(scene, 500 + i, w6[i].eye, (int)(i % 3), w6[i].eye[i % 3] > 32.0 ? -1.0f : 1.0f, 1.5f);
+    uint64_t rays = 0;
     for (int t = 0; t < 6; ++t) {
         assert_int_equal(vis_query_run(q, w6, NV + 1, NULL, 0, &st), VIS_OK);
-        assert_true(st.chunk_passes <= 2);
-        passes += st.chunk_passes;
-        edit_passes += st.chunk_edit_passes;
+        assert_true(st.chunk_rays <= 4 * RAYS);
+        assert_int_equal(st.chunk_passes, st.chunk_edit_passes);
+        rays += st.chunk_rays;
     }
-    assert_int_equal(passes, edit_passes); /* every pass after the edit counted as an edit's */
-    assert_true(passes >= 3);              /* the all-around viewers at least: some waited */
-    assert_int_equal(st.chunk_passes_deferred, 0);
+    assert_int_equal(st.chunk_faces_deferred, 0);
+    assert_true(rays >= 3 * RAYS); /* a face of each all-around viewer at least */
     for (uint32_t i = 0; i < NV + 1; ++i)
         assert_list_fresh(ctx, scene, q, i, &w6[i]);
+    /* One more box, beside viewer 1 (all around) on its +x or -x side only: one face is
+     * traced, not six. */
+    box_beside(scene, 600, w6[2].eye, 0, w6[2].eye[0] > 32.0 ? -1.0f : 1.0f, 1.5f);
+    assert_int_equal(vis_query_run(q, w6, NV + 1, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_rays, RAYS);
+    assert_int_equal(st.chunk_edit_passes, 1);
+    assert_true(chunk_listed(q, 2, 600, NULL));
+    assert_list_fresh(ctx, scene, q, 2, &w6[2]);
     vis_query_destroy(q);
 
-    /* Order among waiting viewers, budget 1, passes when the eye moved (chunk_move 1).
-     * Age: X and Y new (X traced on tick 1, Y on tick 2); both teleport on tick 3, Y listed
-     * first: X, the older list, is traced, Y waits. */
+    /* Order among waiting faces, a budget of one all-around pass, passes when the eye moved
+     * (chunk_move 1). Age: X and Y new (X traced on tick 1, Y on tick 2); both teleport on
+     * tick 3, Y listed first: X, whose faces are older, is traced, Y waits. */
     d.chunk_every = 1;
     d.chunk_move = 1.0;
-    d.chunk_pass_budget = 1;
+    d.chunk_face_budget = 6;
     vis_query_viewer x0 = v[1], y0 = v[3]; /* all around */
     vis_query_viewer x1 = x0, y1 = y0;
     x1.eye[0] = x0.eye[0] > 32.0 ? x0.eye[0] - 30.0 : x0.eye[0] + 30.0;
@@ -1537,38 +1580,38 @@ static void test_chunk_pass_budget(void **state)
     assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK); /* X (input order) */
     assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK); /* Y, owed */
     assert_int_equal(st.chunk_passes, 1);
-    assert_int_equal(st.chunk_passes_deferred, 0);
+    assert_int_equal(st.chunk_faces_deferred, 0);
     in2[0] = y1;
     in2[1] = x1;
     assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 1);
-    assert_int_equal(st.chunk_passes_deferred, 1);
+    assert_int_equal(st.chunk_faces_deferred, 6);
     assert_list_fresh(ctx, scene, q, 1, &x1); /* X traced from its new eye */
     assert_list_fresh(ctx, scene, q, 0, &y0); /* Y keeps the list from its old eye */
     vis_query_destroy(q);
 
-    /* Reason: X traced on tick 1, Y on tick 2 (so X's list is the older); on tick 3 X moves
-     * (due by motion) and is listed first, and a box appears next to Y (an edit that reaches
-     * Y's pass): Y goes first and names the box, X waits. */
+    /* Reason: X traced on tick 1, Y on tick 2 (so X's faces are the older); on tick 3 X moves
+     * (due by motion) and is listed first, and a box appears beside Y on one axis (an edit
+     * that reaches one face of Y's pass): Y's face goes first and names the box, five of X's
+     * faces follow, the sixth waits for tick 4. */
     assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
     in2[0] = x0;
     in2[1] = y0;
     assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
     assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
     assert_int_equal(st.chunk_passes, 1);
-    float blo[3], bhi[3];
-    for (int k = 0; k < 3; ++k) {
-        blo[k] = (float)y0.eye[k] + (y0.eye[k] > 32.0 ? -1.5f : 1.0f);
-        bhi[k] = blo[k] + 0.5f;
-    }
-    set_box(scene, 900, blo, bhi);
+    box_beside(scene, 900, y0.eye, 1, y0.eye[1] > 6.0 ? -1.0f : 1.0f, 1.0f);
     in2[0] = x1;
     assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
-    assert_int_equal(st.chunk_passes, 1);
+    assert_int_equal(st.chunk_passes, 2);
     assert_int_equal(st.chunk_edit_passes, 1);
-    assert_int_equal(st.chunk_passes_deferred, 1);
+    assert_int_equal(st.chunk_faces_deferred, 1);
     assert_true(chunk_listed(q, 1, 900, NULL));
     assert_list_fresh(ctx, scene, q, 1, &y0);
+    assert_int_equal(vis_query_run(q, in2, 2, NULL, 0, &st), VIS_OK);
+    assert_int_equal(st.chunk_rays, RAYS);
+    assert_int_equal(st.chunk_faces_deferred, 0);
+    assert_list_fresh(ctx, scene, q, 0, &x1);
     vis_query_destroy(q);
     vis_scene_destroy(scene);
     free_world(&w);
@@ -1946,7 +1989,7 @@ int main(void)
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_chunk_reuse),
         cmocka_unit_test(test_edit_retraces_few),
-        cmocka_unit_test(test_chunk_pass_budget), cmocka_unit_test(test_edit_retrace_random),
+        cmocka_unit_test(test_chunk_face_budget), cmocka_unit_test(test_edit_retrace_random),
         cmocka_unit_test(test_no_allocation_per_tick), cmocka_unit_test(test_backends_deterministic),
     };
     const struct CMUnitTest cli_tests[] = {

@@ -167,8 +167,8 @@ static void query_free(vis_query *q)
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
                       q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->pair_retry, q->eye_now, q->box_now,
-                      q->keys, q->hits, q->results, q->chunks, q->cameras, q->camera_viewer, q->ids, q->chunk_set.keys, q->chunk_set.vals,
-                      q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->due_viewers, q->due_by_input};
+                      q->keys, q->hits, q->results, q->chunks, q->face_ids, q->cameras, q->ids, q->chunk_set.keys, q->chunk_set.vals,
+                      q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->face_due, q->face_keys, q->viewer_flags};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);
@@ -219,7 +219,7 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->results, V * sizeof(vis_qresult)},
         {(void **)&q->chunks, V * 6 * res2 * 4},
         {(void **)&q->cameras, V * 6 * sizeof(vis_camera)},
-        {(void **)&q->camera_viewer, V * 6 * 4},
+        {(void **)&q->face_ids, V * 6 * res2 * 4},
         {(void **)&q->ids, V * 6 * res2 * 4},
         {(void **)&q->chunk_set.keys, sm * 4ull},
         {(void **)&q->chunk_set.vals, sm * 4ull},
@@ -227,8 +227,9 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->chunk_depth, V * 6 * res2 * 4},
         {(void **)&q->depth, V * 6 * res2 * 4},
         {(void **)&q->setups, V * 6 * sizeof(vis_ray_setup)},
-        {(void **)&q->due_viewers, V * 4},
-        {(void **)&q->due_by_input, V},
+        {(void **)&q->face_due, V * 6},
+        {(void **)&q->face_keys, V * 6 * 8},
+        {(void **)&q->viewer_flags, V},
     };
     uint64_t total = 0;
     for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i)
@@ -772,7 +773,7 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
         s.chunk_rays = q->chunk_rays;
         s.chunk_passes = q->chunk_passes;
         s.chunk_edit_passes = q->chunk_edit_passes;
-        s.chunk_passes_deferred = q->chunk_deferred;
+        s.chunk_faces_deferred = q->chunk_deferred;
         for (uint32_t i = 0; i < nv; ++i) {
             const vis_qresult *r = &q->results[i];
             s.entity_rays += r->rays;

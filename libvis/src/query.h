@@ -18,15 +18,17 @@ typedef struct vis_idmap {
 /* One viewer's slot: kept across ticks while its ID comes back. */
 typedef struct vis_qviewer {
     uint32_t id;              /* 0: free                                                   */
-    uint64_t chunk_tick;      /* tick of its last chunk pass (0: none)                      */
-    uint32_t chunk_count;     /* entries of its chunk list                                  */
-    double chunk_eye[3];      /* the camera of that pass: eye, dir, fov_deg (chunk_move and  */
-    double chunk_dir[3];      /* the skip of an unchanged camera compare with them)          */
-    double chunk_fov;
-    uint32_t chunk_faces;     /* cameras of that pass (6 all around, 1 in view); their ray   */
-                              /* setups and depths are kept (chunk_setup, chunk_depth)       */
-    uint8_t chunk_owed;       /* 0, or 1 + why it was due on a tick whose chunk_pass_budget
-                                 left it untraced: due until traced (query_chunks.c)         */
+    uint32_t chunk_count;     /* entries of its chunk list: the union of its faces' IDs     */
+    double chunk_eye[3];      /* the camera when its last round of faces became due: eye,   */
+    double chunk_dir[3];      /* dir, fov_deg (chunk_move and the skip of an unchanged       */
+    double chunk_fov;         /* camera compare with them)                                  */
+    uint32_t chunk_faces;     /* faces of its pass (6 all around, 1 in view; 0: none yet);  */
+                              /* each face's ray setup, depths and IDs are kept (chunk_setup, */
+                              /* chunk_depth, face_ids)                                      */
+    uint32_t face_count[6];   /* unique IDs of each face (face_ids)                          */
+    uint64_t face_tick[6];    /* tick each face was last traced (0: never)                   */
+    uint8_t face_owed[6];     /* 0, or 1 + why the face was due on a call whose
+                                 chunk_face_budget left it untraced: due until traced        */
 } vis_qviewer;
 
 typedef struct vis_qentity {
@@ -82,33 +84,34 @@ struct vis_query {
 
     /* Chunk passes. */
     uint32_t chunk_cap;       /* 6 * chunk_res^2: the most distinct IDs one viewer's pass has */
-    uint32_t *chunks;         /* max_viewers * chunk_cap, by viewer slot                    */
+    uint32_t *chunks;         /* max_viewers * chunk_cap, by viewer slot: the lists          */
+    uint32_t *face_ids;       /* max_viewers * chunk_cap, by viewer slot: chunk_res^2 per face */
     vis_camera *cameras;      /* max_viewers * 6                                            */
-    uint32_t *camera_viewer;  /* the viewer slot of each camera                             */
     uint32_t *ids;            /* max_viewers * 6 * chunk_res^2                              */
-    vis_idmap chunk_set;      /* dedup of one viewer's pass                                 */
-    uint32_t chunk_passes;
+    vis_idmap chunk_set;      /* dedup of one face, or of one viewer's faces                */
+    uint32_t chunk_passes;    /* viewers with a face traced this tick                       */
     uint64_t chunk_rays;
-    uint32_t chunk_deferred;  /* due viewers the pass budget left for a later tick           */
-    uint32_t *due_viewers;    /* max_viewers: this tick's due viewers (input indices)         */
-    uint8_t *due_by_input;    /* max_viewers: why each due viewer is due, by input index      */
+    uint32_t chunk_deferred;  /* due faces the face budget left for a later tick             */
+    uint8_t *face_due;        /* max_viewers * 6, by input index: 0, or 1 + why a face is due */
+    uint64_t *face_keys;      /* max_viewers * 6: this tick's due faces, in budget order     */
+    uint8_t *viewer_flags;    /* max_viewers, by input index (query_chunks.c)               */
 
     /* Edits: which passes an edit can change (query_chunks.c). Each slot keeps its last pass's
      * ray setups and per-pixel hit distances; the boxes the scene changed since the last tick
      * are tested against them, and only passes with a ray that reaches one are traced again. */
-    vis_ray_setup *chunk_setup; /* max_viewers * 6, by viewer slot                          */
-    float *chunk_depth;       /* max_viewers * chunk_cap, by viewer slot                    */
+    vis_ray_setup *chunk_setup; /* max_viewers * 6, by viewer slot and face                 */
+    float *chunk_depth;       /* max_viewers * chunk_cap, by viewer slot: chunk_res^2 per face */
     float *depth;             /* max_viewers * 6 * chunk_res^2: the batch's hit distances   */
     vis_ray_setup *setups;    /* max_viewers * 6: the batch's ray setups                    */
     vis_scene_edit_box changes[VIS_SCENE_EDIT_LOG]; /* this tick's changed boxes            */
     uint32_t change_count;    /* UINT32_MAX: the log did not reach back (retrace everyone)  */
-    uint32_t chunk_edit_passes; /* this tick's passes that an edit made due                 */
+    uint32_t chunk_edit_passes; /* this tick's viewers with a face traced because of an edit */
 };
 
-/* Can this tick's changed boxes (q->changes, q->change_count) change the IDs of the last
- * chunk pass of the viewer in slot s? 0 only when no ray of that pass reaches one before its
- * hit (query_edits.c). */
-int vis_query_edit_reaches(const vis_query *q, uint32_t slot);
+/* The faces of the viewer in slot s whose IDs this tick's changed boxes (q->changes,
+ * q->change_count) can change, as a mask (bit f: face f): those of its traced faces with a
+ * ray that reaches a changed box before its hit (query_edits.c). */
+uint32_t vis_query_edit_faces(const vis_query *q, uint32_t slot);
 
 /* Traces the chunk passes due this tick (query_chunks.c); the caller holds the context. */
 vis_status vis_query_chunks_run(vis_query *q);

@@ -1,5 +1,5 @@
-/* query_edits.c — which viewers' chunk passes an edit can change (query_chunks.c traces only
- * those again after an edit, instead of every viewer).
+/* query_edits.c — which faces of the viewers' chunk passes an edit can change (query_chunks.c
+ * traces only those again after an edit, instead of every viewer's whole pass).
  *
  * A pass's pixel names the nearest primitive its ray hits within [t_near, t_far] (ties to the
  * lower ID; every traversal gives brute force's answer, docs/traversal.md "Exactness"). An
@@ -118,17 +118,25 @@ static int face_reaches(const vis_ray_setup *st, const float *depth, const vis_s
     return 0;
 }
 
-int vis_query_edit_reaches(const vis_query *q, uint32_t s)
+uint32_t vis_query_edit_faces(const vis_query *q, uint32_t s)
 {
     const vis_qviewer *v = &q->viewers[s];
-    if (q->change_count == UINT32_MAX)
-        return 1; /* the log did not reach back: anything may have changed */
     size_t pixels = (size_t)q->desc.chunk_res * q->desc.chunk_res;
-    for (uint32_t k = 0; k < q->change_count; ++k)
-        for (uint32_t f = 0; f < v->chunk_faces; ++f)
+    uint32_t reached = 0;
+    for (uint32_t f = 0; f < v->chunk_faces; ++f) {
+        if (v->face_tick[f] == 0)
+            continue; /* never traced: nothing kept to change */
+        if (q->change_count == UINT32_MAX) {
+            reached |= 1u << f; /* the log did not reach back: anything may have changed */
+            continue;
+        }
+        for (uint32_t k = 0; k < q->change_count; ++k)
             if (face_reaches(&q->chunk_setup[(size_t)s * 6 + f], q->chunk_depth + (size_t)s * q->chunk_cap + f * pixels,
-                             &q->changes[k]))
-                return 1;
-    return 0;
+                             &q->changes[k])) {
+                reached |= 1u << f;
+                break;
+            }
+    }
+    return reached;
 }
 

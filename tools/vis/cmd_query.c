@@ -52,8 +52,11 @@ static void usage(FILE *f)
             "                       (default 0: the cadence, skipping passes whose camera is unchanged)\n"
             "  --chunk-traversal M  the chunk passes' traversal (default auto: the backend's, packets\n"
             "                       on the CPU; names as vis run's)\n"
-            "  --chunk-budget N     viewers whose chunk pass runs per tick; the others wait, most\n"
-            "                       urgent first (default 0: no limit)\n"
+            "  --chunk-face-budget N\n"
+            "                       faces of chunk passes traced per tick (an all-around pass has\n"
+            "                       6, one in view 1); the others wait, most urgent first, each\n"
+            "                       traced from its viewer's eye when its turn comes (default 0:\n"
+            "                       no limit)\n"
             "  --chunks view|around the chunk pass: the viewer's view, or all around (default around)\n"
             "  --compare            also run the SMAC-style and Luanti-style checks and a dense truth\n"
             "  --truth-res N        truth: N x N per cube face (default 256)\n"
@@ -78,7 +81,7 @@ typedef struct qopts {
     const char *scene, *replay, *out;
     int json, compare, around, no_solid;
     uint32_t simulate, ticks, threads, max_viewers, max_entities, pair_limit, unsettled, hold, chunk_res, chunk_every;
-    uint32_t truth_res, truth_every, edit_every, viewer_budget, chunk_budget;
+    uint32_t truth_res, truth_every, edit_every, viewer_budget, chunk_face_budget;
     uint64_t budget, seed;
     double margin, peek, slack, chunk_range, chunk_move, luanti_range, tick_ms;
     int chunk_traversal;
@@ -222,8 +225,8 @@ static int parse_args(int argc, char **argv, qopts *o)
                 fprintf(stderr, "vis query: --chunk-range '%s': 0 (unlimited) or at least 1 voxel\n", v);
                 rc = -1;
             }
-        } else if (!strcmp(a, "--chunk-budget")) {
-            rc = parse_u32(a, v, 0, VIS_QUERY_MAX_VIEWERS, &o->chunk_budget);
+        } else if (!strcmp(a, "--chunk-face-budget")) {
+            rc = parse_u32(a, v, 0, 6 * VIS_QUERY_MAX_VIEWERS, &o->chunk_face_budget);
         } else if (!strcmp(a, "--chunk-move")) {
             rc = parse_dbl(a, v, 0.0, 1e5, &o->chunk_move);
         } else if (!strcmp(a, "--chunk-traversal")) {
@@ -537,7 +540,7 @@ static int run_replay(const qopts *o)
     qd.proof_slack = o->slack > 0.0 ? o->slack : -1.0; /* the library's 0 means its default */
     qd.chunk_range = o->chunk_range;
     qd.chunk_move = o->chunk_move;
-    qd.chunk_pass_budget = o->chunk_budget;
+    qd.chunk_face_budget = o->chunk_face_budget;
     qd.chunk_traversal = vc_traversal_method(o->chunk_traversal);
     qd.threads = o->threads;
     if (!o->no_solid) {
@@ -647,7 +650,7 @@ static int run_replay(const qopts *o)
         ours.rays += st.entity_rays;
         ours.chunk_rays += st.chunk_rays;
         edit_passes += st.chunk_edit_passes;
-        deferred += st.chunk_passes_deferred;
+        deferred += st.chunk_faces_deferred;
         ours.pairs += st.pairs;
         ours.unchecked += st.pairs_unchecked;
         ours.held += st.pairs_held;
@@ -768,10 +771,10 @@ static int run_replay(const qopts *o)
         if (out)
             fprintf(out,
                     "{\"tick\":%llu,\"ms\":%.4f,\"entity_rays\":%llu,\"chunk_rays\":%llu,\"chunk_passes\":%u,"
-                    "\"chunk_edit_passes\":%u,\"chunk_passes_deferred\":%u,\"viewers\":[",
+                    "\"chunk_edit_passes\":%u,\"chunk_faces_deferred\":%u,\"viewers\":[",
                     (unsigned long long)t.tick, ours_ms, (unsigned long long)st.entity_rays,
                     (unsigned long long)st.chunk_rays, st.chunk_passes, st.chunk_edit_passes,
-                    st.chunk_passes_deferred);
+                    st.chunk_faces_deferred);
         for (uint32_t i = 0; i < t.viewer_count; ++i) {
             size_t nh = 0, nc = 0;
             if (vis_query_entities(q, i, hits, o->max_entities, &nh) != VIS_OK ||
@@ -808,7 +811,7 @@ static int run_replay(const qopts *o)
             printf((*c == '"' || *c == '\\') ? "\\%c" : (unsigned char)*c < 0x20 ? "?" : "%c", *c);
         printf("\",");
         printf("\"chunk_rays_per_tick\":%.1f,", ticks ? (double)ours.chunk_rays / (double)ticks : 0.0);
-        printf("\"chunk_edit_passes\":%llu,\"chunk_passes_deferred\":%llu,", (unsigned long long)edit_passes,
+        printf("\"chunk_edit_passes\":%llu,\"chunk_faces_deferred\":%llu,", (unsigned long long)edit_passes,
                (unsigned long long)deferred);
         print_method(stdout, "libvis", &ours, ticks, truth_ticks, 1, 1, 1);
         if (o->compare) {
@@ -821,8 +824,8 @@ static int run_replay(const qopts *o)
                o->replay, o->scene, (unsigned long long)ticks, (unsigned long long)truth_ticks, o->truth_res,
                o->truth_res, o->threads, wi.nonempty_chunks);
         printf("  backend: %s (%s)\n", s.backend.name, s.backend.device);
-        printf("  chunk passes: %.0f rays per tick, %llu passes traced because an edit reached them, %llu "
-               "viewer-ticks waiting on --chunk-budget\n",
+        printf("  chunk passes: %.0f rays per tick, %llu viewer-ticks with faces traced because an "
+               "edit reached them, %llu face-ticks waiting on --chunk-face-budget\n",
                ticks ? (double)ours.chunk_rays / (double)ticks : 0.0, (unsigned long long)edit_passes,
                (unsigned long long)deferred);
         print_method(stdout, "libvis", &ours, ticks, truth_ticks, 0, 1, 1);

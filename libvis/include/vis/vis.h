@@ -806,13 +806,14 @@ VIS_API vis_status vis_context_last_timing(const vis_context *context, vis_timin
  * The scene may be edited between calls (through its own context); each call sees the
  * committed state; an edit since the last call drops the cached entity results whose proof
  * it can reach (its changed boxes meet the proof's eye region and swept box).
- * Chunk lists: an edit retraces, on the next call, the viewers with a ray of their last chunk
- * pass that reaches an edited object's box (its hull before and after the edit) before that
- * ray's hit -- exactly the passes whose IDs the edit can change; the others keep their lists,
- * which are what their pass would give on the edited scene. When more than 64 boxes changed
- * since the last call (the scene keeps a log of the last 64), every viewer is retraced. With a
- * chunk_pass_budget, "on the next call" becomes "on a later call": the viewers past the budget
- * keep their last lists until their turn. */
+ * Chunk lists: a viewer's list is the union of the IDs of its pass's faces (6 all around, 1
+ * in view), each face kept from its last trace. An edit retraces, on the next call, the faces
+ * with a ray that reaches an edited object's box (its hull before and after the edit) before
+ * that ray's hit -- exactly the faces whose IDs the edit can change; the others keep their
+ * IDs, which are what a trace would give on the edited scene. When more than 64 boxes changed
+ * since the last call (the scene keeps a log of the last 64), every face is retraced. With a
+ * chunk_face_budget, "on the next call" becomes "on a later call": the faces past the budget
+ * keep their last IDs until their turn. */
 typedef struct vis_query vis_query;
 
 /* Sizes a query may be created with. */
@@ -842,10 +843,9 @@ typedef struct vis_query_desc {
     uint32_t chunk_res;        /* the chunk ID pass: chunk_res x chunk_res per face,
                                   1..VIS_QUERY_MAX_CHUNK_RES; default 32                     */
     uint32_t chunk_every;      /* re-trace a viewer's chunks every N ticks, each viewer slot
-                                  on its own phase (and at once for a new viewer, or after a
-                                  scene edit that reaches the viewer's last pass: see above;
-                                  "at once" within chunk_pass_budget);
-                                  default 1: every tick                                       */
+                                  on its own phase (and at once for a new viewer, or the
+                                  faces a scene edit reaches: see above; "at once" within
+                                  chunk_face_budget); default 1: every tick                 */
     double chunk_range;        /* the chunk pass's far plane, in voxels from the eye (Luanti
                                   sends blocks within a range, 192 voxels by default); chunks
                                   seen only beyond it are not listed. 0 (default): unlimited;
@@ -853,26 +853,29 @@ typedef struct vis_query_desc {
     double chunk_move;         /* voxels: 0 (default), passes come on the chunk_every cadence
                                   (a due pass whose camera is the last one's, to the bit, is
                                   skipped: it would trace the same pixels); above 0, the
-                                  cadence is off and a viewer's pass runs when its eye has
-                                  left the cube of half-side chunk_move around the eye of
-                                  its last pass, or its dir or fov_deg changed (and at once
-                                  for a new viewer, or after an edit that reaches its last
-                                  pass); at most 1e5                                         */
+                                  cadence is off and a viewer's pass is due when its eye has
+                                  left the cube of half-side chunk_move around its eye when
+                                  its last pass was due, or its dir or fov_deg changed (and at
+                                  once for a new viewer, or the faces an edit reaches); at
+                                  most 1e5                                                   */
     vis_traversal chunk_traversal; /* the chunk passes' traversal; VIS_TRAVERSAL_AUTO (default):
                                   the backend's (vis_traversal): on the CPU packets, 4x4 at
                                   the default chunk_res (docs/server.md); every method gives
                                   the same IDs                                               */
-    uint32_t chunk_pass_budget;/* viewers whose chunk pass is traced per call; 0 (default):
-                                  every viewer due. Past it, due viewers wait for a later
-                                  call, keeping their last list (a new viewer has none yet:
-                                  0 chunks), and are traced first then: those with no list,
-                                  then those an edit reached, then the rest, the oldest list
-                                  first, then input order (deterministic): a waiting viewer
-                                  competes in its class, so viewers due only by cadence or
-                                  motion wait while more than the budget are new or reached by
-                                  edits on every call. Bounds a tick's
-                                  chunk rays to budget x 6 chunk_res^2 (a first tick of many
-                                  new viewers, an edit near many)                           */
+    uint32_t chunk_face_budget;/* faces (chunk_res^2 rays each) of the chunk passes traced per
+                                  call; 0 (default): every face due. Past it, due faces wait
+                                  for a later call, keeping their last IDs (a new viewer's
+                                  list holds only its faces traced so far: 0 chunks before the
+                                  first), and are traced first then: faces of viewers with no
+                                  list (or that changed between in view and all around), then
+                                  faces an edit reached, then the rest, the oldest trace
+                                  first, then input order, then face order (deterministic): a
+                                  waiting face competes in its class, so faces due only by
+                                  cadence or motion wait while more than the budget are new or
+                                  reached by edits on every call. Each face is traced from the
+                                  viewer's eye on the call that traces it. Bounds a call's
+                                  chunk rays to budget x chunk_res^2 (a first tick of many new
+                                  viewers, an edit near many, one viewer's all-around pass)  */
     double margin;             /* voxels added around eye regions and swept boxes; default 0 */
     double peek_speed;         /* voxels per second the viewer may move, in any direction,
                                   on top of its velocity (a peek); default 0                 */
@@ -954,14 +957,13 @@ typedef struct vis_query_stats {
                                   swept box still lie inside the regions it covered (or an
                                   unsettled pair still waiting out unsettled_ticks)          */
     uint32_t pairs_seen, pairs_hidden, pairs_unchecked, pairs_held;
-    uint32_t chunk_passes;     /* viewers whose chunks were traced this tick                  */
-    uint32_t chunk_edit_passes;/* of those, the viewers traced because a scene edit (since the
-                                  last tick, or an earlier one whose pass chunk_pass_budget
-                                  left waiting) reached a ray of their last pass (or every viewer
-                                  with a pass when the scene's change log no longer reached
-                                  back: more than 64 boxes changed)                           */
-    uint32_t chunk_passes_deferred; /* viewers due whose pass chunk_pass_budget left for a
-                                  later call                                                  */
+    uint32_t chunk_passes;     /* viewers with a face of their chunk pass traced this tick    */
+    uint32_t chunk_edit_passes;/* of those, the viewers with a face traced because a scene edit
+                                  (since the last tick, or an earlier one whose face
+                                  chunk_face_budget left waiting) reached a ray of it (or
+                                  every traced face when the scene's change log no longer
+                                  reached back: more than 64 boxes changed)                   */
+    uint32_t chunk_faces_deferred; /* faces due that chunk_face_budget left for a later call  */
     double ms;                 /* the call, wall clock                                         */
 } vis_query_stats;
 
