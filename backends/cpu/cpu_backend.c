@@ -1,7 +1,7 @@
 /* cpu_backend.c — the ray pass on CPU threads. Rays go in square tiles (Chang & Ihm 2010
  * use square thread tiles for coherence: neighbouring rays touch the same nodes and leaves),
- * 8x8 for the per-ray methods and VIS_PACKET_SIDE for packets, handed out dynamically by the
- * pool. A batch of views is one pool run over the tiles of all of them, so that the threads
+ * 8x8 for the per-ray methods and VIS_PACKET_SIDE for packets (8x8 for packets of 8 or fewer
+ * rays a side), handed out dynamically by the pool. A batch of views is one pool run over the tiles of all of them, so that the threads
  * share out a batch of small passes (a server's 32x32 faces: four tiles each) as they do one
  * large pass, woken once. The scene arrays are the host's own; a sync
  * only refreshes the subtree occupancy flags the packet method skips empty space with.
@@ -65,7 +65,7 @@ static void trace_tile(void *user, uint32_t item)
     }
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
         /* Per tile: the views of a batch may differ in field of view, so in packet size. */
-        vis_packet_trace_tile(s, &v, job->occupied, vis_packet_side(s), x0, y0, ids, depth, job->cost);
+        vis_packet_trace_tile(s, &v, job->occupied, vis_packet_side(s), job->side, x0, y0, ids, depth, job->cost);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -127,11 +127,20 @@ static void cpu_scene_release(void *impl, void *scene_data)
 }
 
 /* A job over the `views` passes setup[0..views) (one size and method): its items are the
- * tiles of view 0, then those of view 1, and so on. */
+ * tiles of view 0, then those of view 1, and so on. Packets go in VIS_PACKET_SIDE tiles, or
+ * in 8x8 ones where no view takes 16x16 packets: a server's 32x32 face is then 16 items
+ * instead of 4, so that its threads share a face whose work lies in one corner (a hill's
+ * horizon: docs/server.md, "Chunk faces"). An effects pass keeps VIS_PACKET_SIDE tiles. */
 static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_view *view, const vis_ray_setup *setup,
-                     uint32_t views, uint32_t *ids, float *depth)
+                     uint32_t views, uint32_t *ids, float *depth, const vis_effect_setup *effects)
 {
-    uint32_t side = setup->traversal == VIS_TRAVERSAL_ID_PACKET ? VIS_PACKET_SIDE : TILE;
+    uint32_t side = TILE;
+    if (setup->traversal == VIS_TRAVERSAL_ID_PACKET) {
+        side = effects ? VIS_PACKET_SIDE : TILE;
+        for (uint32_t i = 0; i < views && side < VIS_PACKET_SIDE; ++i)
+            if (vis_packet_side(&setup[i]) > TILE)
+                side = VIS_PACKET_SIDE;
+    }
     memset(job, 0, sizeof *job);
     job->view = view;
     job->occupied = occ->occupied;
@@ -139,6 +148,7 @@ static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_vie
     job->views = views;
     job->ids = ids;
     job->depth = depth;
+    job->effects = effects;
     job->side = side;
     job->tiles_x = (setup->width + side - 1) / side;
     job->tiles = job->tiles_x * ((setup->height + side - 1) / side);
@@ -162,8 +172,7 @@ static vis_status cpu_trace_effects(void *impl, void *scene_data, const vis_scen
 {
     (void)err, (void)err_size;
     cpu_job job;
-    init_job(&job, scene_data, view, setup, 1, out->ids, out->depth);
-    job.effects = effects;
+    init_job(&job, scene_data, view, setup, 1, out->ids, out->depth, effects);
     job.effect_out = out;
     run_job(impl, &job);
     if (out->secondary_rays)
@@ -176,7 +185,7 @@ static vis_status cpu_trace(void *impl, void *scene_data, const vis_scene_view *
 {
     (void)err, (void)err_size;
     cpu_job job;
-    init_job(&job, scene_data, view, setup, 1, ids, depth);
+    init_job(&job, scene_data, view, setup, 1, ids, depth, NULL);
     run_job(impl, &job);
     return VIS_OK;
 }
@@ -186,7 +195,7 @@ static vis_status cpu_trace_batch(void *impl, void *scene_data, const vis_scene_
                                   size_t err_size)
 {
     cpu_job job;
-    init_job(&job, scene_data, view, setups, count, ids, depth);
+    init_job(&job, scene_data, view, setups, count, ids, depth, NULL);
     if ((uint64_t)job.tiles * count > UINT32_MAX) {
         snprintf(err, err_size, "a batch of %u views of %u tiles is over 2^32 tiles", count, job.tiles);
         return VIS_ERROR_INVALID_ARGUMENT;
@@ -203,7 +212,7 @@ static vis_status cpu_trace_cost(void *impl, void *scene_data, const vis_scene_v
         return VIS_ERROR_UNSUPPORTED;
     }
     cpu_job job;
-    init_job(&job, scene_data, view, setup, 1, ids, NULL);
+    init_job(&job, scene_data, view, setup, 1, ids, NULL, NULL);
     job.cost = cost;
     run_job(impl, &job);
     return VIS_OK;

@@ -129,12 +129,13 @@ static packet_fn packet_of(uint32_t side)
 }
 
 uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                               uint32_t side, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
+                               uint32_t side, uint32_t edge, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
+                               uint32_t *cost)
 {
     packet_fn fn = packet_of(side);
     float give_up_t = give_up_distance(setup, side);
-    uint32_t x_end = x0 + VIS_PACKET_SIDE < setup->width ? x0 + VIS_PACKET_SIDE : setup->width;
-    uint32_t y_end = y0 + VIS_PACKET_SIDE < setup->height ? y0 + VIS_PACKET_SIDE : setup->height;
+    uint32_t x_end = x0 + edge < setup->width ? x0 + edge : setup->width;
+    uint32_t y_end = y0 + edge < setup->height ? y0 + edge : setup->height;
     uint32_t alone = 0;
     for (uint32_t ty = y0; ty < y_end; ty += side)
         for (uint32_t tx = x0; tx < x_end; tx += side) {

@@ -105,11 +105,23 @@ static int face_reaches(const vis_ray_setup *st, const float *depth, const vis_s
     int32_t px[2], py[2];
     if (!box_pixels(st, rel_lo, rel_hi, px, py))
         return 0;
+    /* A ray's point at distance t lies t |d| from the eye, and |d| is 1 within a few float
+     * ulps: a ray whose segment ends nearer than the box's nearest point (with a margin far
+     * above that) cannot reach it. Most pixels of a box hidden behind terrain end there, and
+     * need no ray of their own. */
+    double gap2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        double g = fmax(fmax(rel_lo[a], -rel_hi[a]), 0.0);
+        gap2 += g * g;
+    }
+    double nearest = sqrt(gap2) * (1.0 - 1e-5);
     for (int32_t y = py[0]; y <= py[1]; ++y)
         for (int32_t x = px[0]; x <= px[1]; ++x) {
             float t = depth[(size_t)y * st->width + (size_t)x];
             double end = t < st->t_far ? (double)t : (double)st->t_far; /* +inf: nothing hit */
             end += slack + EDIT_SLACK_REL * end;
+            if (end < nearest)
+                continue;
             vis_ray r;
             vis_ray_for_pixel(st, (uint32_t)x, (uint32_t)y, &r);
             if (ray_meets_box(&r, lo, hi, (double)st->t_near - slack, end))
