@@ -1314,17 +1314,25 @@ static void test_chunk_reuse(void **state)
 
 /* Viewer i's list of the last run equals what a fresh query traces for the same viewer now
  * (a still viewer: its last pass's camera). */
-static void assert_list_fresh(vis_context *ctx, vis_scene *scene, vis_query *q, uint32_t i, const vis_query_viewer *v)
+enum { LIST_CAP = 6 * 32 * 32 };
+
+/* Viewer i's list in q, and a fresh query's list for camera v (one tick, the defaults). */
+static void kept_and_fresh(vis_context *ctx, vis_scene *scene, vis_query *q, uint32_t i, const vis_query_viewer *v,
+                           uint32_t *kept, size_t *nk, uint32_t *fresh, size_t *nf)
 {
-    enum { CAP = 6 * 32 * 32 };
-    static uint32_t kept[CAP], fresh[CAP];
-    size_t nk = 0, nf = 0;
-    assert_int_equal(vis_query_chunks(q, i, kept, CAP, &nk), VIS_OK);
+    assert_int_equal(vis_query_chunks(q, i, kept, LIST_CAP, nk), VIS_OK);
     vis_query *q2 = NULL;
     assert_int_equal(vis_query_create(ctx, scene, NULL, &q2), VIS_OK);
     assert_int_equal(vis_query_run(q2, v, 1, NULL, 0, NULL), VIS_OK);
-    assert_int_equal(vis_query_chunks(q2, 0, fresh, CAP, &nf), VIS_OK);
+    assert_int_equal(vis_query_chunks(q2, 0, fresh, LIST_CAP, nf), VIS_OK);
     vis_query_destroy(q2);
+}
+
+static void assert_list_fresh(vis_context *ctx, vis_scene *scene, vis_query *q, uint32_t i, const vis_query_viewer *v)
+{
+    static uint32_t kept[LIST_CAP], fresh[LIST_CAP];
+    size_t nk = 0, nf = 0;
+    kept_and_fresh(ctx, scene, q, i, v, kept, &nk, fresh, &nf);
     assert_int_equal(nk, nf);
     assert_memory_equal(kept, fresh, nk * 4);
 }
@@ -1447,15 +1455,9 @@ static void test_edit_retraces_few(void **state)
 static size_t assert_list_within_fresh(vis_context *ctx, vis_scene *scene, vis_query *q, uint32_t i,
                                        const vis_query_viewer *v)
 {
-    enum { CAP = 6 * 32 * 32 };
-    static uint32_t kept[CAP], fresh[CAP];
+    static uint32_t kept[LIST_CAP], fresh[LIST_CAP];
     size_t nk = 0, nf = 0, j = 0;
-    assert_int_equal(vis_query_chunks(q, i, kept, CAP, &nk), VIS_OK);
-    vis_query *q2 = NULL;
-    assert_int_equal(vis_query_create(ctx, scene, NULL, &q2), VIS_OK);
-    assert_int_equal(vis_query_run(q2, v, 1, NULL, 0, NULL), VIS_OK);
-    assert_int_equal(vis_query_chunks(q2, 0, fresh, CAP, &nf), VIS_OK);
-    vis_query_destroy(q2);
+    kept_and_fresh(ctx, scene, q, i, v, kept, &nk, fresh, &nf);
     for (size_t k = 0; k < nk; ++k) { /* both sorted */
         while (j < nf && fresh[j] < kept[k])
             ++j;

@@ -16,7 +16,11 @@
 #                        GPU", not yet run): test_opencl and the bit-for-bit comparison, then this tree
 #                        against a parent's build in old/ (vis, vis_clbench), alternated, two
 #                        rounds: batches of 256 on gen:default and gen:large, one view per
-#                        camera of gen:default, and the methods' table on gen:default
+#                        camera of gen:default, and the methods' table on gen:default (this
+#                        tree alone where old/ is missing)
+#   run_device.sh 7      the 32-player replays (replays/ as for 3) with the chunk faces on the
+#                        GPU and on 2 CPU threads, without a budget and with one face per tick
+#                        (--chunk-face-budget 1, also with --chunk-move 4), two rounds
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -121,20 +125,30 @@ if [ "$PHASE" = 5 ]; then
   grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu.log"
   timeout 150 ./vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 > "$O/conf.log" 2>&1
   echo "conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf.log" | tail -3
-  for s in gen:default gen:large; do for round in 1 2; do for b in new old; do
+  B="new"; [ -x old/vis_clbench ] && B="new old" # old/: a parent's build, when there is one
+  for s in gen:default gen:large; do for round in 1 2; do for b in $B; do
     c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
     echo "$s batch 256, $b, round $round: $(timeout 60 $c --scene $s --device NVIDIA --conformance 0 --passes 0 \
       --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
   done; done; done
-  for round in 1 2; do for b in new old; do
+  for round in 1 2; do for b in $B; do
     c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
     timeout 60 $c --device NVIDIA --conformance 0 --drawlist 1 --reps 10 > "$O/views_${b}_$round.log" 2>&1
     echo "gen:default one view, $b, round $round (rc=$?):"; grep -E "^(default|ground|horizon|overview|topdown|walk-)" "$O/views_${b}_$round.log"
   done; done
-  for b in new old; do
+  for b in $B; do
     c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
     timeout 90 $c --device NVIDIA --conformance 0 --passes 0 --methods 1 --reps 10 > "$O/methods_$b.log" 2>&1
     echo "gen:default methods, $b (rc=$?):"; cat "$O/methods_$b.log" | tail -25
   done
+fi
+if [ "$PHASE" = 7 ]; then
+  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  for round in 1 2; do for s in city default maze; do for b in opencl cpu; do
+    for o in "" "--chunk-face-budget 1" "--chunk-move 4 --chunk-face-budget 1"; do
+      echo "query $s --backend $b [$o] round $round: $(./vis query --scene gen:$s --replay replays/${s}32.jsonl \
+        --threads 2 --backend $b $o --json 2>&1 | grep -o '"chunk_rays_per_tick":[0-9.]*\|"ms_per_tick":{[^}]*}' | tr '\n' ' ')"
+    done
+  done; done; done
 fi
 date -u
