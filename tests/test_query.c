@@ -1825,6 +1825,18 @@ static void test_cli_simulate_replay(void **state)
             fail_msg("--solid %s: %g solid tests per tick", off ? "off" : "on", tests);
         vt_run_free(&r);
     }
+    /* --chunk-face-budget reaches the library: one face per tick at most, the rest waiting. */
+    r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s --json --chunk-face-budget 1", MAZE,
+               qpath("maze.jsonl"));
+    vt_assert_exit(r, 0);
+    const char *cr = strstr(r.out, "\"chunk_rays_per_tick\":"), *fd = strstr(r.out, "\"chunk_faces_deferred\":");
+    assert_non_null(cr);
+    assert_non_null(fd);
+    double crays = strtod(cr + strlen("\"chunk_rays_per_tick\":"), NULL);
+    double waited = strtod(fd + strlen("\"chunk_faces_deferred\":"), NULL);
+    if (!(crays > 0.0 && crays <= 32.0 * 32.0 && waited > 0.0))
+        fail_msg("--chunk-face-budget 1: %g chunk rays per tick, %g face-ticks waiting", crays, waited);
+    vt_run_free(&r);
     r = vt_run(VIS_EXE, qdir, NULL,
                "query --scene %s --replay %s --compare --truth-every 8 --truth-res 128 --json --out %s", MAZE,
                qpath("maze.jsonl"), qpath("out.jsonl"));
@@ -1967,7 +1979,8 @@ static void test_cli_hostile_replay(void **state)
     vt_run_free(&r);
     const char *bad_opts[] = {"--chunk-move -1", "--chunk-move nan", "--chunk-move 1e6", "--chunk-traversal shortstack:3",
                               "--chunk-traversal warp", "--chunk-traversal", "--chunks", "--unsettled-ticks 0",
-                              "--unsettled-ticks 1025", "--unsettled-ticks", "--solid maybe", "--solid"};
+                              "--unsettled-ticks 1025", "--unsettled-ticks", "--solid maybe", "--solid",
+                              "--chunk-face-budget -1", "--chunk-face-budget 24577", "--chunk-face-budget"};
     for (size_t i = 0; i < sizeof bad_opts / sizeof bad_opts[0]; ++i) {
         r = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s %s", MAZE, qpath("long.jsonl"), bad_opts[i]);
         vt_assert_exit(r, 2);
