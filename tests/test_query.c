@@ -949,14 +949,23 @@ static void test_threads_deterministic(void **state)
     }
     d.pair_ray_limit = 0;
     d.unsettled_ticks = 0;
-    /* Passes driven by the eyes' motion, with another traversal: still the same lists. */
+    /* Passes driven by the eyes' motion, with another traversal, then with a budget of 2 faces
+     * (passes spread over ticks, faces waiting): still the same lists. */
     d.chunk_move = 0.5;
     d.chunk_traversal = VIS_TRAVERSAL_SHORTSTACK;
-    n1 = run_ticks(1, &d, a, CAP, &s1);
-    for (int t = 0; t < 2; ++t) {
-        size_t n2 = run_ticks(threads[t], &d, b, CAP, &s2);
-        assert_int_equal(n1, n2);
-        assert_memory_equal(a, b, n1 * 4);
+    uint64_t unbudgeted = 0;
+    for (int budget = 0; budget < 2; ++budget) {
+        d.chunk_face_budget = budget ? 2u : 0u;
+        n1 = run_ticks(1, &d, a, CAP, &s1);
+        for (int t = 0; t < 2; ++t) {
+            size_t n2 = run_ticks(threads[t], &d, b, CAP, &s2);
+            assert_int_equal(n1, n2);
+            assert_memory_equal(a, b, n1 * 4);
+            assert_int_equal(s1.chunk_rays, s2.chunk_rays);
+        }
+        if (budget) /* four ticks of at most 2 faces, fewer than without the budget */
+            assert_true(s1.chunk_rays <= 4u * 2u * 32u * 32u && s1.chunk_rays < unbudgeted);
+        unbudgeted = s1.chunk_rays;
     }
     free(a);
     free(b);
