@@ -6,7 +6,12 @@
  * through the kernel, and on a virtual machine whose idle virtual CPU has halted that took
  * 80-100 us per run (docs/server.md, "One pool run per batch, one set of threads"), ten times
  * the work of a run of small items. A run that follows within the spin finds its workers
- * awake; one that does not costs each worker SPIN_NS of CPU time after the last run. */
+ * awake; one that does not costs each worker SPIN_NS of CPU time after the last run.
+ *
+ * The caller takes part, and once it has run out of items it closes the run: a worker that
+ * had not joined by then stays out of it, so the caller waits only for the workers that are
+ * working, never for one still being woken or not yet scheduled (a small pass on a busy or
+ * virtual CPU would otherwise wait for a thread that has nothing left to do). */
 #if !defined(_POSIX_C_SOURCE) || _POSIX_C_SOURCE < 199309L
 #undef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
@@ -23,6 +28,9 @@
 #define CPU_RELAX() ((void)0)
 #endif
 
+#define RUN_CLOSED 0x80000000ull
+#define RUN_JOINED 0x7FFFFFFFull
+
 #ifndef SPIN_NS
 #define SPIN_NS 100000 /* how long a waiting thread spins before it sleeps */
 #endif
@@ -35,7 +43,11 @@ struct vis_pool {
     pthread_cond_t wake, done;
     atomic_ullong generation; /* bumped per run (under lock); workers wait for a new one */
     int quit;
-    atomic_uint running;      /* workers still inside the current run (changed under lock) */
+    /* The current run: the generation's low 32 bits above RUN_CLOSED and the number of
+     * workers that joined it; a worker joins only while the run is open. */
+    atomic_ullong run;
+    atomic_uint finished;     /* workers of the current run that have finished it (changed
+                                 under lock, for the caller's sleep) */
     /* current job */
     vis_pool_item_fn fn;
     void *user;
@@ -68,6 +80,18 @@ static int spin_over(uint64_t start, uint32_t step)
     return step % 64u == 0 && now_ns() - start > SPIN_NS;
 }
 
+/* Joins run `gen` if it is still open (the caller has not run out of items). */
+static int join_run(vis_pool *p, unsigned long long gen)
+{
+    unsigned long long r = atomic_load_explicit(&p->run, memory_order_acquire);
+    for (;;) {
+        if ((r >> 32) != (gen & 0xFFFFFFFFull) || (r & RUN_CLOSED))
+            return 0;
+        if (atomic_compare_exchange_weak_explicit(&p->run, &r, r + 1u, memory_order_acq_rel, memory_order_acquire))
+            return 1;
+    }
+}
+
 static void *worker_main(void *arg)
 {
     vis_pool *p = arg;
@@ -85,10 +109,12 @@ static void *worker_main(void *arg)
             break;
         seen = atomic_load(&p->generation);
         pthread_mutex_unlock(&p->lock);
+        if (!join_run(p, seen))
+            continue; /* the caller finished without this worker */
         drain(p);
         pthread_mutex_lock(&p->lock);
-        if (atomic_fetch_sub(&p->running, 1u) == 1u)
-            pthread_cond_signal(&p->done);
+        atomic_fetch_add(&p->finished, 1u);
+        pthread_cond_signal(&p->done);
         pthread_mutex_unlock(&p->lock);
     }
     pthread_mutex_unlock(&p->lock);
@@ -106,7 +132,8 @@ vis_status vis_pool_create(uint32_t threads, const vis_allocator *alloc, vis_poo
     p->threads = threads;
     atomic_init(&p->next, 0u);
     atomic_init(&p->generation, 0u);
-    atomic_init(&p->running, 0u);
+    atomic_init(&p->run, RUN_CLOSED);
+    atomic_init(&p->finished, 0u);
     if (pthread_mutex_init(&p->lock, NULL) != 0) {
         vis_host_free(alloc, p);
         return VIS_ERROR_BACKEND;
@@ -163,19 +190,23 @@ void vis_pool_run(vis_pool *p, uint32_t count, vis_pool_item_fn fn, void *user)
     p->fn = fn;
     p->user = user;
     p->count = count;
+    atomic_store(&p->finished, 0u);
     atomic_store_explicit(&p->next, 0u, memory_order_relaxed);
-    atomic_store(&p->running, p->threads - 1);
-    atomic_fetch_add(&p->generation, 1u); /* after the job: a spinning worker reads it then */
+    unsigned long long gen = atomic_load(&p->generation) + 1u;
+    atomic_store(&p->run, (gen & 0xFFFFFFFFull) << 32); /* open, nobody joined */
+    atomic_store(&p->generation, gen); /* after the job: a spinning worker reads it then */
     pthread_cond_broadcast(&p->wake);
     pthread_mutex_unlock(&p->lock);
     drain(p);
-    /* The workers finish their last items about when the caller does: spin, then sleep. */
+    /* Close the run, then wait for the workers that joined it: they finish their last items
+     * about when the caller does, so spin, then sleep. */
+    uint32_t joined = (uint32_t)(atomic_fetch_or(&p->run, RUN_CLOSED) & RUN_JOINED);
     uint64_t start = now_ns();
-    for (uint32_t i = 1; atomic_load_explicit(&p->running, memory_order_acquire) != 0u; ++i)
+    for (uint32_t i = 1; atomic_load_explicit(&p->finished, memory_order_acquire) != joined; ++i)
         if (spin_over(start, i))
             break;
     pthread_mutex_lock(&p->lock);
-    while (atomic_load(&p->running) != 0u)
+    while (atomic_load(&p->finished) != joined)
         pthread_cond_wait(&p->done, &p->lock);
     pthread_mutex_unlock(&p->lock);
 }
