@@ -1,9 +1,9 @@
 /* cpu_backend.c — the ray pass on CPU threads. Rays go in square tiles (Chang & Ihm 2010
  * use square thread tiles for coherence: neighbouring rays touch the same nodes and leaves),
  * 8x8 for the per-ray methods and VIS_PACKET_SIDE for packets (8x8 for packets of 8 or fewer
- * rays a side), handed out dynamically by the pool. A batch of views is one pool run over the tiles of all of them, so that the threads
- * share out a batch of small passes (a server's 32x32 faces: four tiles each) as they do one
- * large pass, woken once. The scene arrays are the host's own; a sync
+ * rays a side), handed out dynamically by the pool. A batch of views is one pool run over the
+ * tiles of all of them, so that the threads share out a batch of small passes (a server's
+ * 32x32 faces: 16 tiles each) as they do one large pass, woken once. The scene arrays are the host's own; a sync
  * only refreshes the subtree occupancy flags the packet method skips empty space with.
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
@@ -130,7 +130,8 @@ static void cpu_scene_release(void *impl, void *scene_data)
  * tiles of view 0, then those of view 1, and so on. Packets go in VIS_PACKET_SIDE tiles, or
  * in 8x8 ones where no view takes 16x16 packets: a server's 32x32 face is then 16 items
  * instead of 4, so that its threads share a face whose work lies in one corner (a hill's
- * horizon: docs/server.md, "Chunk faces"). An effects pass keeps VIS_PACKET_SIDE tiles. */
+ * horizon: docs/server.md, "Chunk faces traced one by one"). An effects pass keeps
+ * VIS_PACKET_SIDE tiles. */
 static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_view *view, const vis_ray_setup *setup,
                      uint32_t views, uint32_t *ids, float *depth, const vis_effect_setup *effects)
 {
