@@ -24,10 +24,10 @@ typedef struct vis_occ_solid {
 
 /* Decides E against B spending at most `limit` rays (a segment cast and a plane coverage test
  * count one each); adds the rays spent to *rays and the boxes asked of solid (may be NULL, and
- * solid_tests with it) to *solid_tests. On VIS_OCC_SEEN, witness (may be NULL) gets the unblocked segment: its end in
- * E (witness[0..2]) and its end in B (witness[3..5]). Reads the scene's host arrays: the
- * caller holds the scene's lock shared. Allocates nothing; safe to call from several threads
- * (solid->fn then is too). */
+ * solid_tests with it) to *solid_tests. On VIS_OCC_SEEN, witness (may be NULL) gets the
+ * unblocked segment: its end in E (witness[0..2]) and its end in B (witness[3..5]). Reads the
+ * scene's host arrays: the caller holds the scene's lock shared. Allocates nothing; safe to
+ * call from several threads (solid->fn then is too). */
 vis_occ_result vis_occ_test(const vis_scene_view *view, const vis_occ_box *eye, const vis_occ_box *target,
                             uint32_t limit, const vis_occ_solid *solid, uint32_t *rays, uint64_t *solid_tests,
                             double witness[6]);

@@ -138,7 +138,7 @@ enum { FLAG_ROUND = 1u, FLAG_TRACED = 2u, FLAG_EDIT = 4u };
 /* ---- after the trace ------------------------------------------------------------------- */
 
 /* Keeps what the edit test and the list need of the face traced by camera c: its ray setup,
- * hit distances and unique IDs (sorted). */
+ * hit distances and unique IDs (merge_faces sorts the viewer's union of them). */
 static void keep_face(vis_query *q, uint32_t c, uint32_t s, uint32_t f, size_t pixels)
 {
     vis_qviewer *v = &q->viewers[s];
@@ -157,7 +157,6 @@ static void keep_face(vis_query *q, uint32_t c, uint32_t s, uint32_t f, size_t p
             out[n++] = id;
     }
     vis_idmap_clear(&q->chunk_set);
-    vis_sort_u32(out, n);
     v->face_count[f] = n;
     v->face_tick[f] = q->tick;
 }
@@ -175,8 +174,7 @@ static void merge_faces(vis_query *q, uint32_t s, size_t pixels)
                 out[n++] = ids[k];
     }
     vis_idmap_clear(&q->chunk_set);
-    if (v->chunk_faces > 1)
-        vis_sort_u32(out, n);
+    vis_sort_u32(out, n);
     v->chunk_count = n;
 }
 
