@@ -1030,6 +1030,70 @@ static void test_budget(void **state)
     vis_context_destroy(ctx);
 }
 
+/* The call budget goes where proofs are needed, over all viewers by priority: seven viewers
+ * whose pairs the cache answers leave their part of it to the one whose pair needs a proof
+ * (an even split would give that one an eighth: too little for its proof). */
+static void test_budget_shared(void **state)
+{
+    (void)state;
+    enum { NV = 16, H = NV - 1 }; /* H, last in input order, gets no remainder of an even split */
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    corner_world(&w);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v[NV];
+    vis_query_entity e;
+    corner_setup_still(&v[H], &e); /* viewer H: the entity behind the wall */
+    for (uint32_t i = 0; i < H; ++i) { /* the others: in the open beside it */
+        v[i] = v[H];
+        v[i].id = 10 + i;
+        v[i].eye[0] = 30.0;
+        v[i].eye[2] = 5.0 + 2.0 * i;
+        v[i].dir[0] = -1.0;
+    }
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.threads = 2;
+    vis_query *free_q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &free_q), VIS_OK);
+    vis_query_stats first, second;
+    assert_int_equal(vis_query_run(free_q, v, NV, &e, 1, &first), VIS_OK);
+    v[H].eye[2] -= 0.3; /* viewer H steps out of its proven region, still behind the wall */
+    assert_int_equal(vis_query_run(free_q, v, NV, &e, 1, &second), VIS_OK);
+    /* Without a budget: every other pair seen and then cached; viewer H's proven again. */
+    assert_false(listed(free_q, H, e.id, NULL));
+    for (uint32_t i = 0; i < H; ++i)
+        assert_true(listed(free_q, i, e.id, NULL));
+    assert_int_equal(second.pairs_cached, NV - 1);
+    const uint64_t budget = first.entity_rays;
+    print_message("budget %llu rays; viewer H's proof on the second tick: %llu\n", (unsigned long long)budget,
+                  (unsigned long long)second.entity_rays);
+    assert_true(second.entity_rays > budget / NV && second.entity_rays <= budget);
+
+    d.ray_budget = budget;
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, &d, &q), VIS_OK);
+    v[H].eye[2] += 0.3;
+    vis_query_stats st;
+    for (int t = 0; t < 2; ++t) { /* what the first tick's shares did not reach, the second's do */
+        assert_int_equal(vis_query_run(q, v, NV, &e, 1, &st), VIS_OK);
+        assert_true(st.entity_rays <= budget);
+    }
+    assert_int_equal(st.pairs_unchecked, 0);
+    v[H].eye[2] -= 0.3;
+    assert_int_equal(vis_query_run(q, v, NV, &e, 1, &st), VIS_OK);
+    assert_true(st.entity_rays <= budget);
+    assert_int_equal(st.pairs_cached, NV - 1);
+    assert_false(listed(q, H, e.id, NULL)); /* proven hidden: the budget reached it */
+    for (uint32_t i = 0; i < H; ++i)
+        assert_true(listed(q, i, e.id, NULL));
+    vis_query_destroy(q);
+    vis_query_destroy(free_q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Bad input: rejected with a message naming the item, nothing changed (the last tick's
  * results stay, the tick is not counted). */
 static void test_bad_input(void **state)
@@ -1946,6 +2010,7 @@ static void test_cli_hostile_replay(void **state)
         {"edit", "{\"tick\":0,\"viewers\":[],\"edits\":[[1,2,99999999,0]]}\n", "outside the world"},
         {"notobject", "[1,2,3]\n", "JSON object"},
         {"vec2", "{\"tick\":0,\"viewers\":[{\"id\":1,\"eye\":[1,5]}]}\n", "array of 3"},
+        {"tickms", "{\"replay\":\"libvis-query\",\"version\":1,\"tick_ms\":1e-9}\n", "'tick_ms'"},
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
         const char *body = cases[c].body;
@@ -1970,6 +2035,17 @@ static void test_cli_hostile_replay(void **state)
         FILE *f = fopen(qpath("bad_out.jsonl"), "rb"); /* a failed run leaves no output */
         assert_null(f);
     }
+    /* A replay that cannot be read (a directory) is an error, not an empty replay. */
+    vt_run_result rd = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qdir);
+    vt_assert_exit(rd, 1);
+    assert_non_null(strstr(rd.err, "read error"));
+    vt_run_free(&rd);
+    /* The summary stays JSON whatever the replay's name holds. */
+    write_text(qpath("q\"uote.jsonl"), "{\"tick\":0,\"viewers\":[]}\n");
+    rd = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay '%s' --json", MAZE, qpath("q\"uote.jsonl"));
+    vt_assert_exit(rd, 0);
+    assert_non_null(strstr(rd.out, "q\\\"uote.jsonl\""));
+    vt_run_free(&rd);
     /* A line over the length budget is refused without being parsed. */
     FILE *f = fopen(qpath("long.jsonl"), "wb");
     assert_non_null(f);
@@ -2010,6 +2086,7 @@ int main(void)
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
         cmocka_unit_test(test_slack_cache),        cmocka_unit_test(test_unsettled_wait),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
+        cmocka_unit_test(test_budget_shared),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_chunk_reuse),
         cmocka_unit_test(test_edit_retraces_few),

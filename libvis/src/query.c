@@ -9,8 +9,9 @@
  *    between samples is hidden; here a pair is hidden only when occlusion.c proves every
  *    segment from the eye region (every eye the viewer can reach within its latency: a
  *    peek) to the swept box (every place the entity can be within it) blocked.
- *  - A ray budget spent by priority (in view, then near), split evenly and deterministically
- *    among viewers; pairs it cannot prove are reported (VIS_QUERY_UNCHECKED), never hidden.
+ *  - A ray budget shared over the viewers that have pairs to prove (water-filling, made
+ *    serially, so deterministic), spent by priority within each (in view, then near); pairs
+ *    it cannot prove are reported (VIS_QUERY_UNCHECKED), never hidden.
  *  - A reveal hold in ticks, and per-pair caching: a pair's last proof is kept with the
  *    regions it covers and reused while the scene is unchanged and this tick's eye region
  *    and swept box lie inside them; a hidden pair is proven for regions grown proof_slack
@@ -167,7 +168,7 @@ static void query_free(vis_query *q)
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
                       q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->pair_retry, q->eye_now, q->box_now,
-                      q->keys, q->hits, q->results, q->chunks, q->face_ids, q->cameras, q->ids, q->chunk_set.keys, q->chunk_set.vals,
+                      q->keys, q->share_order, q->hits, q->results, q->chunks, q->face_ids, q->cameras, q->ids, q->chunk_set.keys, q->chunk_set.vals,
                       q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->face_due, q->face_keys, q->viewer_flags};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
@@ -215,6 +216,7 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
         {(void **)&q->eye_now, V * sizeof(vis_occ_box)},
         {(void **)&q->box_now, V * E * sizeof(vis_occ_box)},
         {(void **)&q->keys, V * E * 8},
+        {(void **)&q->share_order, V * 8},
         {(void **)&q->hits, V * E * sizeof(vis_query_hit)},
         {(void **)&q->results, V * sizeof(vis_qresult)},
         {(void **)&q->chunks, V * 6 * res2 * 4},
@@ -625,43 +627,88 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
     return spent;
 }
 
-static void viewer_job(vis_query *q, uint32_t i)
+/* What a run of viewer_job does: every step, or one of them for every viewer. */
+enum { VIEWER_ALL, VIEWER_ORDER, VIEWER_SPEND, VIEWER_SPEND_ANSWER, VIEWER_ANSWER };
+
+/* A pair's entry in its viewer's row of q->keys: priority_key, and once the row is sorted,
+ * two flags in bits that the entity index (below VIS_QUERY_MAX_ENTITIES) never reaches. */
+#define KEY_PROVE ((uint64_t)1 << 31) /* not answered by the cache: to be proven this tick  */
+#define KEY_TWICE ((uint64_t)1 << 30) /* may spend twice the pair limit (prove_pair)         */
+#define KEY_INDEX(k) ((uint32_t)((k) & 0x3FFFFFFFu))
+
+/* Rounds of sharing what the earlier rounds' proofs left of a call budget. */
+#define QUERY_SHARE_ROUNDS 4u
+
+/* What share_budget gave: nothing, or shares, or every viewer all its pairs may spend (no
+ * later round can have anything to do). */
+enum { SHARE_NONE, SHARE_SOME, SHARE_ALL };
+
+/* Viewer i's pairs in priority order, each marked with whether the cache answers it. */
+static void viewer_order(vis_query *q, uint32_t i)
 {
     const vis_query_desc *d = &q->desc;
     const vis_query_viewer *v = &q->in_viewers[i];
     uint32_t vs = q->vslot[i];
     const vis_occ_box *eye = &q->eye_now[i];
     uint64_t *keys = q->keys + (size_t)i * d->max_entities;
-    vis_query_hit *hits = q->hits + (size_t)i * d->max_entities;
-    vis_qresult *r = &q->results[i];
-    uint64_t budget = r->budget;
-    memset(r, 0, sizeof *r);
-    r->budget = budget;
-    uint32_t n = 0;
     vis_occ_box *boxes = q->box_now + (size_t)i * d->max_entities; /* this viewer's row */
+    vis_qresult *r = &q->results[i];
+    memset(r, 0, sizeof *r);
+    uint32_t n = 0;
     for (uint32_t j = 0; j < q->entity_count; ++j) {
         swept_box(q, &q->in_entities[j], v->latency_ms, &boxes[j]);
         if (q->in_entities[j].id != v->id)
             keys[n++] = priority_key(v, eye, &boxes[j], j);
     }
     vis_sort_u64(keys, n);
-    uint64_t left = budget;
-    uint32_t nh = 0;
     for (uint32_t k = 0; k < n; ++k) {
-        uint32_t j = (uint32_t)(keys[k] & 0xFFFFFFFFu), es = q->eslot[j];
-        size_t p = (size_t)vs * d->max_entities + es;
+        uint32_t j = KEY_INDEX(keys[k]);
+        size_t p = (size_t)vs * d->max_entities + q->eslot[j];
+        if ((!q->regenerated || !edit_touches_pair(q, p)) && cache_holds(q, p, eye, &boxes[j]))
+            continue;
+        /* A hidden pair whose proof expired tries the grown regions, then the exact ones. */
+        keys[k] |= KEY_PROVE | (q->pair_state[p] == PAIR_HIDDEN ? KEY_TWICE : 0u);
+    }
+    r->pairs = n;
+}
+
+/* Viewer i proves its pairs, from the first it has not reached, while its budget lasts. */
+static void viewer_spend(vis_query *q, uint32_t i)
+{
+    const vis_query_desc *d = &q->desc;
+    const vis_query_viewer *v = &q->in_viewers[i];
+    const uint64_t *keys = q->keys + (size_t)i * d->max_entities;
+    const vis_occ_box *boxes = q->box_now + (size_t)i * d->max_entities;
+    vis_qresult *r = &q->results[i];
+    for (; r->next < r->pairs && r->budget; ++r->next) {
+        if (!(keys[r->next] & KEY_PROVE))
+            continue;
+        uint32_t j = KEY_INDEX(keys[r->next]);
+        size_t p = (size_t)q->vslot[i] * d->max_entities + q->eslot[j];
+        uint32_t spent = prove_pair(q, p, &q->eye_now[i], &boxes[j], v->velocity, q->in_entities[j].velocity,
+                                    r->budget, &r->solid_tests);
+        r->budget -= spent;
+        r->rays += spent;
+    }
+}
+
+/* Viewer i's answers: a pair the cache answered, or proven, or (past r->next) left
+ * unproven by the budget and so reported. */
+static void viewer_answer(vis_query *q, uint32_t i)
+{
+    const vis_query_desc *d = &q->desc;
+    uint64_t *keys = q->keys + (size_t)i * d->max_entities;
+    vis_query_hit *hits = q->hits + (size_t)i * d->max_entities;
+    vis_qresult *r = &q->results[i];
+    uint32_t nh = 0;
+    for (uint32_t k = 0; k < r->pairs; ++k) {
+        uint32_t j = KEY_INDEX(keys[k]);
+        size_t p = (size_t)q->vslot[i] * d->max_entities + q->eslot[j];
         uint32_t reason = 0;
-        ++r->pairs;
-        if ((!q->regenerated || !edit_touches_pair(q, p)) && cache_holds(q, p, eye, &boxes[j])) {
+        if (!(keys[k] & KEY_PROVE))
             ++r->cached;
-        } else if (left == 0) {
+        else if (k >= r->next)
             q->pair_state[p] = PAIR_NONE;
-        } else {
-            uint32_t spent =
-                prove_pair(q, p, eye, &boxes[j], v->velocity, q->in_entities[j].velocity, left, &r->solid_tests);
-            left -= spent;
-            r->rays += spent;
-        }
         if (q->pair_state[p] == PAIR_SEEN) {
             reason = VIS_QUERY_SEEN;
             q->pair_seen[p] = (uint32_t)q->tick + 1u;
@@ -694,6 +741,70 @@ static void viewer_job(vis_query *q, uint32_t i)
     r->hit_count = nh;
 }
 
+/* Shares `left` rays of the call budget over the viewers with pairs not yet reached, by
+ * water-filling: a viewer whose pairs may spend at most d rays in all (their pair limits,
+ * from its next pair on) is given d where d fits an even part of what the viewers with
+ * more leave, and the others an even part each (within viewer_ray_budget). So viewers with
+ * nothing to prove leave their part to the others, and no viewer's proofs starve another's.
+ * Made serially from the viewers' marks, so the shares never depend on the threads. */
+static int share_budget(vis_query *q, uint32_t nv, uint64_t left)
+{
+    const uint64_t cap = q->desc.viewer_ray_budget ? q->desc.viewer_ray_budget : UINT64_MAX;
+    uint64_t *order = q->share_order; /* demand << 32 | viewer, demand capped below 2^32 */
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < nv; ++i) {
+        vis_qresult *r = &q->results[i];
+        const uint64_t *keys = q->keys + (size_t)i * q->desc.max_entities;
+        r->budget = 0;
+        uint64_t demand = 0;
+        for (uint32_t k = r->next; k < r->pairs; ++k)
+            if (keys[k] & KEY_PROVE)
+                demand += (uint64_t)q->desc.pair_ray_limit << ((keys[k] & KEY_TWICE) ? 1 : 0);
+        uint64_t room = cap - r->rays;
+        demand = demand < room ? demand : room;
+        demand = demand < 0xFFFFFFFFu ? demand : 0xFFFFFFFFu;
+        if (demand)
+            order[n++] = demand << 32 | i;
+    }
+    if (n == 0 || left == 0)
+        return SHARE_NONE;
+    vis_sort_u64(order, n);
+    int full = 1; /* every viewer given all its pairs may spend */
+    for (uint32_t k = 0; k < n; ++k) {
+        uint64_t demand = order[k] >> 32, even = left / (n - k);
+        uint64_t give = demand < even ? demand : even;
+        full &= give == demand;
+        q->results[(uint32_t)order[k]].budget = give;
+        left -= give;
+    }
+    return full ? SHARE_ALL : SHARE_SOME;
+}
+
+static void viewer_job(vis_query *q, uint32_t i)
+{
+    switch (q->viewer_step) {
+    case VIEWER_ORDER:
+        viewer_order(q, i);
+        break;
+    case VIEWER_SPEND:
+        viewer_spend(q, i);
+        break;
+    case VIEWER_SPEND_ANSWER:
+        viewer_spend(q, i);
+        viewer_answer(q, i);
+        break;
+    case VIEWER_ANSWER:
+        viewer_answer(q, i);
+        break;
+    default: /* no call budget: each viewer within its own cap */
+        viewer_order(q, i);
+        q->results[i].budget = q->desc.viewer_ray_budget ? q->desc.viewer_ray_budget : UINT64_MAX;
+        viewer_spend(q, i);
+        viewer_answer(q, i);
+        break;
+    }
+}
+
 static void viewer_item(void *user, uint32_t index)
 {
     viewer_job((vis_query *)user, index);
@@ -702,6 +813,48 @@ static void viewer_item(void *user, uint32_t index)
 static void viewer_item_pf(uint32_t index, void *arg)
 {
     viewer_job((vis_query *)arg, index);
+}
+
+/* Runs one step of viewer_job for the tick's nv viewers, in parallel where the query can. */
+static void run_viewers(vis_query *q, uint32_t nv, int step)
+{
+    q->viewer_step = step;
+    if (q->parallel_for && nv > 1)
+        q->parallel_for(nv, viewer_item_pf, q, q->parallel_for_user);
+    else if (q->cpu_threads && nv > 1)
+        vis_cpu_backend_parallel_for(&q->ctx->backend, nv, viewer_item_pf, q);
+    else if (q->pool && nv > 1)
+        vis_pool_run(q->pool, nv, viewer_item, q);
+    else
+        for (uint32_t i = 0; i < nv; ++i)
+            viewer_job(q, i);
+}
+
+/* The entity pairs of the tick's viewers. With a call budget: every viewer's order first,
+ * then rounds of sharing what is left of the budget and spending the shares (what the
+ * viewers leave is shared again next round), then the answers, with the last round's
+ * proofs where no later round could have anything to do. */
+static void run_pairs(vis_query *q, uint32_t nv)
+{
+    if (q->desc.ray_budget == 0) {
+        run_viewers(q, nv, VIEWER_ALL);
+        return;
+    }
+    run_viewers(q, nv, VIEWER_ORDER);
+    for (uint32_t round = 0; round < QUERY_SHARE_ROUNDS; ++round) {
+        uint64_t spent = 0;
+        for (uint32_t i = 0; i < nv; ++i)
+            spent += q->results[i].rays;
+        int share = spent < q->desc.ray_budget ? share_budget(q, nv, q->desc.ray_budget - spent) : SHARE_NONE;
+        if (share == SHARE_NONE)
+            break;
+        if (share == SHARE_ALL || round + 1u == QUERY_SHARE_ROUNDS) {
+            run_viewers(q, nv, VIEWER_SPEND_ANSWER);
+            return;
+        }
+        run_viewers(q, nv, VIEWER_SPEND);
+    }
+    run_viewers(q, nv, VIEWER_ANSWER);
 }
 
 /* ---- one tick ------------------------------------------------------------------------------- */
@@ -742,27 +895,9 @@ static vis_status query_run(vis_query *q, const vis_query_viewer *vw, uint32_t n
         return st;
     }
 
-    /* Budgets, in input order: an even share of the call's, capped by the viewer's. */
-    for (uint32_t i = 0; i < nv; ++i) {
-        uint64_t b = UINT64_MAX;
-        if (q->desc.ray_budget)
-            b = q->desc.ray_budget / nv + (i < q->desc.ray_budget % nv ? 1u : 0u);
-        if (q->desc.viewer_ray_budget && b > q->desc.viewer_ray_budget)
-            b = q->desc.viewer_ray_budget;
-        q->results[i].budget = b;
-    }
-
     vis_scene_begin_read(q->scene);
     q->view = vis_scene_get_view(q->scene);
-    if (q->parallel_for && nv > 1)
-        q->parallel_for(nv, viewer_item_pf, q, q->parallel_for_user);
-    else if (q->cpu_threads && nv > 1)
-        vis_cpu_backend_parallel_for(&q->ctx->backend, nv, viewer_item_pf, q);
-    else if (q->pool && nv > 1)
-        vis_pool_run(q->pool, nv, viewer_item, q);
-    else
-        for (uint32_t i = 0; i < nv; ++i)
-            viewer_job(q, i);
+    run_pairs(q, nv);
     vis_scene_end_read(q->scene);
 
     q->last_viewers = nv;

@@ -41,7 +41,8 @@ typedef struct vis_qresult {
     uint32_t pairs, cached, seen, hidden, unchecked, held;
     uint64_t rays;
     uint64_t solid_tests;     /* boxes asked of desc.solid                                  */
-    uint64_t budget;          /* rays this viewer may spend this tick                       */
+    uint32_t next;            /* its next pair to prove, by position in its priority order  */
+    uint64_t budget;          /* rays it may spend in this round of proofs                  */
 } vis_qresult;
 
 struct vis_query {
@@ -78,6 +79,8 @@ struct vis_query {
     vis_occ_box *box_now;     /* max_viewers * max_entities: each viewer's swept boxes      */
 
     uint64_t *keys;           /* max_viewers * max_entities: each viewer's priority order    */
+    uint64_t *share_order;    /* max_viewers: the call budget's viewers by demand (query.c)  */
+    int viewer_step;          /* what this run of the viewers' jobs does (query.c)          */
     vis_query_hit *hits;      /* max_viewers * max_entities: each viewer's list (input order) */
     vis_qresult *results;     /* max_viewers                                                */
     vis_scene_view view;      /* the entity phase's view of the scene (its lock held)       */

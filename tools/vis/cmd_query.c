@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "json.h"
 #include "names.h"
 #include "query_compare.h"
 #include "query_replay.h"
@@ -803,13 +804,15 @@ static int run_replay(const qopts *o)
     }
     /* Summary. */
     if (o->json) {
-        printf("{\"scene\":\"%s\",\"replay\":\"%s\",\"ticks\":%llu,\"truth_ticks\":%llu,\"threads\":%u,\"chunks\":%u,",
-               o->scene, o->replay, (unsigned long long)ticks, (unsigned long long)truth_ticks, o->threads,
-               wi.nonempty_chunks);
-        printf("\"backend\":\"%s\",\"device\":\"", s.backend.name);
-        for (const char *c = s.backend.device; *c; ++c) /* a driver's name: escape what JSON must */
-            printf((*c == '"' || *c == '\\') ? "\\%c" : (unsigned char)*c < 0x20 ? "?" : "%c", *c);
-        printf("\",");
+        printf("{\"scene\":");
+        json_quoted(stdout, o->scene);
+        printf(",\"replay\":");
+        json_quoted(stdout, o->replay);
+        printf(",\"ticks\":%llu,\"truth_ticks\":%llu,\"threads\":%u,\"chunks\":%u,", (unsigned long long)ticks,
+               (unsigned long long)truth_ticks, o->threads, wi.nonempty_chunks);
+        printf("\"backend\":\"%s\",\"device\":", s.backend.name);
+        json_quoted(stdout, s.backend.device); /* a driver's name */
+        printf(",");
         printf("\"chunk_rays_per_tick\":%.1f,", ticks ? (double)ours.chunk_rays / (double)ticks : 0.0);
         printf("\"chunk_edit_passes\":%llu,\"chunk_faces_deferred\":%llu,", (unsigned long long)edit_passes,
                (unsigned long long)deferred);

@@ -11,7 +11,7 @@ void json_init(json_writer *w, FILE *f)
     w->count[0] = 0;
 }
 
-static void write_escaped(FILE *f, const char *s)
+void json_quoted(FILE *f, const char *s)
 {
     fputc('"', f);
     for (const unsigned char *c = (const unsigned char *)s; *c; ++c) {
@@ -37,7 +37,7 @@ static void prefix(json_writer *w, const char *key)
     if (w->count[w->depth]++ > 0)
         fputs(", ", w->f);
     if (key) {
-        write_escaped(w->f, key);
+        json_quoted(w->f, key);
         fputs(": ", w->f);
     }
 }
@@ -69,7 +69,7 @@ void json_string(json_writer *w, const char *key, const char *value)
 {
     prefix(w, key);
     if (value)
-        write_escaped(w->f, value);
+        json_quoted(w->f, value);
     else
         fputs("null", w->f);
 }

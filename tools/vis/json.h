@@ -15,6 +15,9 @@ typedef struct json_writer {
 
 void json_init(json_writer *w, FILE *f);
 
+/* s as a JSON string literal, quotes included (for output written without a writer). */
+void json_quoted(FILE *f, const char *s);
+
 /* `key` is the member name inside an object, NULL inside an array or at the top level. */
 void json_object_begin(json_writer *w, const char *key);
 void json_object_end(json_writer *w); /* at depth 0 also ends the line */

@@ -7,6 +7,7 @@
 #ifdef VIS_HAVE_JANSSON
 #include "query_replay.h"
 
+#include <errno.h>
 #include <jansson.h>
 #include <math.h>
 #include <stdarg.h>
@@ -78,7 +79,8 @@ const qr_header *qr_get_header(const qr_reader *r)
     return &r->header;
 }
 
-/* One line into r->line: 1, 0 at end of file, -1 too long. *len excludes the newline. */
+/* One line into r->line: 1, 0 at end of file, -1 too long, -2 a read error (errno).
+ * *len excludes the newline. */
 static int read_line(qr_reader *r, size_t *len, int *had_newline)
 {
     size_t n = 0;
@@ -93,6 +95,8 @@ static int read_line(qr_reader *r, size_t *len, int *had_newline)
             return -1;
         r->line[n++] = (char)c;
     }
+    if (c == EOF && ferror(r->f))
+        return -2; /* a directory, a device that failed: not an empty replay */
     if (n == 0 && c == EOF)
         return 0;
     *len = n;
@@ -223,7 +227,12 @@ static int parse_header(qr_reader *r, json_t *root, char *why, size_t wn)
             return fail(why, wn, "'scene' must be a string shorter than %zu bytes", sizeof r->header.scene);
         memcpy(r->header.scene, json_string_value(scene), json_string_length(scene) + 1);
     }
-    return get_number(root, "tick_ms", 0, 0.0, 0.0, 1e4, &r->header.tick_ms, why, wn);
+    /* 0 (or absent): the command's --tick-ms; otherwise the same range as --tick-ms. */
+    if (get_number(root, "tick_ms", 0, 0.0, 0.0, 1e4, &r->header.tick_ms, why, wn))
+        return -1;
+    if (r->header.tick_ms != 0.0 && r->header.tick_ms < 0.1)
+        return fail(why, wn, "'tick_ms' = %g is outside [0.1, 10000] (0: --tick-ms)", r->header.tick_ms);
+    return 0;
 }
 
 static int parse_tick(qr_reader *r, json_t *root, qr_tick *t, char *why, size_t wn)
@@ -267,6 +276,9 @@ int qr_next(qr_reader *r, qr_tick *out, char *err, size_t err_size)
         int rc = read_line(r, &len, &nl);
         if (rc == 0)
             return 0;
+        if (rc == -2)
+            return fail(err, err_size, "line %llu: read error: %s", (unsigned long long)r->line_no + 1,
+                        strerror(errno));
         if (rc < 0)
             return fail(err, err_size, "line %llu: longer than %u bytes", (unsigned long long)r->line_no + 1,
                         QR_MAX_LINE_BYTES);

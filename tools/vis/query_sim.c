@@ -7,6 +7,8 @@
  * player), walking at 4.3 voxels per second, with latencies spread over 20..150 ms. */
 #include "query_sim.h"
 
+#include "json.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -138,8 +140,9 @@ int qs_simulate(vw_world *world, const qs_options *opt, FILE *f, char *err, size
         }
         bots[i].latency_ms = 20.0 + (double)((i * 37u) % 131u);
     }
-    fprintf(f, "{\"replay\":\"libvis-query\",\"version\":1,\"scene\":\"%s\",\"tick_ms\":%.6f}\n",
-            opt->scene ? opt->scene : "", tick_ms);
+    fprintf(f, "{\"replay\":\"libvis-query\",\"version\":1,\"scene\":");
+    json_quoted(f, opt->scene ? opt->scene : "");
+    fprintf(f, ",\"tick_ms\":%.6f}\n", tick_ms);
     for (uint32_t t = 0; t < opt->ticks; ++t) {
         for (uint32_t i = 0; i < opt->players; ++i)
             step(world, &rng, &bots[i], dt);
