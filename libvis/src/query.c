@@ -160,6 +160,8 @@ static vis_status resolve_desc(vis_context *ctx, const vis_query_desc *in, vis_q
 typedef struct query_plan {
     void **ptr;
     uint64_t bytes;
+    int unzeroed; /* written before it is read: left as the allocator gives it, so that the
+                     pages of capacity a server never uses are never touched */
 } query_plan;
 
 static void query_free(vis_query *q)
@@ -198,40 +200,40 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
     q->check_map.mask = cm - 1;
     q->chunk_set.mask = sm - 1;
     query_plan plan[] = {
-        {(void **)&q->viewers, V * sizeof(vis_qviewer)},
-        {(void **)&q->entities, E * sizeof(vis_qentity)},
-        {(void **)&q->viewer_map.keys, vm * 4ull},
-        {(void **)&q->viewer_map.vals, vm * 4ull},
-        {(void **)&q->entity_map.keys, em * 4ull},
-        {(void **)&q->entity_map.vals, em * 4ull},
-        {(void **)&q->check_map.keys, cm * 4ull},
-        {(void **)&q->check_map.vals, cm * 4ull},
-        {(void **)&q->vslot, V * 4},
-        {(void **)&q->eslot, E * 4},
-        {(void **)&q->pair_state, V * E},
-        {(void **)&q->pair_eye, V * E * sizeof(vis_occ_box)},
-        {(void **)&q->pair_box, V * E * sizeof(vis_occ_box)},
-        {(void **)&q->pair_seen, V * E * 4},
-        {(void **)&q->pair_retry, V * E * 4},
-        {(void **)&q->eye_now, V * sizeof(vis_occ_box)},
-        {(void **)&q->box_now, V * E * sizeof(vis_occ_box)},
-        {(void **)&q->keys, V * E * 8},
-        {(void **)&q->share_order, V * 8},
-        {(void **)&q->hits, V * E * sizeof(vis_query_hit)},
-        {(void **)&q->results, V * sizeof(vis_qresult)},
-        {(void **)&q->chunks, V * 6 * res2 * 4},
-        {(void **)&q->cameras, V * 6 * sizeof(vis_camera)},
-        {(void **)&q->face_ids, V * 6 * res2 * 4},
-        {(void **)&q->ids, V * 6 * res2 * 4},
-        {(void **)&q->chunk_set.keys, sm * 4ull},
-        {(void **)&q->chunk_set.vals, sm * 4ull},
-        {(void **)&q->chunk_setup, V * 6 * sizeof(vis_ray_setup)},
-        {(void **)&q->chunk_depth, V * 6 * res2 * 4},
-        {(void **)&q->depth, V * 6 * res2 * 4},
-        {(void **)&q->setups, V * 6 * sizeof(vis_ray_setup)},
-        {(void **)&q->face_due, V * 6},
-        {(void **)&q->face_keys, V * 6 * 8},
-        {(void **)&q->viewer_flags, V},
+        {(void **)&q->viewers, V * sizeof(vis_qviewer), 0},
+        {(void **)&q->entities, E * sizeof(vis_qentity), 0},
+        {(void **)&q->viewer_map.keys, vm * 4ull, 0},
+        {(void **)&q->viewer_map.vals, vm * 4ull, 0},
+        {(void **)&q->entity_map.keys, em * 4ull, 0},
+        {(void **)&q->entity_map.vals, em * 4ull, 0},
+        {(void **)&q->check_map.keys, cm * 4ull, 0},
+        {(void **)&q->check_map.vals, cm * 4ull, 0},
+        {(void **)&q->vslot, V * 4, 0},
+        {(void **)&q->eslot, E * 4, 0},
+        {(void **)&q->pair_state, V * E, 0},
+        {(void **)&q->pair_eye, V * E * sizeof(vis_occ_box), 0},
+        {(void **)&q->pair_box, V * E * sizeof(vis_occ_box), 0},
+        {(void **)&q->pair_seen, V * E * 4, 0},
+        {(void **)&q->pair_retry, V * E * 4, 0},
+        {(void **)&q->eye_now, V * sizeof(vis_occ_box), 0},
+        {(void **)&q->box_now, V * E * sizeof(vis_occ_box), 0},
+        {(void **)&q->keys, V * E * 8, 0},
+        {(void **)&q->share_order, V * 8, 0},
+        {(void **)&q->hits, V * E * sizeof(vis_query_hit), 0},
+        {(void **)&q->results, V * sizeof(vis_qresult), 0},
+        {(void **)&q->chunks, V * 6 * res2 * 4, 1},
+        {(void **)&q->cameras, V * 6 * sizeof(vis_camera), 0},
+        {(void **)&q->face_ids, V * 6 * res2 * 4, 1},
+        {(void **)&q->ids, V * 6 * res2 * 4, 1},
+        {(void **)&q->chunk_set.keys, sm * 4ull, 0},
+        {(void **)&q->chunk_set.vals, sm * 4ull, 0},
+        {(void **)&q->chunk_setup, V * 6 * sizeof(vis_ray_setup), 0},
+        {(void **)&q->chunk_depth, V * 6 * res2 * 4, 1},
+        {(void **)&q->depth, V * 6 * res2 * 4, 1},
+        {(void **)&q->setups, V * 6 * sizeof(vis_ray_setup), 0},
+        {(void **)&q->face_due, V * 6, 0},
+        {(void **)&q->face_keys, V * 6 * 8, 0},
+        {(void **)&q->viewer_flags, V, 0},
     };
     uint64_t total = 0;
     for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i)
@@ -242,7 +244,8 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
                         (unsigned long long)total, (unsigned long long)QUERY_MAX_BYTES);
     }
     for (size_t i = 0; i < sizeof plan / sizeof plan[0]; ++i) {
-        *plan[i].ptr = vis_calloc(ctx, 1, (size_t)plan[i].bytes);
+        size_t bytes = (size_t)plan[i].bytes;
+        *plan[i].ptr = plan[i].unzeroed ? vis_alloc(ctx, bytes) : vis_calloc(ctx, 1, bytes);
         if (!*plan[i].ptr) {
             query_free(q);
             return vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "vis_query_create: out of memory (%llu bytes)",
