@@ -2040,6 +2040,18 @@ static void test_cli_hostile_replay(void **state)
     vt_assert_exit(rd, 1);
     assert_non_null(strstr(rd.err, "read error"));
     vt_run_free(&rd);
+    /* Blank lines before the header are allowed; a second header is not. */
+    write_text(qpath("blank.jsonl"),
+               "\n{\"replay\":\"libvis-query\",\"version\":1}\n{\"tick\":0,\"viewers\":[]}\n");
+    rd = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qpath("blank.jsonl"));
+    vt_assert_exit(rd, 0);
+    vt_run_free(&rd);
+    write_text(qpath("twice.jsonl"),
+               "{\"replay\":\"libvis-query\",\"version\":1}\n{\"replay\":\"libvis-query\",\"version\":1}\n");
+    rd = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay %s", MAZE, qpath("twice.jsonl"));
+    vt_assert_exit(rd, 1);
+    assert_non_null(strstr(rd.err, "first line"));
+    vt_run_free(&rd);
     /* The summary stays JSON whatever the replay's name holds. */
     write_text(qpath("q\"uote.jsonl"), "{\"tick\":0,\"viewers\":[]}\n");
     rd = vt_run(VIS_EXE, qdir, NULL, "query --scene %s --replay '%s' --json", MAZE, qpath("q\"uote.jsonl"));

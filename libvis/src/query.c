@@ -170,8 +170,9 @@ static void query_free(vis_query *q)
     void *arrays[] = {q->viewers, q->entities, q->viewer_map.keys, q->viewer_map.vals, q->entity_map.keys,
                       q->entity_map.vals, q->check_map.keys, q->check_map.vals, q->vslot, q->eslot,
                       q->pair_state, q->pair_eye, q->pair_box, q->pair_seen, q->pair_retry, q->eye_now, q->box_now,
-                      q->keys, q->share_order, q->hits, q->results, q->chunks, q->face_ids, q->cameras, q->ids, q->chunk_set.keys, q->chunk_set.vals,
-                      q->chunk_setup, q->chunk_depth, q->depth, q->setups, q->face_due, q->face_keys, q->viewer_flags};
+                      q->keys, q->share_order, q->hits, q->results, q->chunks, q->face_ids, q->cameras, q->ids,
+                      q->chunk_set.keys, q->chunk_set.vals, q->chunk_setup, q->chunk_depth, q->depth, q->setups,
+                      q->face_due, q->face_keys, q->viewer_flags};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
         if (arrays[i])
             vis_free(ctx, arrays[i]);

@@ -297,8 +297,8 @@ int qr_next(qr_reader *r, qr_tick *out, char *err, size_t err_size)
         if (!json_is_object(root)) {
             bad = fail(why, sizeof why, "a line must be a JSON object");
         } else if (json_object_get(root, "replay")) {
-            bad = r->header_checked || r->line_no != 1 ? fail(why, sizeof why, "a header is only allowed on line 1")
-                                                       : parse_header(r, root, why, sizeof why);
+            bad = r->header_checked ? fail(why, sizeof why, "a header is only allowed on the first line")
+                                    : parse_header(r, root, why, sizeof why);
             r->header_checked = 1;
             if (!bad) {
                 json_decref(root);
