@@ -1030,9 +1030,9 @@ static void test_budget(void **state)
     vis_context_destroy(ctx);
 }
 
-/* The call budget goes where proofs are needed, over all viewers by priority: seven viewers
- * whose pairs the cache answers leave their part of it to the one whose pair needs a proof
- * (an even split would give that one an eighth: too little for its proof). */
+/* The call budget goes where proofs are needed: fifteen viewers whose pairs the cache answers
+ * leave their part of it to the one whose pair needs a proof (an even split would give that
+ * one a sixteenth: too little for its proof). */
 static void test_budget_shared(void **state)
 {
     (void)state;
@@ -1089,6 +1089,80 @@ static void test_budget_shared(void **state)
         assert_true(listed(q, i, e.id, NULL));
     vis_query_destroy(q);
     vis_query_destroy(free_q);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* One tick of viewers v[0..nv) and entities e[0..ne) on a new query with desc d. */
+static vis_query_stats one_tick(vis_context *ctx, vis_scene *scene, const vis_query_desc *d,
+                                const vis_query_viewer *v, uint32_t nv, const vis_query_entity *e, uint32_t ne)
+{
+    vis_query *q = NULL;
+    assert_int_equal(vis_query_create(ctx, scene, d, &q), VIS_OK);
+    vis_query_stats st;
+    assert_int_equal(vis_query_run(q, v, nv, e, ne, &st), VIS_OK);
+    vis_query_destroy(q);
+    return st;
+}
+
+/* What the first round's shares leave goes to the viewers that still have pairs: viewer A
+ * sees NE entities in the open (a ray each), viewer B proves them hidden behind a wall (more
+ * rays each). A budget of both viewers' needs plus two pair limits (for a proof cut short at
+ * the end of a share) proves every pair, though the first round gives B half of it, less
+ * than B needs. And viewer_ray_budget still caps every viewer's share. */
+static void test_budget_rounds_and_caps(void **state)
+{
+    (void)state;
+    enum { NE = 48 };
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w;
+    corner_world(&w); /* the wall x 20..21, y 1..10, z 0..40 */
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_query_viewer v[2];
+    vis_query_entity e[NE];
+    memset(v, 0, sizeof v);
+    v[0].id = 1000; /* A: on the entities' side */
+    v[0].eye[0] = 62.0;
+    v[0].eye[1] = 2.6;
+    v[0].eye[2] = 20.0;
+    v[0].dir[0] = -1.0;
+    v[0].fov_deg = 90.0;
+    v[1] = v[0]; /* B: behind the wall */
+    v[1].id = 1001;
+    v[1].eye[0] = 10.0;
+    v[1].dir[0] = 1.0;
+    memset(e, 0, sizeof e);
+    for (uint32_t j = 0; j < NE; ++j) {
+        e[j].id = 1 + j;
+        double lo[3] = {24.0 + 4.0 * (j % 8), 1.0, 14.0 + 2.0 * (j / 8)};
+        for (int k = 0; k < 3; ++k) {
+            e[j].box_min[k] = lo[k];
+            e[j].box_max[k] = lo[k] + (k == 1 ? 1.8 : 0.6);
+        }
+    }
+    vis_query_desc d;
+    vis_query_desc_defaults(&d);
+    d.threads = 2;
+    d.max_entities = NE;
+    vis_query_stats a = one_tick(ctx, scene, &d, &v[0], 1, e, NE), b = one_tick(ctx, scene, &d, &v[1], 1, e, NE);
+    assert_int_equal(a.pairs_seen, NE);
+    assert_int_equal(b.pairs_hidden, NE);
+    const uint64_t slack = 2u * d.pair_ray_limit, budget = a.entity_rays + b.entity_rays + slack;
+    print_message("A needs %llu rays, B %llu; budget %llu\n", (unsigned long long)a.entity_rays,
+                  (unsigned long long)b.entity_rays, (unsigned long long)budget);
+    assert_true(budget / 2 < b.entity_rays); /* the first round alone cannot fund B */
+
+    d.ray_budget = budget;
+    vis_query_stats st = one_tick(ctx, scene, &d, v, 2, e, NE);
+    assert_int_equal(st.pairs_unchecked, 0);
+    assert_int_equal(st.pairs_hidden, NE);
+    assert_true(st.entity_rays <= budget);
+
+    d.viewer_ray_budget = (uint32_t)(a.entity_rays / 2); /* less than either viewer needs */
+    st = one_tick(ctx, scene, &d, v, 2, e, NE);
+    assert_true(st.entity_rays <= 2u * d.viewer_ray_budget);
+    assert_true(st.pairs_unchecked > 0);
     vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -2099,6 +2173,7 @@ int main(void)
         cmocka_unit_test(test_slack_cache),        cmocka_unit_test(test_unsettled_wait),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_budget_shared),
+        cmocka_unit_test(test_budget_rounds_and_caps),
         cmocka_unit_test(test_bad_input),           cmocka_unit_test(test_chunks_match_trace),
         cmocka_unit_test(test_chunk_reuse),
         cmocka_unit_test(test_edit_retraces_few),

@@ -647,6 +647,12 @@ enum { VIEWER_ALL, VIEWER_ORDER, VIEWER_SPEND, VIEWER_SPEND_ANSWER, VIEWER_ANSWE
  * later round can have anything to do). */
 enum { SHARE_NONE, SHARE_SOME, SHARE_ALL };
 
+/* The most prove_pair may spend on the pair of key k. */
+static uint64_t key_rays(const vis_query *q, uint64_t k)
+{
+    return (uint64_t)q->desc.pair_ray_limit << ((k & KEY_TWICE) ? 1 : 0);
+}
+
 /* Viewer i's pairs in priority order, each marked with whether the cache answers it. */
 static void viewer_order(vis_query *q, uint32_t i)
 {
@@ -672,6 +678,7 @@ static void viewer_order(vis_query *q, uint32_t i)
             continue;
         /* A hidden pair whose proof expired tries the grown regions, then the exact ones. */
         keys[k] |= KEY_PROVE | (q->pair_state[p] == PAIR_HIDDEN ? KEY_TWICE : 0u);
+        r->demand += key_rays(q, keys[k]);
     }
     r->pairs = n;
 }
@@ -693,6 +700,7 @@ static void viewer_spend(vis_query *q, uint32_t i)
                                     r->budget, &r->solid_tests);
         r->budget -= spent;
         r->rays += spent;
+        r->demand -= key_rays(q, keys[r->next]);
     }
 }
 
@@ -746,27 +754,20 @@ static void viewer_answer(vis_query *q, uint32_t i)
 }
 
 /* Shares `left` rays of the call budget over the viewers with pairs not yet reached, by
- * water-filling: a viewer whose pairs may spend at most d rays in all (their pair limits,
- * from its next pair on) is given d where d fits an even part of what the viewers with
+ * water-filling: a viewer whose pairs may spend at most d rays in all (r->demand, within
+ * viewer_ray_budget) is given d where d fits an even part of what the viewers with
  * more leave, and the others an even part each (within viewer_ray_budget). So viewers with
  * nothing to prove leave their part to the others, and no viewer's proofs starve another's.
  * Made serially from the viewers' marks, so the shares never depend on the threads. */
 static int share_budget(vis_query *q, uint32_t nv, uint64_t left)
 {
     const uint64_t cap = q->desc.viewer_ray_budget ? q->desc.viewer_ray_budget : UINT64_MAX;
-    uint64_t *order = q->share_order; /* demand << 32 | viewer, demand capped below 2^32 */
+    uint64_t *order = q->share_order; /* demand << 32 | viewer (a demand is below 2^29) */
     uint32_t n = 0;
     for (uint32_t i = 0; i < nv; ++i) {
         vis_qresult *r = &q->results[i];
-        const uint64_t *keys = q->keys + (size_t)i * q->desc.max_entities;
         r->budget = 0;
-        uint64_t demand = 0;
-        for (uint32_t k = r->next; k < r->pairs; ++k)
-            if (keys[k] & KEY_PROVE)
-                demand += (uint64_t)q->desc.pair_ray_limit << ((keys[k] & KEY_TWICE) ? 1 : 0);
-        uint64_t room = cap - r->rays;
-        demand = demand < room ? demand : room;
-        demand = demand < 0xFFFFFFFFu ? demand : 0xFFFFFFFFu;
+        uint64_t room = cap - r->rays, demand = r->demand < room ? r->demand : room;
         if (demand)
             order[n++] = demand << 32 | i;
     }

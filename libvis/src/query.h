@@ -42,6 +42,7 @@ typedef struct vis_qresult {
     uint64_t rays;
     uint64_t solid_tests;     /* boxes asked of desc.solid                                  */
     uint32_t next;            /* its next pair to prove, by position in its priority order  */
+    uint64_t demand;          /* the most its pairs from next on may spend (pair limits)    */
     uint64_t budget;          /* rays it may spend in this round of proofs                  */
 } vis_qresult;
 

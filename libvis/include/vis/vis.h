@@ -883,8 +883,9 @@ typedef struct vis_query_desc {
                                   default 0                                                   */
     uint64_t ray_budget;       /* entity rays per call (all viewers), shared over the viewers
                                   with pairs the cache does not answer (water-filling:
-                                  viewers with nothing to prove leave theirs to the others),
-                                  each spending its share by priority; 0 = no limit         */
+                                  viewers with nothing to prove leave theirs to the others;
+                                  each share within viewer_ray_budget), each spending its
+                                  share by priority; 0 = no limit                           */
     uint32_t viewer_ray_budget;/* entity rays per viewer per call; 0 = no limit              */
     uint32_t pair_ray_limit;   /* rays spent proving one pair hidden before it is reported
                                   unchecked; default 16, at most 4096                        */
