@@ -42,6 +42,7 @@
  * is the opaque one, so every crossing that beats it is offered as in the per-ray methods,
  * and each lane's pixel is finished by the per-ray code (vis_effects_finish: the cut to the
  * crossings before the hit, then the reflected and shadow rays, traced alone). */
+#include <limits.h>
 #include <math.h>
 #include <string.h>
 
@@ -96,6 +97,7 @@ typedef struct packet {
     float max_best;          /* the farthest best hit over the lanes (+inf while one has none) */
     int unhit;               /* lanes without a hit yet                                     */
     float give_up_t;         /* a first leaf entered past this: the tile is far (packet.c)  */
+    int max_leaves;          /* leaves it may enter before it gives up (packet.c)           */
     int counting;            /* vis_trace_cost: count nodes opened and tests per lane        */
     uint32_t nodes;
     uint32_t tests[LANES];
@@ -191,6 +193,7 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
         p->unit_best[r] = INFINITY;
     p->unhit = LANES;
     p->give_up_t = INFINITY;
+    p->max_leaves = INT_MAX;
     p->counting = 0;
     p->nodes = 0;
     for (int i = 0; i < LANES; ++i)
@@ -857,7 +860,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             return;
     /* The walk goes near side first, so the first leaf the tile enters shows how far away its
      * hits lie; past give_up_t its rays spread over several leaves and go one by one. */
-    if (p->leaves_entered++ == 0 && t0 > p->give_up_t) {
+    if ((p->leaves_entered++ == 0 && t0 > p->give_up_t) || p->leaves_entered > p->max_leaves) {
         p->given_up = 1;
         return;
     }
@@ -1046,6 +1049,7 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
     packet p;
     packet_rays(&p, setup, x0, y0);
     p.give_up_t = give_up_t;
+    p.max_leaves = vis_packet_max_leaves(setup, PK_TILE_W);
     p.counting = cost != NULL;
     packet_bounds(&p);
     packet_traverse(&p, view, occupied);
