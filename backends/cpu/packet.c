@@ -69,7 +69,7 @@ int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view,
 #endif
 
 /* 4x4 packets whose tiles spread at least PACKET_WIDE_SPREAD_4 (a server's 32x32 faces of 90
- * degrees spread 0.25; a 60 degree image narrower than 28 pixels too) also give up once they
+ * degrees spread 0.25; 60 degree images 18 to 23 pixels tall too) also give up once they
  * have entered more than PACKET_WIDE_LEAVES_4 leaves: such a tile looking along the ground
  * (over hills, down a street) opens leaf after leaf with every quad in its wide rectangle,
  * and its rays alone cost less (docs/server.md, "Wide 4x4 packets give up after four
