@@ -21,6 +21,10 @@
 #   run_device.sh 7      the 32-player replays (replays/ as for 3) with the chunk faces on the
 #                        GPU and on 2 CPU threads, without a budget and with one face per tick
 #                        (--chunk-face-budget 1, also with --chunk-move 4), two rounds
+#   run_device.sh 8      the 32-player replays (replays/ as for 3) on 2 CPU threads of the
+#                        host, this tree against a parent's build in old/ (vis), alternated,
+#                        three rounds: defaults, one face per tick, and one face per tick with
+#                        a call budget of 512 entity rays
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -151,4 +155,14 @@ if [ "$PHASE" = 7 ]; then
     done
   done; done; done
 fi
+if [ "$PHASE" = 8 ]; then
+  for round in 1 2 3; do for s in city default maze; do
+    for o in "" "--chunk-face-budget 1" "--chunk-face-budget 1 --budget 512"; do for b in new old; do
+      c=./vis; [ $b = old ] && c=old/vis
+      echo "query $s [$o] $b round $round: $($c query --scene gen:$s --replay replays/${s}32.jsonl --threads 2 \
+        --backend cpu $o --json 2>&1 | grep -o '"unchecked_per_tick":[0-9.]*\|"ms_per_tick":{[^}]*}' | tr '\n' ' ')"
+    done; done
+  done; done
+fi
+
 date -u
