@@ -29,13 +29,17 @@
 #include "cpu/packet.h"
 
 int vis_packet_trace_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                           float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
+                           float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
+                           uint32_t *cost);
 int vis_packet_trace_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
+                         float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
+                         uint32_t *cost);
 int vis_packet_trace_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
+                         float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
+                         uint32_t *cost);
 int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
-                         float give_up_t, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
+                         float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
+                         uint32_t *cost);
 
 /* Widest tile of 16x16 or 8x8 packets, as its extent on the image plane at distance 1
  * (tangent units): at 60 degrees, 512x512 tiles of 16 span 0.036 and 256x256 ones 0.072
@@ -100,7 +104,8 @@ static inline float give_up_distance(const vis_ray_setup *setup, uint32_t side)
 
 float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side) { return give_up_distance(setup, side); }
 
-int vis_packet_max_leaves(const vis_ray_setup *setup, uint32_t side)
+/* The leaves a packet of `side` may enter before it gives up (INT_MAX: no limit). */
+static int max_leaves(const vis_ray_setup *setup, uint32_t side)
 {
     return side == 4u && 4.0f * pixel_extent(setup) >= PACKET_WIDE_SPREAD_4 ? PACKET_WIDE_LEAVES_4 : INT_MAX;
 }
@@ -114,8 +119,8 @@ uint32_t vis_packet_side(const vis_ray_setup *setup)
     return 4.0f * pixel <= PACKET_MAX_SPREAD_4 ? 4u : 1u;
 }
 
-typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, uint32_t, uint32_t,
-                         uint32_t *, float *, uint32_t *);
+typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, int, uint32_t,
+                         uint32_t, uint32_t *, float *, uint32_t *);
 
 /* The pixels [x0, x1) x [y0, y1), one ray at a time. */
 static uint32_t trace_alone(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
@@ -128,7 +133,7 @@ static uint32_t trace_alone(const vis_ray_setup *setup, const vis_scene_view *vi
     for (uint32_t y = y0; y < y1; ++y)
         for (uint32_t x = x0; x < x1; ++x) {
             if (!grid) {
-                vis_packet_trace_1x1(setup, view, occupied, INFINITY, x, y, ids, depth, cost);
+                vis_packet_trace_1x1(setup, view, occupied, INFINITY, INT_MAX, x, y, ids, depth, cost);
                 continue;
             }
             uint32_t id;
@@ -154,12 +159,13 @@ uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view 
 {
     packet_fn fn = packet_of(side);
     float give_up_t = give_up_distance(setup, side);
+    int leaves = max_leaves(setup, side);
     uint32_t x_end = x0 + edge < setup->width ? x0 + edge : setup->width;
     uint32_t y_end = y0 + edge < setup->height ? y0 + edge : setup->height;
     uint32_t alone = 0;
     for (uint32_t ty = y0; ty < y_end; ty += side)
         for (uint32_t tx = x0; tx < x_end; tx += side) {
-            if (fn && fn(setup, view, occupied, give_up_t, tx, ty, ids, depth, cost))
+            if (fn && fn(setup, view, occupied, give_up_t, leaves, tx, ty, ids, depth, cost))
                 continue;
             uint32_t x1 = tx + side < x_end ? tx + side : x_end, y1 = ty + side < y_end ? ty + side : y_end;
             alone += trace_alone(setup, view, occupied, tx, ty, x1, y1, ids, depth, cost);

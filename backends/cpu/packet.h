@@ -17,9 +17,6 @@ uint32_t vis_packet_side(const vis_ray_setup *setup);
  * then traced one by one (for 16x16 packets at 512x512 and 60 degrees, 1,774 units). */
 float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
 
-/* The leaves a packet of `side` may enter before it gives up (INT_MAX: no limit; packet.c). */
-int vis_packet_max_leaves(const vis_ray_setup *setup, uint32_t side);
-
 /* Traces the pixels [x0, x0 + edge) x [y0, y0 + edge) of the view in `setup` (clipped to the
  * image; edge a multiple of `side`, at most VIS_PACKET_SIDE) and writes their IDs and depths
  * (depth may be NULL): per pixel, the nearest hit over every primitive under the lowest-ID tie

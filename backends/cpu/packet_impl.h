@@ -1038,18 +1038,18 @@ PK_INLINE void packet_store_rows(const packet *p, uint32_t width, uint32_t x0, u
 }
 
 int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
-             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
+             int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
 __attribute__((target_clones("avx2", "default")))
 #endif
 int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
-             uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
+             int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
 {
     packet p;
     packet_rays(&p, setup, x0, y0);
     p.give_up_t = give_up_t;
-    p.max_leaves = vis_packet_max_leaves(setup, PK_TILE_W);
+    p.max_leaves = max_leaves;
     p.counting = cost != NULL;
     packet_bounds(&p);
     packet_traverse(&p, view, occupied);
