@@ -647,6 +647,18 @@ enum { VIEWER_ALL, VIEWER_ORDER, VIEWER_SPEND, VIEWER_SPEND_ANSWER, VIEWER_ANSWE
  * later round can have anything to do). */
 enum { SHARE_NONE, SHARE_SOME, SHARE_ALL };
 
+/* Pair (viewer i, entity j) of this tick: its index in the pair arrays. */
+static size_t pair_of(const vis_query *q, uint32_t i, uint32_t j)
+{
+    return (size_t)q->vslot[i] * q->desc.max_entities + q->eslot[j];
+}
+
+/* The rays viewer_ray_budget lets one viewer spend in a call (UINT64_MAX: no limit). */
+static uint64_t viewer_cap(const vis_query *q)
+{
+    return q->desc.viewer_ray_budget ? q->desc.viewer_ray_budget : UINT64_MAX;
+}
+
 /* The most prove_pair may spend on the pair of key k. */
 static uint64_t key_rays(const vis_query *q, uint64_t k)
 {
@@ -658,7 +670,6 @@ static void viewer_order(vis_query *q, uint32_t i)
 {
     const vis_query_desc *d = &q->desc;
     const vis_query_viewer *v = &q->in_viewers[i];
-    uint32_t vs = q->vslot[i];
     const vis_occ_box *eye = &q->eye_now[i];
     uint64_t *keys = q->keys + (size_t)i * d->max_entities;
     vis_occ_box *boxes = q->box_now + (size_t)i * d->max_entities; /* this viewer's row */
@@ -673,7 +684,7 @@ static void viewer_order(vis_query *q, uint32_t i)
     vis_sort_u64(keys, n);
     for (uint32_t k = 0; k < n; ++k) {
         uint32_t j = KEY_INDEX(keys[k]);
-        size_t p = (size_t)vs * d->max_entities + q->eslot[j];
+        size_t p = pair_of(q, i, j);
         if ((!q->regenerated || !edit_touches_pair(q, p)) && cache_holds(q, p, eye, &boxes[j]))
             continue;
         /* A hidden pair whose proof expired tries the grown regions, then the exact ones. */
@@ -695,7 +706,7 @@ static void viewer_spend(vis_query *q, uint32_t i)
         if (!(keys[r->next] & KEY_PROVE))
             continue;
         uint32_t j = KEY_INDEX(keys[r->next]);
-        size_t p = (size_t)q->vslot[i] * d->max_entities + q->eslot[j];
+        size_t p = pair_of(q, i, j);
         uint32_t spent = prove_pair(q, p, &q->eye_now[i], &boxes[j], v->velocity, q->in_entities[j].velocity,
                                     r->budget, &r->solid_tests);
         r->budget -= spent;
@@ -715,7 +726,7 @@ static void viewer_answer(vis_query *q, uint32_t i)
     uint32_t nh = 0;
     for (uint32_t k = 0; k < r->pairs; ++k) {
         uint32_t j = KEY_INDEX(keys[k]);
-        size_t p = (size_t)q->vslot[i] * d->max_entities + q->eslot[j];
+        size_t p = pair_of(q, i, j);
         uint32_t reason = 0;
         if (!(keys[k] & KEY_PROVE))
             ++r->cached;
@@ -755,13 +766,13 @@ static void viewer_answer(vis_query *q, uint32_t i)
 
 /* Shares `left` rays of the call budget over the viewers with pairs not yet reached, by
  * water-filling: a viewer whose pairs may spend at most d rays in all (r->demand, within
- * viewer_ray_budget) is given d where d fits an even part of what the viewers with
- * more leave, and the others an even part each (within viewer_ray_budget). So viewers with
- * nothing to prove leave their part to the others, and no viewer's proofs starve another's.
- * Made serially from the viewers' marks, so the shares never depend on the threads. */
+ * viewer_ray_budget) is given d where d fits an even part of what the viewers with more
+ * leave, and the others an even part each. So viewers with nothing to prove leave their part
+ * to the others, and no viewer's proofs starve another's. Made serially from the viewers'
+ * marks, so the shares never depend on the threads. */
 static int share_budget(vis_query *q, uint32_t nv, uint64_t left)
 {
-    const uint64_t cap = q->desc.viewer_ray_budget ? q->desc.viewer_ray_budget : UINT64_MAX;
+    const uint64_t cap = viewer_cap(q);
     uint64_t *order = q->share_order; /* demand << 32 | viewer (a demand is below 2^29) */
     uint32_t n = 0;
     for (uint32_t i = 0; i < nv; ++i) {
@@ -803,7 +814,7 @@ static void viewer_job(vis_query *q, uint32_t i)
         break;
     default: /* no call budget: each viewer within its own cap */
         viewer_order(q, i);
-        q->results[i].budget = q->desc.viewer_ray_budget ? q->desc.viewer_ray_budget : UINT64_MAX;
+        q->results[i].budget = viewer_cap(q);
         viewer_spend(q, i);
         viewer_answer(q, i);
         break;
