@@ -43,10 +43,11 @@
 #define PAIR_EDIT_SLACK_ABS 1e-3
 #define PAIR_EDIT_SLACK_REL 1e-5
 
-#define PAIR_NONE 0u      /* nothing cached: prove it                                           */
+#define PAIR_NONE 0u      /* nothing cached: prove it, the grown regions first                  */
 #define PAIR_SEEN 1u
 #define PAIR_HIDDEN 2u
 #define PAIR_UNSETTLED 3u /* the proof ran out of its pair limit: reported until pair_retry  */
+#define PAIR_FAILED 4u    /* the proof ran out of its pair limit: reported, proven next tick  */
 
 static double now_ms(void)
 {
@@ -520,36 +521,43 @@ static int cache_holds(const vis_query *q, size_t p, const vis_occ_box *eye, con
 }
 
 /* Can this tick's changed boxes (an edit since the last tick) change pair p's cached proof?
- * Every segment the proof took runs from a point of its eye region to a point of its box
- * region (a SEEN proof keeps one such witness, its two ends), so it lies inside the bounding
- * box of the two. A change that stays outside it moved no occluder of a HIDDEN proof and
- * cannot block a SEEN witness: the proof still answers (vis_occ_test reads only primitives on
- * its segments). The changed boxes are grown by far more than float rounding, as in
- * query_edits.c, so the test errs only toward proving again. */
+ * Every segment the proof took runs from a point a of its eye region to a point b of its box
+ * region (a SEEN proof keeps one such witness, its two ends). Such a point a + t (b - a) is
+ * the regions' centres' point at t plus at most (1 - t) h_eye + t h_box <= max(h_eye, h_box)
+ * on each axis (h: half-sides), so every segment lies in the centres' segment swept by a box
+ * of half-sides max(h_eye, h_box): a thin tube where the regions are small and far apart,
+ * where their bounding box would be large. A change that stays outside the tube moved no
+ * occluder of a HIDDEN proof and cannot block a SEEN witness: the proof still answers
+ * (vis_occ_test reads only primitives on its segments). The changed boxes are grown by far
+ * more than double rounding, as in query_edits.c, so the test errs only toward proving
+ * again. */
 static int edit_touches_pair(const vis_query *q, size_t p)
 {
     if (q->change_count == UINT32_MAX)
         return 1; /* the log did not reach back: anything may have changed */
     const vis_occ_box *e = &q->pair_eye[p], *b = &q->pair_box[p];
     const int seen = q->pair_state[p] == PAIR_SEEN; /* a witness: only .lo holds its ends */
-    double lo[3], hi[3];
+    double from[3], dir[3], half[3], m = 0.0;
     for (int k = 0; k < 3; ++k) {
-        lo[k] = fmin(e->lo[k], b->lo[k]);
-        hi[k] = seen ? fmax(e->lo[k], b->lo[k]) : fmax(e->hi[k], b->hi[k]);
+        double he = seen ? 0.0 : 0.5 * (e->hi[k] - e->lo[k]), hb = seen ? 0.0 : 0.5 * (b->hi[k] - b->lo[k]);
+        from[k] = e->lo[k] + he;
+        dir[k] = b->lo[k] + hb - from[k];
+        half[k] = fmax(he, hb);
+        m = fmax(m, fmax(fabs(e->lo[k]), fabs(b->lo[k])) + 2.0 * half[k]);
     }
     /* A solid-ground proof (occlusion.c) also rests on the cells within one voxel of its
-     * planes' rectangles, which may reach that far past the two regions' box. */
+     * planes' rectangles, which may reach that far past the segments. */
     const double reach = q->desc.solid ? 1.0 : 0.0;
     for (uint32_t c = 0; c < q->change_count; ++c) {
         const vis_scene_edit_box *ch = &q->changes[c];
-        int apart = 0;
-        for (int k = 0; k < 3 && !apart; ++k) {
-            double m = fmax(fabs((double)ch->lo[k]), fabs((double)ch->hi[k]));
-            double slack =
-                reach + PAIR_EDIT_SLACK_ABS + PAIR_EDIT_SLACK_REL * fmax(m, fmax(fabs(lo[k]), fabs(hi[k])));
-            apart = (double)ch->hi[k] + slack < lo[k] || (double)ch->lo[k] - slack > hi[k];
+        double lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            double mk = fmax(m, fmax(fabs((double)ch->lo[k]), fabs((double)ch->hi[k])));
+            double grow = half[k] + reach + PAIR_EDIT_SLACK_ABS + PAIR_EDIT_SLACK_REL * mk;
+            lo[k] = (double)ch->lo[k] - grow;
+            hi[k] = (double)ch->hi[k] + grow;
         }
-        if (!apart)
+        if (vis_segment_meets_box(from, dir, lo, hi, 0.0, 1.0))
             return 1;
     }
     return 0;
@@ -558,14 +566,14 @@ static int edit_touches_pair(const vis_query *q, size_t p)
 /* The region reached ahead along the velocity: the hull of b and b moved by proof_slack
  * voxels in the velocity's direction (b itself when still). While the motion keeps its
  * direction, the next ticks' regions stay inside for proof_slack / speed seconds. */
-static void grow_ahead(const vis_query *q, const vis_occ_box *b, const double vel[3], vis_occ_box *out)
+static void grow_ahead(double reach, const vis_occ_box *b, const double vel[3], vis_occ_box *out)
 {
     *out = *b;
     double len = sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]);
-    if (!(len > 0.0) || q->desc.proof_slack == 0.0)
+    if (!(len > 0.0) || reach == 0.0)
         return;
     for (int k = 0; k < 3; ++k) {
-        double dv = vel[k] / len * q->desc.proof_slack;
+        double dv = vel[k] / len * reach;
         if (dv < 0.0)
             out->lo[k] += dv;
         else
@@ -573,13 +581,33 @@ static void grow_ahead(const vis_query *q, const vis_occ_box *b, const double ve
     }
 }
 
+/* How far pair p's proof on this tick reaches ahead: proof_slack times 1/2 to 3/2 in 16
+ * steps, drawn from the pair and the tick. Players who start, or turn, together would
+ * otherwise all leave their proofs on one later tick and prove every pair again on it (the
+ * 32-player replays spent 2,600-2,700 rays on the 16th tick against about 400 on the
+ * others). A hash, not a generator: the same on any thread count. */
+static double proof_reach(const vis_query *q, size_t p)
+{
+    uint64_t h = (uint64_t)p * 0x9E3779B97F4A7C15ull ^ (uint64_t)q->tick * 0xBF58476D1CE4E5B9ull;
+    h ^= h >> 31;
+    h *= 0x94D049BB133111EBull;
+    h ^= h >> 29;
+    return q->desc.proof_slack * (0.5 + (double)(h & 15u) / 15.0);
+}
+
+/* Does a pair in this state try the regions grown ahead first? A pair whose last proof was
+ * HIDDEN has moved out of it, and a new pair has no proof: both are likely hidden, and a
+ * proof of the grown regions lasts many ticks where one of the exact regions lasts until the
+ * next tick's move (a first tick of 32 players proved every pair twice, on that tick and
+ * the next). A pair seen, or whose last proof failed, tries the exact regions only. */
+static int grown_first(uint8_t state) { return state == PAIR_HIDDEN || state == PAIR_NONE; }
+
 /* Proves pair p within `left` rays and caches the result with the regions it covers;
- * returns the rays spent. A pair whose last proof was HIDDEN has moved out of it: the
- * regions grown ahead (grow_ahead) are tried first, so that one proof lasts many ticks;
- * when that fails, the exact regions get a pair limit of their own (so such a pair may
- * spend up to twice pair_ray_limit). A proof that uses its whole pair limit without an
- * answer is UNSETTLED: reported, and kept for unsettled_ticks over the grown regions (1:
- * proven again next tick). Waiting longer saves the rays of proofs that keep failing, at
+ * returns the rays spent. Where grown_first says so, the regions grown ahead (grow_ahead)
+ * are tried first; when that fails, the exact regions get a pair limit of their own (so such
+ * a pair may spend up to twice pair_ray_limit). A proof that uses its whole pair limit
+ * without an answer is UNSETTLED: reported, and kept for unsettled_ticks over the grown
+ * regions (1: proven again next tick). Waiting longer saves the rays of proofs that keep failing, at
  * the price of the few pairs a later tick would have proven hidden (docs/server.md: on
  * gen:default about 1 % of the retries succeed, and each success hides its pair for many
  * ticks). A proof cut short by the ray budget is not kept: the budget, not the proof,
@@ -590,13 +618,15 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
     uint32_t lim = left < q->desc.pair_ray_limit ? (uint32_t)left : q->desc.pair_ray_limit;
     const vis_occ_solid solid = {q->desc.solid, q->desc.solid_user};
     vis_occ_box ge, gb;
-    grow_ahead(q, eye, eye_vel, &ge);
-    grow_ahead(q, box, box_vel, &gb);
+    double reach = proof_reach(q, p);
+    grow_ahead(reach, eye, eye_vel, &ge);
+    grow_ahead(reach, box, box_vel, &gb);
     uint32_t spent = 0;
     double w[6];
-    if (q->pair_state[p] == PAIR_HIDDEN && (!box_in(&ge, eye) || !box_in(&gb, box))) {
+    if (grown_first(q->pair_state[p]) && (!box_in(&ge, eye) || !box_in(&gb, box))) {
         vis_occ_result res = vis_occ_test(&q->view, &ge, &gb, lim, &solid, &spent, solid_tests, w);
         if (res == VIS_OCC_HIDDEN) {
+            q->pair_state[p] = PAIR_HIDDEN;
             q->pair_eye[p] = ge;
             q->pair_box[p] = gb;
             return spent;
@@ -626,7 +656,7 @@ static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const
         q->pair_box[p] = gb;
         q->pair_retry[p] = (uint32_t)q->tick + q->desc.unsettled_ticks;
     } else {
-        q->pair_state[p] = PAIR_NONE; /* reported; tried again next tick */
+        q->pair_state[p] = PAIR_FAILED; /* reported; tried again next tick */
     }
     return spent;
 }
@@ -688,7 +718,7 @@ static void viewer_order(vis_query *q, uint32_t i)
         if ((!q->regenerated || !edit_touches_pair(q, p)) && cache_holds(q, p, eye, &boxes[j]))
             continue;
         /* A hidden pair whose proof expired tries the grown regions, then the exact ones. */
-        keys[k] |= KEY_PROVE | (q->pair_state[p] == PAIR_HIDDEN ? KEY_TWICE : 0u);
+        keys[k] |= KEY_PROVE | (grown_first(q->pair_state[p]) ? KEY_TWICE : 0u);
         r->demand += key_rays(q, keys[k]);
     }
     r->pairs = n;
@@ -736,7 +766,7 @@ static void viewer_answer(vis_query *q, uint32_t i)
             reason = VIS_QUERY_SEEN;
             q->pair_seen[p] = (uint32_t)q->tick + 1u;
             ++r->seen;
-        } else if (q->pair_state[p] == PAIR_NONE || q->pair_state[p] == PAIR_UNSETTLED) {
+        } else if (q->pair_state[p] != PAIR_HIDDEN) {
             reason = VIS_QUERY_UNCHECKED;
             ++r->unchecked;
         } else {

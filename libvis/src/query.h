@@ -117,6 +117,11 @@ struct vis_query {
  * ray that reaches a changed box before its hit (query_edits.c). */
 uint32_t vis_query_edit_faces(const vis_query *q, uint32_t slot);
 
+/* Does the segment o + t d, t in [t0, t1], meet the box [lo, hi]? (Kay and Kajiya's slabs,
+ * in double; query_edits.c.) */
+int vis_segment_meets_box(const double o[3], const double d[3], const double lo[3], const double hi[3], double t0,
+                          double t1);
+
 /* Traces the chunk passes due this tick (query_chunks.c); the caller holds the context. */
 vis_status vis_query_chunks_run(vis_query *q);
 

@@ -12,7 +12,7 @@
  * distances; the box is grown and the segment lengthened by far more than float rounding, so
  * it errs only toward tracing again.
  *
- * Slab test: Kay and Kajiya, "Ray tracing complex scenes", SIGGRAPH 1986. */
+ * Slab test (vis_segment_meets_box): Kay and Kajiya, "Ray tracing complex scenes", SIGGRAPH 1986. */
 #include <math.h>
 
 #include "query.h"
@@ -21,11 +21,11 @@
 #define EDIT_SLACK_ABS 1e-3
 #define EDIT_SLACK_REL 1e-5
 
-/* Does the ray reach the box [lo, hi] within [t0, t1]? (Kay and Kajiya's slabs, in double.) */
-static int ray_meets_box(const vis_ray *r, const double lo[3], const double hi[3], double t0, double t1)
+int vis_segment_meets_box(const double o3[3], const double d3[3], const double lo[3], const double hi[3], double t0,
+                          double t1)
 {
     for (int a = 0; a < 3; ++a) {
-        double o = r->o[a], d = r->d[a];
+        double o = o3[a], d = d3[a];
         if (d == 0.0) {
             if (o < lo[a] || o > hi[a])
                 return 0;
@@ -52,29 +52,39 @@ static double dot3(const double a[3], const float b[3])
 
 /* The pixels of one face whose rays can pass through the box [lo, hi] (relative to the eye):
  * the rectangle of its corners' projections, one pixel wider on each side (the projection uses
- * the setup's float axes in double; their error is far below a pixel). A box reaching the eye's
- * plane projects without bound: the whole face. Returns 0 when no pixel can. */
+ * the setup's float axes in double; their error is far below a pixel). A box wholly behind the
+ * eye's plane meets no ray (every ray of a face goes forward: its direction's forward part is
+ * at least 1/sqrt(3) of it, far above rounding); one reaching across the plane projects
+ * without bound: the whole face. Returns 0 when no pixel can. */
 static int box_pixels(const vis_ray_setup *st, const double lo[3], const double hi[3], int32_t px[2], int32_t py[2])
 {
     const int32_t w = (int32_t)st->width, h = (int32_t)st->height;
     double rr = dot3((const double[3]){st->right[0], st->right[1], st->right[2]}, st->right);
     double uu = dot3((const double[3]){st->up[0], st->up[1], st->up[2]}, st->up);
     double nx_lo = INFINITY, nx_hi = -INFINITY, ny_lo = INFINITY, ny_hi = -INFINITY;
+    int behind = 0, across = 0;
     for (int c = 0; c < 8; ++c) {
         double p[3] = {(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]};
         double z = dot3(p, st->forward);
         double len = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        behind += z < 0.0;
         if (!(z > 1e-6 * len)) {
-            px[0] = py[0] = 0;
-            px[1] = w - 1;
-            py[1] = h - 1;
-            return 1;
+            across = 1;
+            continue;
         }
         double nx = dot3(p, st->right) / (rr * z), ny = dot3(p, st->up) / (uu * z);
         nx_lo = fmin(nx_lo, nx);
         nx_hi = fmax(nx_hi, nx);
         ny_lo = fmin(ny_lo, ny);
         ny_hi = fmax(ny_hi, ny);
+    }
+    if (behind == 8)
+        return 0;
+    if (across) {
+        px[0] = py[0] = 0;
+        px[1] = w - 1;
+        py[1] = h - 1;
+        return 1;
     }
     /* Pixel centre x has nx = (2x+1)/W - 1; y has ny = 1 - (2y+1)/H. */
     double x0 = floor(((nx_lo + 1.0) * w - 1.0) * 0.5) - 1.0, x1 = ceil(((nx_hi + 1.0) * w - 1.0) * 0.5) + 1.0;
@@ -124,7 +134,8 @@ static int face_reaches(const vis_ray_setup *st, const float *depth, const vis_s
                 continue;
             vis_ray r;
             vis_ray_for_pixel(st, (uint32_t)x, (uint32_t)y, &r);
-            if (ray_meets_box(&r, lo, hi, (double)st->t_near - slack, end))
+            const double o[3] = {r.o[0], r.o[1], r.o[2]}, d[3] = {r.d[0], r.d[1], r.d[2]};
+            if (vis_segment_meets_box(o, d, lo, hi, (double)st->t_near - slack, end))
                 return 1;
         }
     return 0;
