@@ -892,8 +892,12 @@ typedef struct vis_query_desc {
     double proof_slack;        /* voxels a proof reaches ahead along each velocity, so that it
                                   stays valid while viewer and entity move on: a pair is not
                                   proven again while its eye region and swept box stay inside
-                                  the regions last proven; at most 1e5; 0 = default (0.5),
-                                  negative = none (exact regions, re-proven on any move)     */
+                                  the regions last proven. Each proof reaches 1/2 to 3/2 of
+                                  it, drawn from the pair and the tick, so that proofs made
+                                  on one tick do not all end on one later tick; a new pair,
+                                  like one whose hidden proof ended, tries the regions grown
+                                  ahead first. At most 1e5; 0 = default (0.5), negative =
+                                  none (exact regions, re-proven on any move)                */
     uint32_t unsettled_ticks;  /* a pair whose proof was given its whole pair_ray_limit and
                                   ended without an answer is reported (VIS_QUERY_UNCHECKED)
                                   and proven again this many ticks later (1: the next tick),
