@@ -308,6 +308,21 @@ static int finite3(const double v[3], double bound)
     return 1;
 }
 
+/* Does an in-view viewer's pass have a view direction? Its camera looks from eye to eye + dir
+ * (query_chunks.c), which the camera refuses when the two are the same point in double (or
+ * so close that the distance's square underflows). All around (dir 0) needs none. */
+static int dir_moves_eye(const vis_query_viewer *v)
+{
+    if (v->dir[0] == 0.0 && v->dir[1] == 0.0 && v->dir[2] == 0.0)
+        return 1;
+    double n2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        double d = (v->eye[k] + v->dir[k]) - v->eye[k];
+        n2 += d * d;
+    }
+    return n2 > 0.0;
+}
+
 static int speed_ok(const double v[3])
 {
     return finite3(v, VIS_QUERY_MAX_SPEED) && v[0] * v[0] + v[1] * v[1] + v[2] * v[2] <=
@@ -335,6 +350,8 @@ static vis_status check_inputs(vis_query *q, const vis_query_viewer *vw, uint32_
             bad = "eye is not finite or too far";
         else if (!finite3(v->dir, QUERY_MAX_COORD))
             bad = "dir is not finite";
+        else if (!dir_moves_eye(v))
+            bad = "dir is too short to move the eye (eye + dir == eye: no view direction)";
         else if (!(v->dir[0] == 0.0 && v->dir[1] == 0.0 && v->dir[2] == 0.0) &&
                  !(v->fov_deg > 0.0 && v->fov_deg <= 170.0))
             bad = "fov_deg is not in (0, 170]";

@@ -927,7 +927,8 @@ typedef struct vis_query_viewer {
     uint32_t id;           /* 1..VIS_MAX_OBJECT_ID, unique in the call; an entity with the
                               same ID is the viewer itself and is never reported to it       */
     double eye[3];
-    double dir[3];         /* view direction; (0,0,0) = all around (6 faces of 90 degrees)   */
+    double dir[3];         /* view direction; (0,0,0) = all around (6 faces of 90 degrees);
+                              refused when eye + dir == eye in double                        */
     double fov_deg;        /* the in-view pass's field of view, horizontal and vertical,
                               (0, 170]; ignored all around                                   */
     double velocity[3];
