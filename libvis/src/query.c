@@ -585,9 +585,9 @@ static int edit_touches_pair(const vis_query *q, size_t p)
     return 0;
 }
 
-/* The region reached ahead along the velocity: the hull of b and b moved by proof_slack
- * voxels in the velocity's direction (b itself when still). While the motion keeps its
- * direction, the next ticks' regions stay inside for proof_slack / speed seconds. */
+/* The region reached ahead along the velocity: the hull of b and b moved by `reach` voxels
+ * in the velocity's direction (b itself when still). While the motion keeps its direction,
+ * the next ticks' regions stay inside for reach / speed seconds. */
 static void grow_ahead(double reach, const vis_occ_box *b, const double vel[3], vis_occ_box *out)
 {
     *out = *b;
@@ -635,11 +635,11 @@ static int moves(const double vel[3]) { return sqrt(vel[0] * vel[0] + vel[1] * v
  * are tried first; when that fails, the exact regions get a pair limit of their own (so such
  * a pair may spend up to twice pair_ray_limit). A proof that uses its whole pair limit
  * without an answer is UNSETTLED: reported, and kept for unsettled_ticks over the grown
- * regions (1: proven again next tick). Waiting longer saves the rays of proofs that keep failing, at
- * the price of the few pairs a later tick would have proven hidden (docs/server.md: on
- * gen:default about 1 % of the retries succeed, and each success hides its pair for many
- * ticks). A proof cut short by the ray budget is not kept: the budget, not the proof,
- * ended it. */
+ * regions (1: FAILED, proven again next tick). Waiting longer saves the rays of proofs that
+ * keep failing, at the price of the few pairs a later tick would have proven hidden
+ * (docs/server.md: on gen:default about 1 % of the retries succeed, and each success hides
+ * its pair for many ticks). A proof cut short by the ray budget is not kept: the budget, not
+ * the proof, ended it. */
 static uint32_t prove_pair(vis_query *q, size_t p, const vis_occ_box *eye, const vis_occ_box *box,
                            const double eye_vel[3], const double box_vel[3], uint64_t left, uint64_t *solid_tests)
 {

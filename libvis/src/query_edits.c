@@ -12,7 +12,8 @@
  * distances; the box is grown and the segment lengthened by far more than float rounding, so
  * it errs only toward tracing again.
  *
- * Slab test (vis_segment_meets_box): Kay and Kajiya, "Ray tracing complex scenes", SIGGRAPH 1986. */
+ * Slab test (vis_segment_meets_box): Kay and Kajiya, "Ray tracing complex scenes", SIGGRAPH
+ * 1986. */
 #include <math.h>
 
 #include "query.h"
@@ -55,8 +56,8 @@ static double dot3(const double a[3], const float b[3])
  * the setup's float axes in double; their error is far below a pixel). A box wholly behind the
  * eye's plane meets no ray (every ray of a face goes forward: its direction's forward part is
  * at least 1/sqrt(3) of it on a 90-degree face, about 0.06 at an in-view pass's widest field
- * of 170 degrees, far above rounding); one reaching across the plane projects
- * without bound: the whole face. Returns 0 when no pixel can. */
+ * of 170 degrees, far above rounding); one reaching across the plane projects without
+ * bound: the whole face. Returns 0 when no pixel can. */
 static int box_pixels(const vis_ray_setup *st, const double lo[3], const double hi[3], int32_t px[2], int32_t py[2])
 {
     const int32_t w = (int32_t)st->width, h = (int32_t)st->height;
