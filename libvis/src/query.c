@@ -274,6 +274,10 @@ static vis_status query_create(vis_context *ctx, vis_scene *scene, const vis_que
             return vis_fail(ctx, VIS_ERROR_BACKEND, "vis_query_create: could not start %u threads", threads);
         }
     }
+    if ((st = vis_query_chunks_warm(q)) != VIS_OK) {
+        query_free(q);
+        return st;
+    }
     *out = q;
     return VIS_OK;
 }

@@ -122,6 +122,12 @@ uint32_t vis_query_edit_faces(const vis_query *q, uint32_t slot);
 int vis_segment_meets_box(const double o[3], const double d[3], const double lo[3], const double hi[3], double t0,
                           double t1);
 
+/* Readies the backend for the chunk passes, so that the first tick does not pay for it: a
+ * batch of two 1x1 views with the passes' traversal, which makes an OpenCL device build the
+ * batch program and take the scene's first upload (query_chunks.c). The caller holds the
+ * context. */
+vis_status vis_query_chunks_warm(vis_query *q);
+
 /* Traces the chunk passes due this tick (query_chunks.c); the caller holds the context. */
 vis_status vis_query_chunks_run(vis_query *q);
 

@@ -178,6 +178,23 @@ static void merge_faces(vis_query *q, uint32_t s, size_t pixels)
     v->chunk_count = n;
 }
 
+vis_status vis_query_chunks_warm(vis_query *q)
+{
+    vis_camera cams[2];
+    memset(cams, 0, sizeof cams);
+    for (int c = 0; c < 2; ++c) {
+        cams[c].target[0] = 1.0;
+        cams[c].fovy_deg = 90.0;
+    }
+    vis_trace_desc d;
+    vis_trace_desc_defaults(&d);
+    d.width = d.height = 1;
+    d.traversal = q->desc.chunk_traversal;
+    uint32_t ids[2];
+    float depth[2];
+    return vis_trace_batch_held(q->ctx, q->scene, cams, 2, &d, ids, 2, depth, 2);
+}
+
 vis_status vis_query_chunks_run(vis_query *q)
 {
     q->chunk_passes = 0;

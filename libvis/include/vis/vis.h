@@ -978,7 +978,11 @@ typedef struct vis_query_stats {
 
 /* Creates a query for `scene` with every buffer it will need (no allocation per tick),
  * through the context's allocator, and its pool of threads. desc may be NULL (defaults).
- * Destroy the query before its scene and its context (vis_context_destroy does not). */
+ * It also readies the backend for the chunk passes by tracing a batch of two 1x1 views (an
+ * OpenCL device builds its batch program and takes the scene's first upload here rather than
+ * on the first tick; vis_context_last_timing then describes that batch), and fails with
+ * that trace's error if the backend cannot run them. Destroy the query before its scene and
+ * its context (vis_context_destroy does not). */
 VIS_API vis_status vis_query_create(vis_context *context, vis_scene *scene, const vis_query_desc *desc,
                                     vis_query **out_query);
 
