@@ -25,6 +25,17 @@
 #                        host, this tree against a parent's build in old/ (vis), alternated,
 #                        three rounds: defaults, one face per tick, and one face per tick with
 #                        a call budget of 512 entity rays
+#   run_device.sh 9      the 32-player replays with the chunk faces on the GPU at face budgets
+#                        none, 4, 8 and 16, and on 2 CPU threads at one face per tick, two
+#                        rounds; then which ticks of a GPU run (no budget) pass 1.8 ms
+#   run_device.sh 10     tick 0 with the chunk faces on the GPU: this tree against a parent's
+#                        build in old/vis, alternated, three rounds
+#   run_device.sh 11     10 and 100 players (replays/NAME10.jsonl, NAME100.jsonl from
+#                        `vis query --simulate 10|100 --ticks 256 --scene gen:NAME --seed 1`):
+#                        the chunk faces on the GPU (no face budget) and on 2 CPU threads (no
+#                        budget, and one face per tick), two rounds
+#   run_device.sh 12     the 32-player replays on 2 CPU threads at face budgets none, 1, 2
+#                        and 4, three rounds
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -163,6 +174,51 @@ if [ "$PHASE" = 8 ]; then
         --backend cpu $o --json 2>&1 | grep -o '"unchecked_per_tick":[0-9.]*\|"ms_per_tick":{[^}]*}' | tr '\n' ' ')"
     done; done
   done; done
+fi
+
+query_ms() { # query_ms VIS SCENE REPLAY OPTIONS...: the summary's chunk rays and ms per tick
+  local c=$1 s=$2 r=$3; shift 3
+  $c query --scene gen:$s --replay replays/$r.jsonl --threads 2 "$@" --json 2>&1 |
+    grep -o '"chunk_rays_per_tick":[0-9.]*\|"ms_per_tick":{[^}]*}' | tr '\n' ' '
+}
+if [ "$PHASE" = 9 ]; then
+  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  for round in 1 2; do for s in city default maze; do
+    for o in "opencl 0" "opencl 4" "opencl 8" "opencl 16" "cpu 1"; do set -- $o
+      echo "query $s $1 fb $2 round $round: $(query_ms ./vis $s ${s}32 --backend $1 --chunk-face-budget $2)"
+    done
+  done; done
+  for s in city default maze; do
+    ./vis query --scene gen:$s --replay replays/${s}32.jsonl --threads 2 --backend opencl --out "$O/ticks_$s.jsonl" \
+      --json > /dev/null 2>&1
+    echo "$s: ticks over 1.8 ms (tick, ms, entity rays, chunk rays): $(python3 -c "
+import json, sys
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.startswith('{\"tick')]
+print([(x['tick'], round(x['ms'], 2), x['entity_rays'], x['chunk_rays']) for x in rows if x['ms'] > 1.8])
+" "$O/ticks_$s.jsonl")"
+  done
+fi
+if [ "$PHASE" = 10 ]; then
+  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  for round in 1 2 3; do for s in city default maze; do for b in new old; do
+    c=./vis; [ $b = old ] && c=old/vis
+    $c query --scene gen:$s --replay replays/${s}32.jsonl --threads 2 --backend opencl --out "$O/t.jsonl" --json \
+      2>&1 | grep -o '"ms_per_tick":{[^}]*}' > "$O/s.txt"
+    echo "$s $b round $round: $(cat "$O/s.txt") tick0 $(head -c 300 "$O/t.jsonl" | grep -o '"ms":[0-9.]*')"
+  done; done; done
+fi
+if [ "$PHASE" = 11 ]; then
+  ./vis query --scene gen:maze --replay replays/maze10.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  for round in 1 2; do for p in 10 100; do for s in city default maze; do
+    for o in "opencl 0" "cpu 0" "cpu 1"; do set -- $o
+      echo "query $s$p $1 fb $2 round $round: $(query_ms ./vis $s $s$p --backend $1 --chunk-face-budget $2)"
+    done
+  done; done; done
+fi
+if [ "$PHASE" = 12 ]; then
+  for round in 1 2 3; do for s in city default maze; do for fb in 0 1 2 4; do
+    echo "query $s fb $fb round $round: $(query_ms ./vis $s ${s}32 --backend cpu --chunk-face-budget $fb)"
+  done; done; done
 fi
 
 date -u
