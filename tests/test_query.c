@@ -1312,7 +1312,8 @@ static void test_bad_input(void **state)
                  {"appears twice", VIS_ERROR_INVALID_ARGUMENT, 4}, {"velocity", VIS_ERROR_INVALID_ARGUMENT, 5},
                  {"fov_deg", VIS_ERROR_INVALID_ARGUMENT, 6},      {"the query holds", VIS_ERROR_CAPACITY, 7},
                  {"box is not finite", VIS_ERROR_INVALID_ARGUMENT, 8},
-                 {"dir is too short", VIS_ERROR_INVALID_ARGUMENT, 9}};
+                 {"dir is too short", VIS_ERROR_INVALID_ARGUMENT, 9},
+                 {"fov_deg", VIS_ERROR_INVALID_ARGUMENT, 10}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
         vis_query_viewer bv = v;
         vis_query_entity be[3] = {e, e, e};
@@ -1330,6 +1331,7 @@ static void test_bad_input(void **state)
         case 7: ne = 3; break;
         case 8: be[0].box_min[2] = -1e300; break;
         case 9: bv.dir[0] = 1e-20; bv.dir[1] = bv.dir[2] = 0.0; break; /* eye + dir == eye */
+        case 10: bv.fov_deg = 5e-44; break;                              /* a face's axes round to 0 */
         }
         vis_status s = vis_query_run(q, &bv, 1, be, ne, &st);
         assert_int_equal(s, cases[c].want);

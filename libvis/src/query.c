@@ -40,6 +40,9 @@
 #define QUERY_MAX_COORD 1e9      /* world coordinates beyond this are rejected             */
 #define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */
 #define QUERY_MAX_BYTES ((uint64_t)1 << 31)
+/* The narrowest in-view pass, degrees (vis query's replays too): far below any game's view,
+ * and far above where a face's float axes round to 0. */
+#define QUERY_MIN_FOV 1e-3
 #define QUERY_DEFAULT_SLACK 0.5  /* voxels: about 15 ticks of a walk at 128 ticks/s          */
 /* Slack, in voxels and relative, added to changed boxes against rounding (edit_touches_pair). */
 #define PAIR_EDIT_SLACK_ABS 1e-3
@@ -357,10 +360,10 @@ static vis_status check_inputs(vis_query *q, const vis_query_viewer *vw, uint32_
         else if (!finite3(v->dir, QUERY_MAX_COORD))
             bad = "dir is not finite";
         else if (!dir_moves_eye(v))
-            bad = "dir is too short to move the eye (eye + dir == eye: no view direction)";
+            bad = "dir is too short to give a view direction (eye + dir is eye, or too close to it)";
         else if (!(v->dir[0] == 0.0 && v->dir[1] == 0.0 && v->dir[2] == 0.0) &&
-                 !(v->fov_deg > 0.0 && v->fov_deg <= 170.0))
-            bad = "fov_deg is not in (0, 170]";
+                 !(v->fov_deg >= QUERY_MIN_FOV && v->fov_deg <= 170.0))
+            bad = "fov_deg is not in [0.001, 170]";
         else if (!speed_ok(v->velocity))
             bad = "velocity is not finite or faster than VIS_QUERY_MAX_SPEED";
         else if (!(v->latency_ms >= 0.0 && v->latency_ms <= VIS_QUERY_MAX_LATENCY_MS))

@@ -64,17 +64,19 @@ static int box_pixels(const vis_ray_setup *st, const double lo[3], const double 
     double rr = dot3((const double[3]){st->right[0], st->right[1], st->right[2]}, st->right);
     double uu = dot3((const double[3]){st->up[0], st->up[1], st->up[2]}, st->up);
     double nx_lo = INFINITY, nx_hi = -INFINITY, ny_lo = INFINITY, ny_hi = -INFINITY;
-    int behind = 0, across = 0;
+    int behind = 0, unbounded = 0;
     for (int c = 0; c < 8; ++c) {
         double p[3] = {(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]};
         double z = dot3(p, st->forward);
         double len = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
         behind += z < 0.0;
-        if (!(z > 1e-6 * len)) {
-            across = 1;
+        double nx = dot3(p, st->right) / (rr * z), ny = dot3(p, st->up) / (uu * z);
+        /* Across the eye's plane, or a projection that is not a number (a face whose axes
+         * round to 0, for a field of view of 1e-43 degrees): no bound, not "no pixel". */
+        if (!(z > 1e-6 * len) || !isfinite(nx) || !isfinite(ny)) {
+            unbounded = 1;
             continue;
         }
-        double nx = dot3(p, st->right) / (rr * z), ny = dot3(p, st->up) / (uu * z);
         nx_lo = fmin(nx_lo, nx);
         nx_hi = fmax(nx_hi, nx);
         ny_lo = fmin(ny_lo, ny);
@@ -82,7 +84,7 @@ static int box_pixels(const vis_ray_setup *st, const double lo[3], const double 
     }
     if (behind == 8)
         return 0;
-    if (across) {
+    if (unbounded) {
         px[0] = py[0] = 0;
         px[1] = w - 1;
         py[1] = h - 1;

@@ -928,9 +928,10 @@ typedef struct vis_query_viewer {
                               same ID is the viewer itself and is never reported to it       */
     double eye[3];
     double dir[3];         /* view direction; (0,0,0) = all around (6 faces of 90 degrees);
-                              refused when eye + dir == eye in double                        */
+                              refused when eye + dir is eye in double, or so close to it
+                              that their distance's square underflows                       */
     double fov_deg;        /* the in-view pass's field of view, horizontal and vertical,
-                              (0, 170]; ignored all around                                   */
+                              [0.001, 170]; ignored all around                               */
     double velocity[3];
     double latency_ms;     /* [0, VIS_QUERY_MAX_LATENCY_MS]                                  */
 } vis_query_viewer;
