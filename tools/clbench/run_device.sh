@@ -46,6 +46,14 @@ mkdir -p /etc/OpenCL/vendors && echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors
 export LD_LIBRARY_PATH=$PWD/lib:$LD_LIBRARY_PATH
 O=${OUT:-/tmp/out}; mkdir -p "$O"
 PHASE=${1:-all}
+query_ms() { # query_ms VIS SCENE REPLAY OPTIONS...: the summary's chunk rays and ms per tick
+  local c=$1 s=$2 r=$3; shift 3
+  $c query --scene gen:$s --replay replays/$r.jsonl --threads 2 "$@" --json 2>&1 |
+    grep -o '"chunk_rays_per_tick":[0-9.]*\|"ms_per_tick":{[^}]*}' | tr '\n' ' '
+}
+compile_gpu() { # one run first, so that the driver's cache holds the programs the timed runs use
+  ./vis query --scene gen:maze --replay replays/$1.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1
+}
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm --format=csv
 date -u
 
@@ -107,7 +115,7 @@ if [ "$PHASE" = 3 ]; then
     echo "gen:default dda batch, tile $T: $(VIS_OPENCL_TILE=$T timeout 60 ./vis_clbench --device NVIDIA --conformance 0 \
       --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
   done
-  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  compile_gpu maze32
   for round in 1 2; do for s in city default maze; do for t in auto stack; do
     echo "query $s --chunk-traversal $t round $round: $(./vis query --scene gen:$s --replay replays/${s}32.jsonl \
       --threads 2 --backend opencl --chunk-traversal $t --json --out "$O/q_${s}_${t}_$round.jsonl" 2>&1 | head -c 400)"
@@ -127,7 +135,7 @@ if [ "$PHASE" = 4 ]; then
       VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=$R timeout 60 ./vis_clbench --scene $s --device NVIDIA \
       --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
   done; done; done; done
-  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  compile_gpu maze32
   for round in 1 2; do for s in city default maze; do for b in opencl cpu old-cpu; do
     v=./vis; [ $b = old-cpu ] && { [ -x old/vis ] || continue; v=old/vis; } # old/: a parent's build
     echo "query $s --backend $b round $round: $($v query --scene gen:$s --replay replays/${s}32.jsonl \
@@ -158,7 +166,7 @@ if [ "$PHASE" = 5 ]; then
   done
 fi
 if [ "$PHASE" = 7 ]; then
-  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  compile_gpu maze32
   for round in 1 2; do for s in city default maze; do for b in opencl cpu; do
     for o in "" "--chunk-face-budget 1" "--chunk-move 4 --chunk-face-budget 1"; do
       echo "query $s --backend $b [$o] round $round: $(./vis query --scene gen:$s --replay replays/${s}32.jsonl \
@@ -176,13 +184,8 @@ if [ "$PHASE" = 8 ]; then
   done; done
 fi
 
-query_ms() { # query_ms VIS SCENE REPLAY OPTIONS...: the summary's chunk rays and ms per tick
-  local c=$1 s=$2 r=$3; shift 3
-  $c query --scene gen:$s --replay replays/$r.jsonl --threads 2 "$@" --json 2>&1 |
-    grep -o '"chunk_rays_per_tick":[0-9.]*\|"ms_per_tick":{[^}]*}' | tr '\n' ' '
-}
 if [ "$PHASE" = 9 ]; then
-  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  compile_gpu maze32
   for round in 1 2; do for s in city default maze; do
     for o in "opencl 0" "opencl 4" "opencl 8" "opencl 16" "cpu 1"; do set -- $o
       echo "query $s $1 fb $2 round $round: $(query_ms ./vis $s ${s}32 --backend $1 --chunk-face-budget $2)"
@@ -199,7 +202,7 @@ print([(x['tick'], round(x['ms'], 2), x['entity_rays'], x['chunk_rays']) for x i
   done
 fi
 if [ "$PHASE" = 10 ]; then
-  ./vis query --scene gen:maze --replay replays/maze32.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  compile_gpu maze32
   for round in 1 2 3; do for s in city default maze; do for b in new old; do
     c=./vis; [ $b = old ] && c=old/vis
     $c query --scene gen:$s --replay replays/${s}32.jsonl --threads 2 --backend opencl --out "$O/t.jsonl" --json \
@@ -208,7 +211,7 @@ if [ "$PHASE" = 10 ]; then
   done; done; done
 fi
 if [ "$PHASE" = 11 ]; then
-  ./vis query --scene gen:maze --replay replays/maze10.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1 # compile
+  compile_gpu maze10
   for round in 1 2; do for p in 10 100; do for s in city default maze; do
     for o in "opencl 0" "cpu 0" "cpu 1"; do set -- $o
       echo "query $s$p $1 fb $2 round $round: $(query_ms ./vis $s $s$p --backend $1 --chunk-face-budget $2)"
