@@ -2286,7 +2286,7 @@ int main(void)
         cmocka_unit_test(test_solid_ground),         cmocka_unit_test(test_solid_edit_tunnel),
         cmocka_unit_test(test_edit_opens_wall),     cmocka_unit_test(test_hold),
         cmocka_unit_test(test_slack_cache),        cmocka_unit_test(test_proofs_spread),
-        cmocka_unit_test(test_edit_off_the_segment),        cmocka_unit_test(test_unsettled_wait),
+        cmocka_unit_test(test_edit_off_the_segment), cmocka_unit_test(test_unsettled_wait),
         cmocka_unit_test(test_threads_deterministic), cmocka_unit_test(test_budget),
         cmocka_unit_test(test_budget_shared),
         cmocka_unit_test(test_budget_rounds_and_caps),
