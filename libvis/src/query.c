@@ -595,10 +595,12 @@ static int edit_touches_pair(const vis_query *q, size_t p)
 /* The region reached ahead along the velocity: the hull of b and b moved by `reach` voxels
  * in the velocity's direction (b itself when still). While the motion keeps its direction,
  * the next ticks' regions stay inside for reach / speed seconds. */
+static double length3(const double v[3]) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
 static void grow_ahead(double reach, const vis_occ_box *b, const double vel[3], vis_occ_box *out)
 {
     *out = *b;
-    double len = sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]);
+    double len = length3(vel);
     if (!(len > 0.0) || reach == 0.0)
         return;
     for (int k = 0; k < 3; ++k) {
@@ -634,8 +636,8 @@ static double proof_reach(const vis_query *q, size_t p)
  * class (docs/server.md, "Proofs that do not all end together"). */
 static int grown_first(uint8_t state) { return state == PAIR_HIDDEN || state == PAIR_NONE; }
 
-/* Can grow_ahead grow a region moving at this velocity? (The same length test.) */
-static int moves(const double vel[3]) { return sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]) > 0.0; }
+/* Can grow_ahead grow a region moving at this velocity? (Its own length test.) */
+static int moves(const double vel[3]) { return length3(vel) > 0.0; }
 
 /* Proves pair p within `left` rays and caches the result with the regions it covers;
  * returns the rays spent. Where grown_first says so, the regions grown ahead (grow_ahead)
