@@ -40,9 +40,6 @@
 #define QUERY_MAX_COORD 1e9      /* world coordinates beyond this are rejected             */
 #define QUERY_MAX_BOX 1e5        /* an entity box larger than this (voxels) is rejected     */
 #define QUERY_MAX_BYTES ((uint64_t)1 << 31)
-/* The narrowest in-view pass, degrees (vis query's replays too): far below any game's view,
- * and far above where a face's float axes round to 0. */
-#define QUERY_MIN_FOV 1e-3
 #define QUERY_DEFAULT_SLACK 0.5  /* voxels: about 15 ticks of a walk at 128 ticks/s          */
 /* Slack, in voxels and relative, added to changed boxes against rounding (edit_touches_pair). */
 #define PAIR_EDIT_SLACK_ABS 1e-3
@@ -322,7 +319,7 @@ static int finite3(const double v[3], double bound)
  * so close that the distance's square underflows). All around (dir 0) needs none. */
 static int dir_moves_eye(const vis_query_viewer *v)
 {
-    if (v->dir[0] == 0.0 && v->dir[1] == 0.0 && v->dir[2] == 0.0)
+    if (vis_query_all_around(v))
         return 1;
     double n2 = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -361,9 +358,8 @@ static vis_status check_inputs(vis_query *q, const vis_query_viewer *vw, uint32_
             bad = "dir is not finite";
         else if (!dir_moves_eye(v))
             bad = "dir is too short to give a view direction (eye + dir is eye, or too close to it)";
-        else if (!(v->dir[0] == 0.0 && v->dir[1] == 0.0 && v->dir[2] == 0.0) &&
-                 !(v->fov_deg >= QUERY_MIN_FOV && v->fov_deg <= 170.0))
-            bad = "fov_deg is not in [0.001, 170]";
+        else if (!vis_query_all_around(v) && !(v->fov_deg >= VIS_QUERY_MIN_FOV && v->fov_deg <= VIS_QUERY_MAX_FOV))
+            bad = "fov_deg is not in [VIS_QUERY_MIN_FOV, VIS_QUERY_MAX_FOV] (0.001 to 170 degrees)";
         else if (!speed_ok(v->velocity))
             bad = "velocity is not finite or faster than VIS_QUERY_MAX_SPEED";
         else if (!(v->latency_ms >= 0.0 && v->latency_ms <= VIS_QUERY_MAX_LATENCY_MS))
@@ -592,11 +588,11 @@ static int edit_touches_pair(const vis_query *q, size_t p)
     return 0;
 }
 
+static double length3(const double v[3]) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
 /* The region reached ahead along the velocity: the hull of b and b moved by `reach` voxels
  * in the velocity's direction (b itself when still). While the motion keeps its direction,
  * the next ticks' regions stay inside for reach / speed seconds. */
-static double length3(const double v[3]) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
-
 static void grow_ahead(double reach, const vis_occ_box *b, const double vel[3], vis_occ_box *out)
 {
     *out = *b;

@@ -122,6 +122,9 @@ uint32_t vis_query_edit_faces(const vis_query *q, uint32_t slot);
 int vis_segment_meets_box(const double o[3], const double d[3], const double lo[3], const double hi[3], double t0,
                           double t1);
 
+/* Does the viewer look all around (dir 0: six faces) rather than in view? (query_chunks.c) */
+int vis_query_all_around(const vis_query_viewer *v);
+
 /* Readies the backend for the chunk passes, so that the first tick does not pay for it: a
  * batch of two 1x1 views with the passes' traversal, which makes an OpenCL device build the
  * batch program and take the scene's first upload (query_chunks.c). The caller holds the

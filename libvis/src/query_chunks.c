@@ -19,13 +19,13 @@
 #include "query_sort.h"
 #include "trace.h"
 
-static int all_around(const vis_query_viewer *in)
+int vis_query_all_around(const vis_query_viewer *in)
 {
     return in->dir[0] == 0.0 && in->dir[1] == 0.0 && in->dir[2] == 0.0;
 }
 
 /* The faces of the viewer's pass: 6 all around, 1 in view. */
-static uint32_t faces_of(const vis_query_viewer *in) { return all_around(in) ? 6u : 1u; }
+static uint32_t faces_of(const vis_query_viewer *in) { return vis_query_all_around(in) ? 6u : 1u; }
 
 /* Would the viewer's pass now look from another camera than the one its faces were last due
  * for? Beyond `move` voxels on any axis, or with another direction or (in view) field of view. */
@@ -34,7 +34,7 @@ static int camera_moved(const vis_qviewer *v, const vis_query_viewer *in, double
     for (int k = 0; k < 3; ++k)
         if (fabs(in->eye[k] - v->chunk_eye[k]) > move || in->dir[k] != v->chunk_dir[k])
             return 1;
-    return !all_around(in) && in->fov_deg != v->chunk_fov;
+    return !vis_query_all_around(in) && in->fov_deg != v->chunk_fov;
 }
 
 /* ---- which faces are due ---------------------------------------------------------------- */
@@ -88,7 +88,7 @@ static void face_camera(const vis_query_viewer *in, double range, int face, vis_
     memcpy(c->eye, in->eye, sizeof c->eye);
     c->near_dist = 0.05;
     c->far_dist = range; /* 0: unlimited */
-    if (!all_around(in)) {
+    if (!vis_query_all_around(in)) {
         for (int k = 0; k < 3; ++k)
             c->target[k] = in->eye[k] + in->dir[k];
         c->fovy_deg = in->fov_deg;

@@ -169,7 +169,7 @@ static int parse_viewer(json_t *o, vis_query_viewer *v, char *why, size_t wn)
         return fail(why, wn, "not an object");
     if (get_id(o, &v->id, why, wn) || get_vec3(o, "eye", 1, -COORD, COORD, v->eye, why, wn) ||
         get_vec3(o, "dir", 0, -COORD, COORD, v->dir, why, wn) ||
-        get_number(o, "fov", 0, 90.0, 1e-3, 170.0, &v->fov_deg, why, wn) ||
+        get_number(o, "fov", 0, 90.0, VIS_QUERY_MIN_FOV, VIS_QUERY_MAX_FOV, &v->fov_deg, why, wn) ||
         get_vec3(o, "vel", 0, -SPEED, SPEED, v->velocity, why, wn) ||
         get_number(o, "latency_ms", 0, 0.0, 0.0, VIS_QUERY_MAX_LATENCY_MS, &v->latency_ms, why, wn))
         return -1;

@@ -823,6 +823,8 @@ typedef struct vis_query vis_query;
 #define VIS_QUERY_MAX_LATENCY_MS 2000.0
 #define VIS_QUERY_MAX_SPEED 1000.0   /* voxels per second, any velocity or peek speed     */
 #define VIS_QUERY_SOLID_MAX_CELLS 1024u /* the largest box vis_query_solid_fn is asked about  */
+#define VIS_QUERY_MIN_FOV 0.001      /* degrees: an in-view pass's field of view, at least...  */
+#define VIS_QUERY_MAX_FOV 170.0      /* ...and at most                                         */
 
 /* Where the world is solid, for the entity proof (optional: vis_query_desc.solid). Returns 1
  * only when every unit cell [x, x + 1] x [y, y + 1] x [z, z + 1] with lo <= (x, y, z) < hi
@@ -931,7 +933,7 @@ typedef struct vis_query_viewer {
                               refused when eye + dir is eye in double, or so close to it
                               that their distance's square underflows                       */
     double fov_deg;        /* the in-view pass's field of view, horizontal and vertical,
-                              [0.001, 170]; ignored all around                               */
+                              [VIS_QUERY_MIN_FOV, VIS_QUERY_MAX_FOV]; ignored all around     */
     double velocity[3];
     double latency_ms;     /* [0, VIS_QUERY_MAX_LATENCY_MS]                                  */
 } vis_query_viewer;
