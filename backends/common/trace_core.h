@@ -790,6 +790,15 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
             step[a] = -1;
         }
         tk[a] = vis_plane_t(r, a, lo[a], k[a]);
+        /* The planes that hold no quad the walk must find before its start (below). */
+        while (vis_t_limit(tk[a]) < ta && k[a] != kend[a]) {
+            k[a] += step[a];
+            tk[a] = vis_plane_t(r, a, lo[a], k[a]);
+        }
+        if (vis_t_limit(tk[a]) < ta) {
+            tk[a] = VIS_INF;
+            continue;
+        }
         /* The planes' distances are monotone in k (rounding is), so the largest |t| the walk
          * can meet on this axis is at one end of its range. */
         float t_end = vis_plane_t(r, a, lo[a], kend[a]);
@@ -807,6 +816,11 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
     const VIS_GLOBAL uint32_t *table = quads + leaf->table_offset;
     const VIS_GLOBAL uint32_t *bk = buckets + leaf->bucket_offset;
     const VIS_GLOBAL uint32_t *cover = bk + vis_bucket_offsets((uint32_t)E[0], (uint32_t)E[1], (uint32_t)E[2]);
+    /* The quads this walk must find lie at distances t with ta <= lim(t) and t <= lim(tb)
+     * (vis_leaf_intersect): planes before lim^-1(ta) were stepped over above, and a plane
+     * past lim(tb) ends the walk, though the plane ranges reach one plane past each end
+     * against the rounding of the positions they are computed from. */
+    float t_stop = vis_t_limit(tb);
     for (;;) {
         int a = 0;
         if (tk[1] < tk[a])
@@ -816,8 +830,8 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
         float t = tk[a];
         /* Planes come in non-decreasing t per axis (rounding is monotone), so nothing after a
          * plane beyond the best hit can beat it; equal t is still visited for the tie rule. */
-        if (t == VIS_INF || !(t <= h->t) || t > r->t_far)
-            break; /* every axis walked, or past the best hit / far plane */
+        if (t == VIS_INF || !(t <= h->t) || t > r->t_far || t > t_stop)
+            break; /* every axis walked, or past the best hit / far plane / the leaf's end */
         if (t >= r->t_near) {
             uint32_t b = (uint32_t)(base[a] + k[a]);
             uint32_t i = bk[b], end = bk[b + 1u];
