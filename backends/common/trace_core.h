@@ -790,7 +790,8 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
             step[a] = -1;
         }
         tk[a] = vis_plane_t(r, a, lo[a], k[a]);
-        /* The planes that hold no quad the walk must find before its start (below). */
+        /* Stepped over: the planes before lim^-1(ta), which hold no quad the walk must find
+         * (below). */
         while (vis_t_limit(tk[a]) < ta && k[a] != kend[a]) {
             k[a] += step[a];
             tk[a] = vis_plane_t(r, a, lo[a], k[a]);
