@@ -37,8 +37,6 @@ typedef ulong vis_u64;
 #  define VIS_INLINE static inline
 #  define VIS_NOINLINE static inline
 #  define VIS_INF INFINITY
-#  define VIS_FLOORF floor
-#  define VIS_CEILF ceil
 #  define VIS_SQRTF sqrt
 #  define VIS_FABSF fabs
 #else
@@ -51,8 +49,6 @@ typedef uint64_t vis_u64;
  * into its callers (the device compiler inlines as it sees fit). */
 #  define VIS_NOINLINE static __attribute__((noinline, unused))
 #  define VIS_INF INFINITY
-#  define VIS_FLOORF floorf
-#  define VIS_CEILF ceilf
 #  define VIS_SQRTF sqrtf
 #  define VIS_FABSF fabsf
 #endif
@@ -650,7 +646,9 @@ VIS_INLINE float vis_plane_t(const vis_ray *r, int a, float lo, int k)
     return ((lo + (float)k) - r->o[a]) * r->inv[a];
 }
 
-/* Clamps a float plane coordinate to [lo, hi] before the int conversion (no UB on inf). */
+/* Clamps a float plane coordinate to [lo, hi] before the int conversion (no UB on inf).
+ * The conversion truncates, which for lo >= 0 is the floor of x: the callers need no floor
+ * of their own. */
 VIS_INLINE int vis_clamp_plane(float x, int lo, int hi)
 {
     if (!(x > (float)lo))
@@ -770,16 +768,19 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
         step[a] = 0;
         if (r->d[a] == 0.0f)
             continue; /* never crosses planes of this axis */
-        /* Planes crossed between ta and tb, widened by one plane on each side against
-         * rounding in the entry/exit positions (an extra plane costs one bucket lookup).
-         * The range is ordered by value, so the walk ends even if ta > tb by rounding. */
+        /* Planes crossed between ta and tb, widened against rounding in the entry/exit
+         * positions: floor(x0) - 1 up to ceil(x1) + 1, or one plane more where x1 + 2 rounds
+         * up to a whole number (vis_clamp_plane floors; x0 - 1 is exact in [0.5, 2^24), and
+         * below 0.5 or past kh both ends clamp as floor(x0) - 1 would). The walk steps over
+         * the planes outside the interval's slack (below). The range is ordered by value, so
+         * the walk ends even if ta > tb by rounding. */
         float xa = (r->o[a] + ta * r->d[a]) - lo[a];
         float xb = (r->o[a] + tb * r->d[a]) - lo[a];
         float x0 = xa < xb ? xa : xb, x1 = xa < xb ? xb : xa;
         int kh = bh[a] < E[a] ? bh[a] : E[a]; /* the box may reach past the last plane */
         int kl = bl[a] < kh ? bl[a] : kh;
-        int klo = vis_clamp_plane(VIS_FLOORF(x0) - 1.0f, kl, kh);
-        int khi = vis_clamp_plane(VIS_CEILF(x1) + 1.0f, kl, kh);
+        int klo = vis_clamp_plane(x0 - 1.0f, kl, kh);
+        int khi = vis_clamp_plane(x1 + 2.0f, kl, kh);
         if (r->d[a] > 0.0f) {
             k[a] = klo;
             kend[a] = khi;
@@ -822,6 +823,7 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
      * past lim(tb) ends the walk, though the plane ranges reach one plane past each end
      * against the rounding of the positions they are computed from. */
     float t_stop = vis_t_limit(tb);
+    t_stop = r->t_far < t_stop ? r->t_far : t_stop;
     for (;;) {
         int a = 0;
         if (tk[1] < tk[a])
@@ -831,8 +833,8 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
         float t = tk[a];
         /* Planes come in non-decreasing t per axis (rounding is monotone), so nothing after a
          * plane beyond the best hit can beat it; equal t is still visited for the tie rule. */
-        if (t == VIS_INF || !(t <= h->t) || t > r->t_far || t > t_stop)
-            break; /* every axis walked, or past the best hit / far plane / the leaf's end */
+        if (t == VIS_INF || !(t <= h->t) || t > t_stop)
+            break; /* every axis walked, or past the best hit / the leaf's end / far plane */
         if (t >= r->t_near) {
             uint32_t b = (uint32_t)(base[a] + k[a]);
             uint32_t i = bk[b], end = bk[b + 1u];
@@ -1877,7 +1879,7 @@ VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_S
         if (d == 0.0f) {
             /* The cell holding o (clip_scene has it in [0, size]); on an inner boundary, both. */
             step[a] = 0;
-            int g = vis_clamp_plane(VIS_FLOORF(o / cs), 0, n - 1);
+            int g = vis_clamp_plane(o / cs, 0, n - 1);
             while (g > 0 && o < (float)g * cs)
                 --g;
             while (g < n - 1 && o >= (float)(g + 1) * cs)
@@ -1890,7 +1892,7 @@ VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_S
          * highest (d < 0) index whose exit distance e has t0 <= lim(e). A guess from the
          * entry point, then corrected by the exit distances themselves. */
         step[a] = d > 0.0f ? 1 : -1;
-        int g = vis_clamp_plane(VIS_FLOORF((o + t0 * d) / cs), 0, n - 1);
+        int g = vis_clamp_plane((o + t0 * d) / cs, 0, n - 1);
         for (;;) {
             int back = g - step[a];
             if (back >= 0 && back <= n - 1 && t0 <= vis_t_limit(vis_dda_exit(r, a, back, step[a], n, cs)))
