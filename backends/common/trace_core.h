@@ -820,8 +820,8 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
     const VIS_GLOBAL uint32_t *cover = bk + vis_bucket_offsets((uint32_t)E[0], (uint32_t)E[1], (uint32_t)E[2]);
     /* The quads this walk must find lie at distances t with ta <= lim(t) and t <= lim(tb)
      * (vis_leaf_intersect): planes before lim^-1(ta) were stepped over above, and a plane
-     * past lim(tb) ends the walk, though the plane ranges reach one plane past each end
-     * against the rounding of the positions they are computed from. */
+     * past lim(tb) ends the walk, though the plane ranges reach a plane or two past each
+     * end against the rounding of the positions they are computed from. */
     float t_stop = vis_t_limit(tb);
     t_stop = r->t_far < t_stop ? r->t_far : t_stop;
     for (;;) {
