@@ -38,7 +38,6 @@ static char g_log[2048];
 
 static int g_grew; /* "buffer grew" messages: the reallocation path ran */
 static int g_flushes; /* "staged in N flushes": an upload larger than the staging area */
-static int g_parts;   /* "N items per ray" of the last OpenCL context's info line */
 
 static void capture_log(vis_log_level level, const char *message, void *user)
 {
@@ -47,12 +46,6 @@ static void capture_log(vis_log_level level, const char *message, void *user)
         ++g_grew;
     if (strstr(message, "flushes"))
         ++g_flushes;
-    const char *q = strstr(message, " items per ray");
-    if (q) {
-        while (q > message && q[-1] >= '0' && q[-1] <= '9')
-            --q;
-        g_parts = atoi(q);
-    }
     if (level >= VIS_LOG_WARNING)
         snprintf(g_log, sizeof g_log, "%s", message);
 }
@@ -1021,85 +1014,6 @@ static void test_walks(void **state)
 /* A device without double precision (pretended with $VIS_OPENCL_ASSUME_NO_FP64) traces quad
  * scenes as any other, and refuses a scene holding triangles with its reason instead of
  * tracing it differently from the CPU (the triangle test's fallback needs fp64). */
-/* test_parts sets $VIS_OPENCL_PARTS per context; its setup saves it and its teardown puts it
- * back even when the test fails half-way. */
-static struct {
-    int had;
-    char value[64];
-} g_parts_env;
-
-static int parts_env_save(void **state)
-{
-    (void)state;
-    const char *v = getenv("VIS_OPENCL_PARTS");
-    g_parts_env.had = v != NULL;
-    snprintf(g_parts_env.value, sizeof g_parts_env.value, "%s", v ? v : "");
-    return 0;
-}
-
-static int parts_env_restore(void **state)
-{
-    (void)state;
-    if (g_parts_env.had)
-        setenv("VIS_OPENCL_PARTS", g_parts_env.value, 1);
-    else
-        unsetenv("VIS_OPENCL_PARTS");
-    return 0;
-}
-
-/* $VIS_OPENCL_PARTS (docs/opencl.md, "One ray in parts"): one view's cell-grid walk with 2, 3
- * and 8 work-items per ray gives the CPU's buffers (object and leaf IDs with depths, on
- * part-filled edge tiles) and draw lists; batches are untouched by it. Values out of range are
- * ignored (one item per ray). test_traversal holds the pieces to the whole walk ray by ray. */
-static void test_parts(void **state)
-{
-    (void)state;
-    REQUIRE_OPENCL(plain);
-    vis_context_destroy(plain);
-    uint64_t rng = 5151;
-    tworld w;
-    random_chunk_world(&w, &rng, 4, 2, 3);
-    const double zero[3] = {0, 0, 0};
-    enum { N = 6, W = 37, H = 29 };
-    vis_camera cams[N];
-    for (int i = 0; i < N; ++i)
-        random_view(&cams[i], &rng, w.size, zero);
-    static const struct { const char *value; int want; } cases[] = {{"2", 2}, {"3", 3}, {"8", 8}, {"9", 1}, {"x", 1}};
-    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
-        setenv("VIS_OPENCL_PARTS", cases[k].value, 1);
-        g_parts = -1;
-        vis_status st = VIS_OK;
-        vis_context *cl = make_ctx(VIS_BACKEND_OPENCL, NULL, &st);
-        if (!cl)
-            fail_msg("VIS_OPENCL_PARTS=%s: status %d: %s", cases[k].value, (int)st, g_log);
-        if (g_parts != cases[k].want)
-            fail_msg("VIS_OPENCL_PARTS=%s: the backend reports %d items per ray, want %d", cases[k].value, g_parts,
-                     cases[k].want);
-        pair p;
-        pair_make(&p, cl, &w, NULL, 0);
-        char what[64];
-        snprintf(what, sizeof what, "VIS_OPENCL_PARTS=%s", cases[k].value);
-        size_t px = (size_t)W * H;
-        uint32_t *ref = malloc(px * 4), *ids = malloc(px * 4);
-        float *ref_d = malloc(px * 4), *depth = malloc(px * 4);
-        for (uint32_t mode = 0; mode < 2; ++mode) {
-            vis_trace_desc td = desc_make(W, H, (vis_id_mode)mode, VIS_TRAVERSAL_DDA);
-            for (int i = 0; i < N; ++i) {
-                assert_int_equal(vis_trace(p.cpu, p.cpu_scene, &cams[i], &td, ref, px, ref_d, px), VIS_OK);
-                if (vis_trace(p.cl, p.cl_scene, &cams[i], &td, ids, px, depth, px) != VIS_OK)
-                    fail_msg("%s: %s", what, vis_context_last_error(p.cl));
-                compare_buffers(ref, ref_d, ids, depth, px, W, what, mode, VIS_TRAVERSAL_DDA);
-                check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, &cams[i], 1, &td, what);
-            }
-            check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, N, &td, what); /* a batch */
-        }
-        free(ref), free(ids), free(ref_d), free(depth);
-        pair_free(&p);
-        vis_context_destroy(cl);
-    }
-    free_world(&w);
-}
-
 static void test_no_fp64_refuses_triangles(void **state)
 {
     (void)state;
@@ -1438,7 +1352,6 @@ int main(void)
         cmocka_unit_test(test_errors_and_timing),
         cmocka_unit_test(test_build_options),
         cmocka_unit_test_setup_teardown(test_walks, walk_env_save, walk_env_restore),
-        cmocka_unit_test_setup_teardown(test_parts, parts_env_save, parts_env_restore),
         cmocka_unit_test(test_no_fp64_refuses_triangles),
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),

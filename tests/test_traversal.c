@@ -527,54 +527,6 @@ static void make_ray(vis_ray *r, const float o[3], const int dir[3], float t_nea
  * is > 0; secondary rays return IDs only). */
 static int same_distance(float a, float b) { return memcmp(&a, &b, 4) == 0 || (a == 0.0f && b == 0.0f); }
 
-static void merge_hit(vis_hit *into, const vis_hit *h) { vis_hit_take(h->t, h->id, h->object, into); }
-
-static void check_pieces_hit(const vis_hit *m, const vis_hit *ref, const char *pieces, const char *what, const char *ray)
-{
-    if (m->id != ref->id || !same_distance(m->t, ref->t) || m->object != ref->object)
-        fail_msg("%s, dda in %s: %s: id %u t %.9g, the whole walk id %u t %.9g", what, pieces, ray, m->id, (double)m->t,
-                 ref->id, (double)ref->t);
-}
-
-/* The cell-grid walk cut into pieces, walked one by one (the OpenCL kernel's parts of a ray,
- * docs/opencl.md "One ray in parts"): the best of the pieces' hits must be the whole walk's.
- * Equal pieces (vis_traverse_dda_part), and two pieces cut at the hit's own distance and at
- * the floats on either side of it, where a piece bound and the hit's quad are nearest. */
-static void check_dda_pieces(const vis_scene_view *v, const vis_ray_setup *s, const vis_ray *r, const vis_hit *ref,
-                             const char *what, const char *ray)
-{
-    if (s->cell_map == 0u)
-        return; /* no cell map: the walk is the brute force */
-    static const uint32_t counts[] = {2u, 3u, 7u};
-    char pieces[64];
-    for (size_t k = 0; k < sizeof counts / sizeof counts[0]; ++k) {
-        vis_hit m = {INFINITY, VIS_NO_OBJECT, 0u};
-        for (uint32_t p = 0; p < counts[k]; ++p) {
-            vis_hit h = {INFINITY, VIS_NO_OBJECT, 0u};
-            vis_traverse_dda_part(r, s, p, counts[k], VIS_SCENE_VIEW_ARGS(v), &h);
-            merge_hit(&m, &h);
-        }
-        snprintf(pieces, sizeof pieces, "%u parts", counts[k]);
-        check_pieces_hit(&m, ref, pieces, what, ray);
-    }
-    float t0, t1;
-    if (ref->object == VIS_NO_OBJECT || !vis_clip_scene(r, s->size, &t0, &t1))
-        return;
-    const float cuts[3] = {ref->t, nextafterf(ref->t, -INFINITY), nextafterf(ref->t, INFINITY)};
-    for (int c = 0; c < 3; ++c) {
-        if (!(cuts[c] > t0 && cuts[c] < t1))
-            continue;
-        vis_hit m = {INFINITY, VIS_NO_OBJECT, 0u}, h = {INFINITY, VIS_NO_OBJECT, 0u};
-        vis_traverse_dda_range(r, s, t0, cuts[c], VIS_SCENE_VIEW_ARGS(v), &h);
-        merge_hit(&m, &h);
-        h = (vis_hit){INFINITY, VIS_NO_OBJECT, 0u};
-        vis_traverse_dda_range(r, s, cuts[c], t1, VIS_SCENE_VIEW_ARGS(v), &h);
-        merge_hit(&m, &h);
-        snprintf(pieces, sizeof pieces, "two pieces cut at %.9g", (double)cuts[c]);
-        check_pieces_hit(&m, ref, pieces, what, ray);
-    }
-}
-
 /* One ray: `stack` must equal the oracle and keep the conservative rule against the
  * double-precision reference (every face the ray touches, edges and corners of chunks
  * included, counts), and every per-ray method must equal `stack`. `ray` names it. */
@@ -605,7 +557,6 @@ static void check_ray(const vis_scene_view *v, vis_ray_setup *s, const tworld *w
             fail_msg("%s, %s: %s: id %u t %.9g, stack (= oracle) id %u t %.9g", what, methods[m].name, ray, h.id,
                      (double)h.t, ref.id, (double)ref.t);
     }
-    check_dda_pieces(v, s, r, &ref, what, ray);
 }
 
 /* Ray i of a stream (its vt_rand draws from rng), named in `ray`. */

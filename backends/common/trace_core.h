@@ -323,19 +323,15 @@ VIS_INLINE int vis_hit_better(float t, uint32_t id, const vis_hit *h)
     return t < h->t || (t == h->t && id < h->id);
 }
 
-/* Makes (t, id, object slot obj) the ray's hit when it beats the current one (vis_hit_better). */
-VIS_INLINE void vis_hit_take(float t, uint32_t id, uint32_t obj, vis_hit *h)
+/* Makes (t, object slot obj) the ray's hit when it beats the current one (vis_hit_better). */
+VIS_INLINE void vis_hit_offer(float t, uint32_t obj, const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
 {
+    uint32_t id = objects[obj].id;
     if (vis_hit_better(t, id, h)) {
         h->t = t;
         h->object = obj;
         h->id = id;
     }
-}
-
-VIS_INLINE void vis_hit_offer(float t, uint32_t obj, const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
-{
-    vis_hit_take(t, objects[obj].id, obj, h);
 }
 
 #ifdef VIS_TRACE_EFFECTS
@@ -1865,12 +1861,15 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
     }
 }
 
-/* The walk over [t0, t1], a part of the ray inside the scene box: from the first cell that
- * can pass at t0, as for the box's own entry (the argument above holds for any t0 <= t1 on
- * the ray: nothing in it uses that t0 lies on the box). */
-VIS_INLINE void vis_traverse_dda_range(const vis_ray *r, const vis_ray_setup *s, float t0, float t1, VIS_SCENE_PARAMS,
-                                       vis_hit *h)
+VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS, vis_hit *h)
 {
+    if (s->cell_map == 0u) {
+        vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h); /* no map (the host never asks for it then) */
+        return;
+    }
+    float t0, t1;
+    if (!vis_clip_scene(r, s->size, &t0, &t1))
+        return;
     float cs = s->cell_size;
     int m0[3], step[3], alt[3];
     for (uint32_t a = 0u; a < 3u; ++a) {
@@ -1930,50 +1929,6 @@ VIS_INLINE void vis_traverse_dda_range(const vis_ray *r, const vis_ray_setup *s,
     }
 }
 
-VIS_INLINE void vis_traverse_dda(const vis_ray *r, const vis_ray_setup *s, VIS_SCENE_PARAMS, vis_hit *h)
-{
-    if (s->cell_map == 0u) {
-        vis_traverse_bruteforce(r, s, VIS_SCENE_ARGS, h); /* no map (the host never asks for it then) */
-        return;
-    }
-    float t0, t1;
-    if (vis_clip_scene(r, s->size, &t0, &t1))
-        vis_traverse_dda_range(r, s, t0, t1, VIS_SCENE_ARGS, h);
-}
-
-/* Part `part` (0 .. parts - 1) of the ray's walk: the scene box's span [t0, t1] cut into
- * `parts` equal pieces, this one walked alone (so that several threads can share a long ray:
- * docs/opencl.md, "One ray in parts"). The best of the parts' hits by vis_hit_better is the
- * whole walk's hit, bit for bit: the result of a walk is the least, by (t, ID), of the
- * primitives it tests, whatever their order, and the parts together test every primitive the
- * whole walk must: a cell or quad the whole walk must find passes the slab test clipped to
- * [t0, t1] within the slack (its interval [E, X]: max(t0, E) <= lim(min(t1, X))), and then
- * passes it clipped to the piece [a, b] that holds min(E, X) clamped to [t0, t1] (max(a, E)
- * is at most max(t0, E), min(b, X) at least min(t1, X) or X itself, and lim is monotone).
- * Each inner bound is one expression shared by the two pieces beside it, so no distance falls
- * between pieces. A span that is not finite is walked whole by part 0. */
-VIS_INLINE void vis_traverse_dda_part(const vis_ray *r, const vis_ray_setup *s, uint32_t part, uint32_t parts,
-                                      VIS_SCENE_PARAMS, vis_hit *h)
-{
-    if (s->cell_map == 0u || parts < 2u) {
-        if (part == 0u)
-            vis_traverse_dda(r, s, VIS_SCENE_ARGS, h);
-        return;
-    }
-    float t0, t1;
-    if (!vis_clip_scene(r, s->size, &t0, &t1))
-        return;
-    float w = t1 - t0;
-    if (!(w < VIS_INF)) {
-        if (part == 0u)
-            vis_traverse_dda_range(r, s, t0, t1, VIS_SCENE_ARGS, h);
-        return;
-    }
-    float a = part == 0u ? t0 : t0 + w * ((float)part / (float)parts);
-    float b = part + 1u >= parts ? t1 : t0 + w * ((float)(part + 1u) / (float)parts);
-    vis_traverse_dda_range(r, s, a, b, VIS_SCENE_ARGS, h);
-}
-
 /* The ray through the method with VIS_TRAVERSAL_ID `method`. Packets are the CPU's own, and
  * the cached stack needs its caller's ring: a ray handed here with either goes through the
  * stack method, whose walk (and so whose buffers) the cached stack repeats exactly. */
@@ -1991,21 +1946,6 @@ VIS_INLINE void vis_traverse(const vis_ray *r, const vis_ray_setup *s, uint32_t 
     else
         vis_traverse_restart(r, s, method == VIS_TRAVERSAL_ID_SHORTSTACK ? s->short_stack : 0u,
                              method == VIS_TRAVERSAL_ID_PUSHDOWN, VIS_SCENE_ARGS, h);
-}
-
-/* A ray's hit as a pixel's outputs: its ID (the object's, or the leaf's in leaf-ID mode) or 0,
- * its distance or VIS_INF, and its object slot or VIS_NO_OBJECT. */
-VIS_INLINE void vis_hit_outputs(const vis_ray *r, const vis_ray_setup *s, const vis_hit *h, VIS_SCENE_PARAMS,
-                                uint32_t *out_id, float *out_depth, uint32_t *out_slot)
-{
-    *out_slot = h->object;
-    if (h->object == VIS_NO_OBJECT) {
-        *out_id = 0u;
-        *out_depth = VIS_INF;
-        return;
-    }
-    *out_id = s->id_mode == 1u ? vis_hit_leaf_id(r, h, VIS_SCENE_ARGS) : h->id;
-    *out_depth = h->t;
 }
 
 /* One pixel: the ray, the traversal chosen by s->traversal, the ID and depth to write, and
@@ -2038,7 +1978,14 @@ VIS_INLINE void vis_trace_pixel_slot(const vis_ray_setup *s, uint32_t x, uint32_
         vis_traverse_cached_stack(&r, s, ring, ring_stride, s->short_stack, VIS_SCENE_ARGS, &h);
     else
         vis_traverse(&r, s, method, VIS_SCENE_ARGS, &h);
-    vis_hit_outputs(&r, s, &h, VIS_SCENE_ARGS, out_id, out_depth, out_slot);
+    *out_slot = h.object;
+    if (h.object == VIS_NO_OBJECT) {
+        *out_id = 0u;
+        *out_depth = VIS_INF;
+        return;
+    }
+    *out_id = s->id_mode == 1u ? vis_hit_leaf_id(&r, &h, VIS_SCENE_ARGS) : h.id;
+    *out_depth = h.t;
 }
 
 #ifndef __OPENCL_VERSION__

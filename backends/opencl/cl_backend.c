@@ -194,7 +194,7 @@ cl_int vis_cl_enqueue_pass(vis_cl_backend *b, const vis_cl_program *p, cl_kernel
                            uint32_t height, uint32_t views, int batch, cl_event *ev)
 {
     size_t global[3], local[3];
-    vis_cl_grid(b, p, width, height, views, batch, global, local);
+    vis_cl_grid(b, width, height, views, batch, global, local);
     if (!p->persistent)
         return clEnqueueNDRangeKernel(b->queue, k, 3, NULL, global, local, 0, NULL, ev);
     /* Persistent threads: as many groups as the device could hold at once if registers
@@ -258,8 +258,8 @@ void vis_cl_add_event_time(vis_cl_backend *b, cl_event ev)
 
 /* Whole tiles where the device runs them; otherwise one work-item per group (the draw-list
  * kernel sizes its local memory from the group, so the runtime may not pick the size). */
-void vis_cl_grid(const vis_cl_backend *b, const vis_cl_program *p, uint32_t width, uint32_t height, uint32_t views,
-                 int batch, size_t global[3], size_t local[3])
+void vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, int batch,
+                 size_t global[3], size_t local[3])
 {
     const size_t *shape = batch ? b->batch_tile : b->tile;
     size_t tx = shape[0], ty = shape[1];
@@ -271,11 +271,6 @@ void vis_cl_grid(const vis_cl_backend *b, const vis_cl_program *p, uint32_t widt
     global[0] = (width + tx - 1) / tx * tx;
     global[1] = (height + ty - 1) / ty * ty;
     global[2] = views;
-    size_t parts = p->parts;
-    if (parts > 1 && b->caps.max_wg >= tx * ty * parts && b->caps.max_item[2] >= parts) {
-        local[2] = parts;
-        global[2] = views * parts;
-    }
 }
 
 size_t vis_cl_ring_bytes(const vis_ray_setup *setup, const size_t local[3])
@@ -286,8 +281,7 @@ size_t vis_cl_ring_bytes(const vis_ray_setup *setup, const size_t local[3])
     uint32_t n = setup->traversal == VIS_TRAVERSAL_ID_CACHED_STACK ? setup->short_stack : 1u;
     if (n < 1u)
         n = 1u;
-    size_t ring = items * n * sizeof(vis_stack_entry), hits = items * local[2] * 3u * sizeof(cl_uint);
-    return local[2] > 1 && hits > ring ? hits : ring;
+    return items * n * sizeof(vis_stack_entry);
 }
 
 static int prepare_outputs(vis_cl_backend *b, size_t pixels, int want_depth, char *err, size_t err_size)
@@ -387,10 +381,8 @@ int vis_cl_walk_options(vis_cl_backend *b, const char *walk, char *err, size_t e
         char pp[48] = "";
         if (postpone && t == VIS_TRAVERSAL_ID_STACK)
             snprintf(pp, sizeof pp, " -DVIS_CL_POSTPONE=%d%s", postpone, vote ? " -DVIS_CL_VOTE" : "");
-        /* One ray in parts: the plain cell-grid walk of one view only (trace.cl). */
-        const char *parts = t == VIS_TRAVERSAL_ID_DDA && !persistent && b->parts > 1u ? " -DVIS_CL_PARTS" : "";
-        snprintf(b->method_options[t], sizeof b->method_options[t], "%s%s%s%s", vis_cl_traversal_options(t), pp,
-                 persistent ? " -DVIS_CL_PERSISTENT" : "", parts);
+        snprintf(b->method_options[t], sizeof b->method_options[t], "%s%s%s", vis_cl_traversal_options(t), pp,
+                 persistent ? " -DVIS_CL_PERSISTENT" : "");
         snprintf(b->batch_options[t], sizeof b->batch_options[t], "%s%s%s%s", vis_cl_traversal_options(t), pp,
                  batch_persistent ? " -DVIS_CL_PERSISTENT" : "",
                  vis_cl_batch_register_cap(b->caps.platform, t, b->extra_options));
@@ -434,7 +426,7 @@ static vis_status cl_trace(void *impl, void *scene_data, const vis_scene_view *v
         e = clSetKernelArg(p->trace, 12, sizeof write_depth, &write_depth);
     size_t global[3], local[3];
     if (e == CL_SUCCESS) {
-        vis_cl_grid(b, p, 1, 1, 1, 0, global, local);
+        vis_cl_grid(b, 1, 1, 1, 0, global, local);
         e = clSetKernelArg(p->trace, 13, vis_cl_ring_bytes(setup, local), NULL);
     }
     if (e != CL_SUCCESS)
@@ -495,7 +487,7 @@ static vis_status cl_trace_batch(void *impl, void *scene_data, const vis_scene_v
         e = clSetKernelArg(p->batch, 12, sizeof write_depth, &write_depth);
     size_t global[3], local[3];
     if (e == CL_SUCCESS) {
-        vis_cl_grid(b, p, 1, 1, 1, 1, global, local);
+        vis_cl_grid(b, 1, 1, 1, 1, global, local);
         e = clSetKernelArg(p->batch, 13, vis_cl_ring_bytes(&setups[0], local), NULL);
     }
     if (e != CL_SUCCESS)
@@ -690,14 +682,6 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         }
         snprintf(b->extra_options, sizeof b->extra_options, "%s", extra);
     }
-    /* Work-items per ray of one view's cell-grid walk, 1 to 8 ($VIS_OPENCL_PARTS, a tuning knob
-     * like the tile shape: docs/opencl.md, "One ray in parts"); malformed values are ignored.
-     * Results never depend on it. */
-    b->parts = 1u;
-    const char *parts = getenv("VIS_OPENCL_PARTS");
-    unsigned np = 0;
-    if (parts && sscanf(parts, "%u", &np) == 1 && np >= 1 && np <= 8)
-        b->parts = np;
     if ((st = vis_cl_walk_options(b, getenv("VIS_OPENCL_WALK"), err, err_size)) != VIS_OK) {
         cl_destroy(b);
         return st;
@@ -715,10 +699,10 @@ vis_status vis_opencl_backend_create(const char *selector, int gpu_only, const v
         return st;
     }
     vis_cl_log(b, 1, "opencl: %s '%s' (%s, %s, driver %s); fp64 %s; fp32 denormals %s; work-groups %zux%zu "
-               "(batches %zux%zu, %u items per ray of one view's dda)%s%s; stack program \"%s\", batches \"%s\"",
+               "(batches %zux%zu)%s%s; stack program \"%s\", batches \"%s\"",
                b->caps.is_gpu ? "GPU" : "device", b->caps.name, b->caps.platform, b->caps.version, b->caps.driver,
                b->caps.fp64 ? "yes" : "no", b->caps.denorms ? "yes" : "no", b->tile[0], b->tile[1], b->batch_tile[0],
-               b->batch_tile[1], (unsigned)b->parts,
+               b->batch_tile[1],
                b->extra_options[0] ? "; extra build options " : "", b->extra_options, b->method_options[0],
                b->batch_options[0]);
     if (!b->caps.fp64)

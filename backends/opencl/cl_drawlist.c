@@ -328,7 +328,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
 
     size_t global[3], local[3];
     const int batch = count > 1; /* every launch of the call in the same groups */
-    vis_cl_grid(b, p, W, H, per, batch, global, local);
+    vis_cl_grid(b, W, H, per, batch, global, local);
     cl_int e = set_args(b, p, sc, ids ? b->ids : b->dummy, depth ? b->depth : b->dummy, ids != NULL, depth != NULL,
                         (cl_uint)stride, (cl_uint)view->object_count, setups[0].id_mode,
                         vis_cl_ring_bytes(&setups[0], local),

@@ -142,7 +142,6 @@ typedef struct vis_cl_program {
     cl_kernel effects;     /* vis_trace_effects_kernel (-DVIS_TRACE_EFFECTS programs only) */
     int persistent;        /* built with -DVIS_CL_PERSISTENT: trace, batch and drawlist take the tile
                               counter and the view count as their two last arguments */
-    uint32_t parts;        /* built with -DVIS_CL_PARTS: work-items per ray (the groups' depth), else 1 */
 } vis_cl_program;
 
 typedef struct vis_cl_device_caps {
@@ -181,8 +180,6 @@ typedef struct vis_cl_backend {
     size_t tile[2];           /* work-group shape of one view's pass (8x8 unless $VIS_OPENCL_TILE) */
     size_t batch_tile[2];     /* and of a batch's (8x4 unless $VIS_OPENCL_TILE; docs/opencl.md,
                                  "Work-group shape and register cap for batches") */
-    uint32_t parts;           /* work-items per ray of one view's cell-grid walk ($VIS_OPENCL_PARTS,
-                                 docs/opencl.md "One ray in parts"); 1: one each */
     char extra_options[256];  /* $VIS_OPENCL_BUILD_OPTIONS: appended to every build (tuning,
                                  e.g. -cl-nv-maxrregcount=64; never options that change results) */
     size_t out_cap;           /* pixels of `ids` */
@@ -303,16 +300,13 @@ int vis_cl_set_scene_args(cl_kernel k, const vis_cl_scene *sc, cl_uint first);
 /* The program for a batch of `count` >= 1 setups (cl_backend.c). */
 int vis_cl_batch_program(vis_cl_backend *b, const vis_ray_setup *setups, uint32_t count, vis_cl_program **p,
                          char *err, size_t err_size);
-/* Global and local sizes of a pass of program p over width x height x views in the backend's
- * tiles, a batch's when `batch` (every launch of one call takes the same: the kernels' local
- * memory is sized from them), local = 1x1 where the device cannot run a whole tile; a
- * program with parts gets p->parts items per pixel in the third dimension where the device
- * allows the group, else one. */
-void vis_cl_grid(const vis_cl_backend *b, const vis_cl_program *p, uint32_t width, uint32_t height, uint32_t views,
-                 int batch, size_t global[3], size_t local[3]);
-/* Bytes of the local buffer the pixel kernels take for a pass with this setup in groups of
- * `local` (vis_cl_grid's): the cached stack's ring, or the parts' hits (three words per item)
- * when local[2] > 1; at least one entry per work-item: every kernel takes the argument. */
+/* Global and local sizes of a pass over width x height x views in the backend's tiles, a
+ * batch's when `batch` (every launch of one call takes the same: the kernels' local memory
+ * is sized from them), local = 1x1 where the device cannot run a whole tile. */
+void vis_cl_grid(const vis_cl_backend *b, uint32_t width, uint32_t height, uint32_t views, int batch,
+                 size_t global[3], size_t local[3]);
+/* Bytes of the cached stack's local ring for a pass with this setup in groups of `local`
+ * (vis_cl_grid's; at least one entry per work-item: every kernel takes the argument). */
 size_t vis_cl_ring_bytes(const vis_ray_setup *setup, const size_t local[3]);
 /* Adds the device time of a finished event to b->last_kernel_ms. */
 void vis_cl_add_event_time(vis_cl_backend *b, cl_event ev);

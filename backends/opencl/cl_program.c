@@ -116,7 +116,6 @@ int vis_cl_program_get(vis_cl_backend *b, const char *options, vis_cl_program **
     memset(p, 0, sizeof *p);
     snprintf(p->options, sizeof p->options, "%s", options);
     p->persistent = strstr(options, "-DVIS_CL_PERSISTENT") != NULL;
-    p->parts = strstr(options, "-DVIS_CL_PARTS") ? b->parts : 1u;
     int st = build(b, p, err, err_size);
     if (st != VIS_OK)
         return st;

@@ -36,11 +36,6 @@
 #                        budget, and one face per tick), two rounds
 #   run_device.sh 12     the 32-player replays on 2 CPU threads at face budgets none, 1, 2
 #                        and 4, three rounds
-#   run_device.sh 13     one ray in parts (docs/opencl.md, "One ray in parts"): test_opencl,
-#                        the bit-for-bit comparison with 4 items per ray, then one view per
-#                        camera with its draw list at 1, 2 and 4 items per ray
-#                        ($VIS_OPENCL_PARTS), alternated, two rounds, on gen:default and
-#                        gen:large
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -147,21 +142,6 @@ if [ "$PHASE" = 4 ]; then
       --threads 2 --backend ${b#old-} --json 2>&1 | grep -o '"ms_per_tick":{[^}]*}')"
   done; done; done
 fi
-if [ "$PHASE" = 13 ]; then
-  echo "== test_opencl"
-  timeout 150 ./test_opencl > "$O/test_gpu.log" 2>&1; echo "test_opencl rc=$?"
-  grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu.log"
-  VIS_OPENCL_PARTS=4 timeout 150 ./vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1 \
-    > "$O/conf_parts4.log" 2>&1
-  echo "conformance, 4 items per ray, rc=$?"; grep -E "RESULT|mismatch|items per ray" "$O/conf_parts4.log" | tail -3
-  for s in gen:default gen:large; do for round in 1 2; do for k in 1 2 4; do
-    VIS_OPENCL_PARTS=$k timeout 90 ./vis_clbench --scene $s --device NVIDIA --conformance 0 --passes 0 --drawlist 1 \
-      --reps 10 --batch 1 > "$O/parts_${s#gen:}_${k}_$round.log" 2>&1
-    echo "$s one view, $k items per ray, round $round (rc=$?):"
-    grep -E "^(default|ground|overview|topdown|walk-)" "$O/parts_${s#gen:}_${k}_$round.log" | head -10
-  done; done; done
-fi
-
 if [ "$PHASE" = 5 ]; then
   echo "== test_opencl"
   timeout 150 ./test_opencl > "$O/test_gpu.log" 2>&1; echo "test_opencl rc=$?"

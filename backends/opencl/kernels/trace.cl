@@ -36,53 +36,6 @@ typedef char vis_cl_check_effects[sizeof(vis_effect_setup) == VIS_CL_EFFECTS_SIZ
 #define VIS_CL_RING(ring) (ring + (get_local_id(1) * get_local_size(0) + get_local_id(0)))
 #define VIS_CL_RING_STRIDE ((uint)(get_local_size(0) * get_local_size(1)))
 
-/* ---- one ray in parts (-DVIS_CL_PARTS: cell-grid walk programs of one view) -----------
- *
- * A view's kernel time is its slowest tiles' (docs/opencl.md, "One ray in parts"): the rays
- * that cross the most cells, each walk a chain of dependent loads that no other warp can
- * shorten. With parts, the group's third dimension splits every ray of its tile: work-item
- * (x, y, p) walks piece p of get_local_size(2) of pixel (x, y)'s span in the scene box
- * (vis_traverse_dda_part), writes its hit to local memory, and item (x, y, 0) keeps the best
- * of them by vis_hit_better, which is the whole walk's hit bit for bit. `hits` is the
- * group's local buffer (three words per item, the host sizes it). Items of the other pieces
- * return 0 like items outside the image. */
-#if defined(VIS_CL_PARTS)
-#  if defined(VIS_TRACE_EFFECTS) || defined(VIS_CL_PERSISTENT) || !defined(VIS_TRAVERSAL_ONLY) || \
-      VIS_TRAVERSAL_ONLY != VIS_TRAVERSAL_ID_DDA
-#    error "VIS_CL_PARTS is for the plain cell-grid walk program of one view"
-#  endif
-VIS_INLINE int vis_cl_pixel_parts(const vis_ray_setup *s, uint x, uint y, VIS_SCENE_PARAMS, __local uint *hits,
-                                  uint *id, float *t, uint *slot)
-{
-    uint part = (uint)get_local_id(2), parts = (uint)get_local_size(2);
-    uint items = (uint)(get_local_size(0) * get_local_size(1));
-    uint li = (uint)(get_local_id(1) * get_local_size(0) + get_local_id(0));
-    int inside = x < s->width && y < s->height;
-    vis_ray r;
-    vis_hit h;
-    h.t = VIS_INF;
-    h.object = VIS_NO_OBJECT;
-    h.id = 0u;
-    if (inside) {
-        vis_ray_for_pixel(s, x, y, &r);
-        vis_traverse_dda_part(&r, s, part, parts, VIS_SCENE_ARGS, &h);
-    }
-    __local uint *mine = hits + 3u * (part * items + li);
-    mine[0] = as_uint(h.t);
-    mine[1] = h.id;
-    mine[2] = h.object;
-    barrier(CLK_LOCAL_MEM_FENCE); /* every item reaches it: no return before */
-    if (part != 0u || !inside)
-        return 0;
-    for (uint p = 1u; p < parts; ++p) {
-        __local uint *other = hits + 3u * (p * items + li);
-        vis_hit_take(as_float(other[0]), other[1], other[2], &h);
-    }
-    vis_hit_outputs(&r, s, &h, VIS_SCENE_ARGS, id, t, slot);
-    return 1;
-}
-#endif
-
 /* One work-item's pixel by the program's method; 0 for an item outside the image. Every item
  * of the group calls it: the tile walk (VIS_TRAVERSAL_ID_PACKET, tile.cl) synchronises the
  * group, its flags and stack taking the local buffer that the other methods use as the cached
@@ -94,8 +47,6 @@ VIS_INLINE int vis_cl_pixel(const vis_ray_setup *s, uint x, uint y, VIS_SCENE_PA
     __local uint *flags = (__local uint *)ring;
     __local vis_tile_entry *stack = (__local vis_tile_entry *)(ring + 2); /* past 16 bytes of flags */
     return vis_trace_tile_slot(s, x, y, VIS_SCENE_ARGS, flags, stack, id, t, slot);
-#elif defined(VIS_CL_PARTS)
-    return vis_cl_pixel_parts(s, x, y, VIS_SCENE_ARGS, (__local uint *)ring, id, t, slot);
 #elif defined(VIS_CL_POSTPONE)
     (void)ring;
     if (x >= s->width || y >= s->height)
@@ -203,7 +154,7 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
         vis_cl_trace_item(&s, x, y, (size_t)v * s.height * s.width, VIS_SCENE_ARGS, ids, depth, write_depth, ring);
     }
 #else
-    uint v = (uint)get_group_id(2); /* groups span one view (several items deep with parts) */
+    uint v = (uint)get_global_id(2);
     vis_ray_setup s = setups[v];
     vis_cl_trace_item(&s, (uint)get_global_id(0), (uint)get_global_id(1), (size_t)v * s.height * s.width,
                       VIS_SCENE_ARGS, ids, depth, write_depth, ring);
@@ -245,8 +196,7 @@ VIS_INLINE void vis_cl_drawlist_item(const vis_ray_setup *s, uint x, uint y, uin
     }
     uint lx = (uint)get_local_id(0), lw = (uint)get_local_size(0);
     uint li = (uint)get_local_id(1) * lw + lx;
-    if (get_local_id(2) == 0u) /* one key per pixel (items of a ray's other parts have none) */
-        keys[li] = key;
+    keys[li] = key;
     barrier(CLK_LOCAL_MEM_FENCE);
     if (key != VIS_CL_NO_KEY && !(lx > 0u && keys[li - 1u] == key)) { /* the first of its run */
         uint n = 1u;
@@ -274,7 +224,7 @@ __kernel void vis_trace_drawlist_kernel(__global const vis_ray_setup *restrict s
                              stride, ring, keys);
     }
 #else
-    uint v = (uint)get_group_id(2); /* groups span one view (several items deep with parts) */
+    uint v = (uint)get_global_id(2);
     vis_ray_setup s = setups[v];
     vis_cl_drawlist_item(&s, (uint)get_global_id(0), (uint)get_global_id(1), v, VIS_SCENE_ARGS, ids, depth, write_ids,
                          write_depth, counts, counts_offset, stride, ring, keys);

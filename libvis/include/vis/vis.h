@@ -57,6 +57,13 @@
  *  - VIS_OPENCL_TILE=WxH: the OpenCL work-group shape (default 8x8 for one view, 8x4 for a
  *    batch; this sets both; each 1..1024), a tuning knob that never changes results;
  *    malformed values are ignored.
+ *  - VIS_OPENCL_WALK: how the OpenCL per-ray kernels are scheduled (words joined by '+' or
+ *    ',': persistent, postpone, postpone1..postpone4, vote, plain), a tuning knob that never
+ *    changes results; an unknown word makes the OpenCL backend's creation fail with
+ *    VIS_ERROR_INVALID_ARGUMENT, vote without postpone or off NVIDIA with
+ *    VIS_ERROR_UNSUPPORTED.
+ *  - VIS_OPENCL_ASSUME_NO_FP64=1: the OpenCL device is treated as one without double
+ *    precision (scenes holding triangles are then refused on it), for tests.
  *  - VIS_OPENCL_BUILD_OPTIONS: options appended to every OpenCL program build (a tuning knob,
  *    e.g. a register limit); one that changes results (-cl-fast-relaxed-math, -cl-mad-enable,
  *    -cl-unsafe-math-optimizations, -cl-denorms-are-zero, -cl-finite-math-only), a macro
