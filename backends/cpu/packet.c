@@ -65,11 +65,13 @@ int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view,
 #  define PACKET_MAX_FOOTPRINT 3.0f
 #endif
 
-/* The same for 16x16 packets, chosen by instruction counts (docs/performance.md, "Far views:
- * 16x16 packets give up too"): at 4, every view measured got cheaper or stayed to the
- * instruction; at 3 a terrain overview's grazing far tiles went alone and cost 2.4 % more. */
+/* The same for 16x16 packets, by instruction counts (docs/performance.md, "16x16 packets give
+ * up at three scene units per pixel"): 4 until lone rays got cheaper; at 3 gen:city's far
+ * views at 341x192 take 12-49 % fewer instructions and a 1024-wide terrain's overview 1.8 %
+ * fewer, with no view measured costing more; at 2.5 or 2 that terrain's top-down view, whose
+ * packets find their hits in their first leaf, costs 5.6 % or 48 % more. */
 #ifndef PACKET_FAR_FOOTPRINT
-#  define PACKET_FAR_FOOTPRINT 4.0f
+#  define PACKET_FAR_FOOTPRINT 3.0f
 #endif
 
 /* 4x4 packets whose tiles spread at least PACKET_WIDE_SPREAD_4 (a server's 32x32 faces of 90
