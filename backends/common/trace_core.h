@@ -835,21 +835,22 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
          * plane beyond the best hit can beat it; equal t is still visited for the tie rule. */
         if (t == VIS_INF || !(t <= h->t) || t > t_stop)
             break; /* every axis walked, or past the best hit / the leaf's end / far plane */
-        if (t >= r->t_near) {
-            uint32_t b = (uint32_t)(base[a] + k[a]);
-            uint32_t i = bk[b], end = bk[b + 1u];
+        uint32_t b = (uint32_t)(base[a] + k[a]);
+        uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
+        uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
+        float lu = lo[u], lv = lo[v];
+        int cu[2], cv[2];
+        /* The bucket's cover masks come first, u then v: most buckets end there, an empty
+         * one (masks 0) at the first word, and only the buckets they let through read their
+         * offsets (one cache line, one load on a device, fewer per plane visited). */
+        uint32_t mu = cover[2u * b];
+        if (t >= r->t_near && mu != 0u &&
+            vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, mu, cu) &&
+            vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)) {
             /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach
              * the crossing's range (vis_crossing_cells) is one the exact test would miss;
-             * one whose u0 starts past it ends the bucket, as every quad after it does too.
-             * The bucket's cover masks come first, u then v: most buckets end there. */
-            uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
-            uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
-            float lu = lo[u], lv = lo[v];
-            int cu[2], cv[2];
-            if (i < end && !(vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, cover[2u * b], cu) &&
-                             vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)))
-                i = end;
-            for (; i < end; ++i) {
+             * one whose u0 starts past it ends the bucket, as every quad after it does too. */
+            for (uint32_t i = bk[b], end = bk[b + 1u]; i < end; ++i) {
                 uint32_t w = packed[i];
                 int u0 = (int)VIS_PQ_FIELD(w, 0u);
                 if (u0 > cu[1])

@@ -36,6 +36,12 @@
 #                        budget, and one face per tick), two rounds
 #   run_device.sh 12     the 32-player replays on 2 CPU threads at face budgets none, 1, 2
 #                        and 4, three rounds
+#   run_device.sh 13     one view against its cost on a full device (docs/opencl.md, "One view
+#                        against a full device"): registers and PTX of every program, then
+#                        gen:default's views alone and in batches of 32 copies (--copies 32)
+#                        under the single-view knobs (persistent walk, 8x4, 16x8 and 4x4
+#                        groups, register caps 64 and 80), alternated, two rounds; gen:large
+#                        once with the defaults
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -222,6 +228,31 @@ if [ "$PHASE" = 12 ]; then
   for round in 1 2 3; do for s in city default maze; do for fb in 0 1 2 4; do
     echo "query $s fb $fb round $round: $(query_ms ./vis $s ${s}32 --backend cpu --chunk-face-budget $fb)"
   done; done; done
+fi
+
+if [ "$PHASE" = 13 ]; then
+  mkdir -p "$O/ptx"
+  VIS_CLBENCH_PTX="$O/ptx" ./vis_clbench --nv-verbose 1 > "$O/nv_verbose.log" 2>&1
+  VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=72 ./vis_clbench --nv-verbose 1 > "$O/nv_verbose72.log" 2>&1
+  grep -E "VIS_TRAVERSAL_ONLY=9|Used [0-9]+ registers" "$O/nv_verbose.log" | grep -A3 "ONLY=9" | head -12
+  single() { # single LABEL ENV...: one view alone and in 32 copies, then the batch of 256
+    local l=$1; shift
+    echo "== $l"
+    env "$@" timeout 120 ./vis_clbench --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 10 \
+      --batch 256 --copies 32 2>&1 | sed -n '/^view /,/^ *256 /p' | grep -v "^batches\|^ *views"
+  }
+  for round in 1 2; do
+    single "defaults, round $round" X=0
+    single "persistent, round $round" VIS_OPENCL_WALK=persistent
+    single "8x4, round $round" VIS_OPENCL_TILE=8x4
+    single "16x8, round $round" VIS_OPENCL_TILE=16x8
+    single "4x4, round $round" VIS_OPENCL_TILE=4x4
+    single "cap 64, round $round" VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=64
+    single "cap 80, round $round" VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=80
+  done
+  echo "== gen:large, defaults"
+  timeout 150 ./vis_clbench --scene gen:large --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 10 \
+    --batch 256 --copies 32 2>&1 | sed -n '/^view /,/^ *256 /p'
 fi
 
 date -u

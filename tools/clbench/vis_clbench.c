@@ -25,9 +25,12 @@
  *    in --rounds alternating rounds (stack method per path view, a batch of the last --batch
  *    count with draw lists).
  * --conformance 0 skips 1 (for large scenes), --passes 0 skips 2-4; --traversal N (the
- * vis_traversal value) is the method of 6.
+ * vis_traversal value) is the method of 6. --copies N adds to 6 a batch of N copies of each
+ * view (kernel ms per view): what the view costs where the device is full, against its time
+ * alone.
  * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
- * (registers, spills, stack per kernel), for the program of every method.
+ * (registers, spills, stack per kernel), for the program of every method, and with
+ * $VIS_CLBENCH_PTX=DIR writes each program's binary (PTX on NVIDIA) into DIR.
  *
  * Built as the CMake target vis_clbench whenever the OpenCL backend is (docs/opencl.md). */
 #define _POSIX_C_SOURCE 200809L
@@ -167,8 +170,28 @@ static void compare(vis_context *cpu, vis_scene *sa, vis_context *cl, vis_scene 
 extern const char vis_kernels_source[];
 extern const size_t vis_kernels_source_size;
 
+/* The program's binary (NVIDIA's is PTX text) as DIR/program_M.ptx. */
+static void write_binary(cl_program prog, const char *dir, size_t m)
+{
+    size_t size = 0;
+    if (clGetProgramInfo(prog, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, NULL) != CL_SUCCESS || size == 0)
+        return;
+    unsigned char *bin = malloc(size);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/program_%zu.ptx", dir, m);
+    FILE *f = bin && clGetProgramInfo(prog, CL_PROGRAM_BINARIES, sizeof bin, &bin, NULL) == CL_SUCCESS
+                  ? fopen(path, "wb") : NULL;
+    if (f) {
+        fwrite(bin, 1, size, f);
+        fclose(f);
+    }
+    free(bin);
+}
+
+/* With $VIS_CLBENCH_PTX set to a folder, each program's binary is also written there. */
 static void nv_verbose(void)
 {
+    const char *ptx_dir = getenv("VIS_CLBENCH_PTX");
     cl_platform_id plats[8];
     cl_uint np = 0;
     if (clGetPlatformIDs(8, plats, &np) != CL_SUCCESS)
@@ -208,6 +231,8 @@ static void nv_verbose(void)
             printf("nvidia build (%d), VIS_TRAVERSAL_ONLY=%d, options \"%s\", -cl-nv-verbose log:\n%s\n", (int)e,
                    only[m], opts, log);
             free(log);
+            if (ptx_dir && e == CL_SUCCESS)
+                write_binary(prog, ptx_dir, m);
             clReleaseProgram(prog);
         }
         clReleaseContext(ctx);
@@ -325,9 +350,34 @@ static uint32_t next_batch(const char **p)
 }
 
 /* 6. The draw list built on the device, per view, in batches, and after single-voxel edits. */
+/* The median kernel ms per view of 5 batches of `copies` copies of one camera (after one
+ * warm-up), draw lists as the output; -1 where the host memory is missing. */
+static double copies_kernel_ms(vis_context *cl, vis_scene *B, const vis_camera *cam, const vis_trace_desc *td,
+                               uint32_t copies, size_t cap)
+{
+    vis_camera *cams = malloc(copies * sizeof *cams);
+    vis_draw_entry *be = malloc(cap * copies * sizeof *be);
+    size_t *counts = malloc(copies * sizeof *counts), total = 0;
+    double k[5] = {-1, -1, -1, -1, -1};
+    if (cams && be && counts) {
+        for (uint32_t i = 0; i < copies; ++i)
+            cams[i] = *cam;
+        vis_timing tg;
+        for (int r = 0; r < 6; ++r) {
+            if (vis_trace_batch_drawlist(cl, B, cams, copies, td, be, cap * copies, counts, copies, &total) != VIS_OK)
+                die("batch of copies", cl);
+            vis_context_last_timing(cl, &tg);
+            if (r)
+                k[r - 1] = tg.kernel_ms / copies;
+        }
+    }
+    free(cams), free(be), free(counts);
+    return median(k, 5);
+}
+
 static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *def, const vc_view *views, size_t nv,
                              int reps, bufs *b, const char *batches, vis_traversal trav, vw_world *wb, world_scene *sb,
-                             uint64_t *rng)
+                             uint64_t *rng, uint32_t copies)
 {
     size_t cap = vis_drawlist_bound(B) + 16;
     vis_draw_entry *e1 = malloc(cap * sizeof *e1), *e2 = malloc(cap * sizeof *e2);
@@ -335,8 +385,11 @@ static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *de
            *om = malloc((size_t)reps * sizeof *om);
     printf("\ndraw list on the device (vis_trace_drawlist, traversal %d), %ux%u, median of %d (ms):\n", (int)trav,
            g_size, g_size, reps);
-    printf("%-12s %8s %12s %12s %12s %22s\n", "view", "entries", "kernel", "end-to-end", "min e2e",
+    printf("%-12s %8s %12s %12s %12s %22s", "view", "entries", "kernel", "end-to-end", "min e2e",
            "vis_trace+build e2e");
+    if (copies)
+        printf(" %10s%-4u", "kernel/view x", copies);
+    printf("\n");
     vis_trace_desc td;
     vis_trace_desc_defaults(&td);
     td.width = td.height = g_size;
@@ -365,7 +418,10 @@ static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *de
             ++g_failures;
         }
         double kmed = median(km, reps), tmed = median(tm, reps), tmin = tm[0], omed = median(om, reps);
-        printf("%-12s %8zu %12.4f %12.4f %12.4f %22.4f\n", name, n1, kmed, tmed, tmin, omed);
+        printf("%-12s %8zu %12.4f %12.4f %12.4f %22.4f", name, n1, kmed, tmed, tmin, omed);
+        if (copies)
+            printf(" %14.4f", copies_kernel_ms(cl, B, cam, &td, copies, cap));
+        printf("\n");
     }
     /* Batches: lists as the only output. */
     printf("\nbatches of %ux%u views, draw lists as the output (vis_trace_batch_drawlist, median of 5):\n", g_size,
@@ -656,6 +712,7 @@ int main(int argc, char **argv)
 {
     const char *spec = "gen:default", *device = NULL, *batches = "16,64,256";
     int ncams = 100, reps = 200, conformance = 1, methods = 0, drawlist = 0, passes = 1, rounds = 3;
+    uint32_t copies = 0;
     const char *walks = NULL;
     vis_traversal trav = VIS_TRAVERSAL_AUTO;
     for (int i = 1; i + 1 < argc; i += 2) {
@@ -679,6 +736,8 @@ int main(int argc, char **argv)
             methods = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--drawlist"))
             drawlist = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--copies") && atoi(argv[i + 1]) >= 0 && atoi(argv[i + 1]) <= 256)
+            copies = (uint32_t)atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--only"))
             g_only = argv[i + 1];
         else if (!strcmp(argv[i], "--walks"))
@@ -693,7 +752,7 @@ int main(int argc, char **argv)
         }
         else {
             fprintf(stderr, "usage: vis_clbench [--scene SPEC] [--device SEL] [--cameras N] [--reps N] [--batch N,..] "
-                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--only stack,dda] [--drawlist 0|1] [--traversal ENUM] [--nv-verbose 1] "
+                            "[--size N<=512] [--conformance 0|1] [--passes 0|1] [--methods 0|1] [--only stack,dda] [--drawlist 0|1 [--copies N]] [--traversal ENUM] [--nv-verbose 1] "
                             "[--walks \"W[@WxH];...\" [--rounds N]]\n");
             return 2;
         }
@@ -797,7 +856,7 @@ int main(int argc, char **argv)
     if (methods)
         methods_table(cl, B, &def, views, nv, reps, &b);
     if (drawlist)
-        drawlist_section(cl, B, &def, views, nv, reps, &b, batches, trav, wb, sb, &rng);
+        drawlist_section(cl, B, &def, views, nv, reps, &b, batches, trav, wb, sb, &rng, copies);
     if (passes) {
         printf("\n512x512 pass, %d reps after %d warm-ups (median / min ms):\n", reps, reps < 20 ? reps : 20);
         printf("%-12s %-10s %18s %18s %18s %14s\n", "view", "traversal", "opencl kernel", "opencl end-to-end",
