@@ -42,6 +42,10 @@
 #                        under the single-view knobs (persistent walk, 8x4, 16x8 and 4x4
 #                        groups, register caps 64 and 80), alternated, two rounds; gen:large
 #                        once with the defaults
+#   run_device.sh 14     one ray in parts whose pieces share their best hit (a build of the
+#                        reverted parts code with that change in parts/): conformance at K = 2
+#                        and 4, then one view per camera at K = 1, 2 and 4, alternated, two
+#                        rounds, on gen:default and gen:large
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -253,6 +257,18 @@ if [ "$PHASE" = 13 ]; then
   echo "== gen:large, defaults"
   timeout 150 ./vis_clbench --scene gen:large --device NVIDIA --conformance 0 --passes 0 --drawlist 1 --reps 10 \
     --batch 256 --copies 32 2>&1 | sed -n '/^view /,/^ *256 /p'
+fi
+
+if [ "$PHASE" = 14 ]; then
+  for K in 2 4; do
+    VIS_OPENCL_PARTS=$K timeout 120 parts/vis_clbench --device NVIDIA --cameras 10 --reps 2 --batch 1 > "$O/parts_conf$K.log" 2>&1
+    echo "parts K=$K conformance rc=$?: $(grep -E "RESULT|mismatches" "$O/parts_conf$K.log" | tail -2 | tr '\n' ' ')"
+  done
+  for s in gen:default gen:large; do for round in 1 2; do for K in 1 2 4; do
+    echo "== $s parts K=$K round $round"
+    VIS_OPENCL_PARTS=$K timeout 120 parts/vis_clbench --scene $s --device NVIDIA --conformance 0 --passes 0 \
+      --drawlist 1 --reps 10 --batch 1 2>&1 | sed -n '/^view /,/^walk-5/p'
+  done; done; done
 fi
 
 date -u
