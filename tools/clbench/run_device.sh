@@ -46,6 +46,9 @@
 #                        reverted parts code with that change in parts/): conformance at K = 2
 #                        and 4, then one view per camera at K = 1, 2 and 4, alternated, two
 #                        rounds, on gen:default and gen:large
+#   run_device.sh 15     batch shapes and caps on this tree: batches of 256 with draw lists in
+#                        8x4 (the default), 4x8, 16x2 and 32x1 groups and with register caps
+#                        68 and 76, alternated, two rounds on gen:default, one on gen:large
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -269,6 +272,16 @@ if [ "$PHASE" = 14 ]; then
     VIS_OPENCL_PARTS=$K timeout 120 parts/vis_clbench --scene $s --device NVIDIA --conformance 0 --passes 0 \
       --drawlist 1 --reps 10 --batch 1 2>&1 | sed -n '/^view /,/^walk-5/p'
   done; done; done
+fi
+
+if [ "$PHASE" = 15 ]; then
+  for s in gen:default gen:default gen:large; do
+    for e in X=0 VIS_OPENCL_TILE=4x8 VIS_OPENCL_TILE=16x2 VIS_OPENCL_TILE=32x1 \
+             VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=68 VIS_OPENCL_BUILD_OPTIONS=-cl-nv-maxrregcount=76; do
+      echo "$s $e: $(env $e timeout 90 ./vis_clbench --scene $s --device NVIDIA --conformance 0 --passes 0 \
+        --drawlist 1 --reps 3 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+    done
+  done
 fi
 
 date -u
