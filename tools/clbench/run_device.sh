@@ -36,8 +36,9 @@
 #                        budget, and one face per tick), two rounds
 #   run_device.sh 12     the 32-player replays on 2 CPU threads at face budgets none, 1, 2
 #                        and 4, three rounds
-#   run_device.sh 13     one view against its cost on a full device (docs/opencl.md, "One view
-#                        against a full device"): registers and PTX of every program, then
+#   run_device.sh 13     one view against its cost on a full device (docs/opencl.md, "Bucket
+#                        offsets read behind the cover masks; one view against a full
+#                        device"): registers and PTX of every program, then
 #                        gen:default's views alone and in batches of 32 copies (--copies 32)
 #                        under the single-view knobs (persistent walk, 8x4, 16x8 and 4x4
 #                        groups, register caps 64 and 80), alternated, two rounds; gen:large

@@ -349,7 +349,6 @@ static uint32_t next_batch(const char **p)
     return n;
 }
 
-/* 6. The draw list built on the device, per view, in batches, and after single-voxel edits. */
 /* The median kernel ms per view of 5 batches of `copies` copies of one camera (after one
  * warm-up), draw lists as the output; -1 where the host memory is missing. */
 static double copies_kernel_ms(vis_context *cl, vis_scene *B, const vis_camera *cam, const vis_trace_desc *td,
@@ -375,6 +374,7 @@ static double copies_kernel_ms(vis_context *cl, vis_scene *B, const vis_camera *
     return median(k, 5);
 }
 
+/* 6. The draw list built on the device, per view, in batches, and after single-voxel edits. */
 static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *def, const vc_view *views, size_t nv,
                              int reps, bufs *b, const char *batches, vis_traversal trav, vw_world *wb, world_scene *sb,
                              uint64_t *rng, uint32_t copies)
