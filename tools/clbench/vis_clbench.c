@@ -349,29 +349,44 @@ static uint32_t next_batch(const char **p)
     return n;
 }
 
-/* The median kernel ms per view of 5 batches of `copies` copies of one camera (after one
- * warm-up), draw lists as the output; -1 where the host memory is missing. */
+/* One warm-up and 5 timed calls of vis_trace_batch_drawlist over cams[0..n), the lists left
+ * in be/counts/total; the median kernel and total ms into *k and *t. */
+static void time_batch_drawlist(vis_context *cl, vis_scene *B, const vis_camera *cams, uint32_t n,
+                                const vis_trace_desc *td, vis_draw_entry *be, size_t bcap, size_t *counts,
+                                size_t *total, double *k, double *t)
+{
+    double bk[5], bt[5];
+    vis_timing tg;
+    for (int r = 0; r < 6; ++r) {
+        if (vis_trace_batch_drawlist(cl, B, cams, n, td, be, bcap, counts, n, total) != VIS_OK)
+            die("batch drawlist", cl);
+        vis_context_last_timing(cl, &tg);
+        if (r) {
+            bk[r - 1] = tg.kernel_ms;
+            bt[r - 1] = tg.total_ms;
+        }
+    }
+    *k = median(bk, 5);
+    *t = median(bt, 5);
+}
+
+/* The median kernel ms per view of batches of `copies` copies of one camera, draw lists as
+ * the output; -1 where the host memory is missing. */
 static double copies_kernel_ms(vis_context *cl, vis_scene *B, const vis_camera *cam, const vis_trace_desc *td,
                                uint32_t copies, size_t cap)
 {
     vis_camera *cams = malloc(copies * sizeof *cams);
     vis_draw_entry *be = malloc(cap * copies * sizeof *be);
     size_t *counts = malloc(copies * sizeof *counts), total = 0;
-    double k[5] = {-1, -1, -1, -1, -1};
+    double k = -1.0, t;
     if (cams && be && counts) {
         for (uint32_t i = 0; i < copies; ++i)
             cams[i] = *cam;
-        vis_timing tg;
-        for (int r = 0; r < 6; ++r) {
-            if (vis_trace_batch_drawlist(cl, B, cams, copies, td, be, cap * copies, counts, copies, &total) != VIS_OK)
-                die("batch of copies", cl);
-            vis_context_last_timing(cl, &tg);
-            if (r)
-                k[r - 1] = tg.kernel_ms / copies;
-        }
+        time_batch_drawlist(cl, B, cams, copies, td, be, cap * copies, counts, &total, &k, &t);
+        k /= copies;
     }
     free(cams), free(be), free(counts);
-    return median(k, 5);
+    return k;
 }
 
 /* 6. The draw list built on the device, per view, in batches, and after single-voxel edits. */
@@ -443,18 +458,9 @@ static void drawlist_section(vis_context *cl, vis_scene *B, const vis_camera *de
         }
         for (uint32_t i = 0; i < n; ++i)
             cams[i] = views[i % nv].camera;
-        double bk[5], bt[5];
-        vis_timing tg;
-        for (int r = 0; r < 6; ++r) {
-            if (vis_trace_batch_drawlist(cl, B, cams, n, &td, be, bcap, counts, n, &total) != VIS_OK)
-                die("batch drawlist", cl);
-            vis_context_last_timing(cl, &tg);
-            if (r) {
-                bk[r - 1] = tg.kernel_ms;
-                bt[r - 1] = tg.total_ms;
-            }
-        }
-        double rays = (double)n * g_size * g_size, k = median(bk, 5), t = median(bt, 5);
+        double k, t;
+        time_batch_drawlist(cl, B, cams, n, &td, be, bcap, counts, &total, &k, &t);
+        double rays = (double)n * g_size * g_size;
         printf("%6u %12.3f %12.3f %14.2f %14.2f %12zu\n", n, k, t, rays / (k * 1e6), rays / (t * 1e6), total);
         /* spot check: the last view's list equals a single call's */
         size_t n1 = 0;
