@@ -27,7 +27,7 @@
 /* The cell-grid walk reports the cells it visits (test_dda_visits_every_passing_cell). */
 static unsigned char *g_dda_seen;
 static uint32_t g_dda_base; /* the scene's cell_map */
-#define VIS_DDA_VISIT(entry) (g_dda_seen ? (void)++g_dda_seen[(entry)-g_dda_base] : (void)0)
+#define VIS_DDA_VISIT(entry) (g_dda_seen ? (void)++g_dda_seen[((entry)-g_dda_base) / VIS_CELL_WORDS] : (void)0)
 #include "common/trace_core.h"
 #include "camera.h"
 #include "scene.h"
@@ -920,19 +920,67 @@ static void spanning_box_world(tworld *w, uint64_t *rng)
     }
 }
 
+/* Cells of 32 voxels at full depth, where the cell-grid walk reads a leaf's box from its map
+ * entry (trace_core.h, vis_dda_leaf). A wall on a cell's far face (plane offset 32) saturates
+ * the box's high field, which the entry holds only where the box also reaches offset 0 (it
+ * spans the leaf); otherwise the walk reads the header. Each of the 4^3 cells holds one
+ * object, by turns: small boxes (an entry with the box), a far wall and a small box (left to
+ * the header), walls on both faces (an entry whose slab is skipped), or nothing. */
+static void wide_cell_world(tworld *w, uint64_t *rng)
+{
+    memset(w, 0, sizeof *w);
+    w->size[0] = w->size[1] = w->size[2] = 128.0f;
+    for (uint32_t c = 0; c < 64u; ++c) {
+        float base[3] = {32.0f * (float)(c % 4u), 32.0f * (float)(c / 4u % 4u), 32.0f * (float)(c / 16u)};
+        uint32_t kind = (c + c / 4u + c / 16u) % 4u, a = (uint32_t)(vt_rand(rng) % 3u);
+        uint32_t u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+        if (kind == 3u)
+            continue;
+        tobj *o = add_obj(w, 1u + c);
+        if (kind != 2u)
+            small_quad(o, base, 3, rng);
+        if (kind >= 1u) /* rectangles within offsets 0..16: packable */
+            obj_quad(o, a, base[a] + 32.0f, base[u] + 4.0f, base[v], base[u] + 16.0f, base[v] + 12.0f);
+        if (kind == 2u)
+            obj_quad(o, a, base[a], base[u], base[v] + 2.0f, base[u] + 9.0f, base[v] + 16.0f);
+    }
+}
+
 static void test_content_box_spanning_the_leaf(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(1);
     uint64_t rng = 7919;
     int rays = vt_small() ? 2000 : 10000;
-    static const uint32_t depths[] = {0, 1, 5};
-    for (int wi = 0; wi < 3; ++wi) {
+    static const uint32_t depths[] = {0, 1, 5, 0};
+    for (int wi = 0; wi < 4; ++wi) {
         tworld w;
-        spanning_box_world(&w, &rng);
-        vis_scene *scene = make_scene(ctx, &w, NULL, depths[wi]);
+        vis_scene *scene = NULL;
+        if (wi < 3) {
+            spanning_box_world(&w, &rng);
+            scene = make_scene(ctx, &w, NULL, depths[wi]);
+        } else {
+            wide_cell_world(&w, &rng);
+            vis_scene_desc d;
+            vis_scene_desc_defaults(&d);
+            memcpy(d.size, w.size, sizeof d.size);
+            d.cell_size = 32.0f;
+            assert_int_equal(vis_scene_create(ctx, &d, &scene), VIS_OK);
+            for (uint32_t i = 0; i < w.n; ++i)
+                set_obj(scene, &w.objs[i]);
+            vis_scene_view v = vis_scene_get_view(scene);
+            assert_true(v.cell_map != 0u);
+            /* both kinds of entry occur: boxes held, and boxes left to the header */
+            int held = 0, header = 0;
+            for (uint32_t c = 0; c < v.leaf_count; ++c) {
+                uint32_t word = v.rope_index[v.cell_map + VIS_CELL_WORDS * c + 1u];
+                held += (word & VIS_CELL_BOXED) != 0u;
+                header += (word & VIS_CELL_HEADER) != 0u;
+            }
+            assert_true(held > 0 && header > 0);
+        }
         char what[64];
-        snprintf(what, sizeof what, "walls, kd_depth %u", depths[wi]);
+        snprintf(what, sizeof what, "walls, kd_depth %u, cells of %g", depths[wi], (double)(wi < 3 ? 16.0 : 32.0));
         check_ray_stream(scene, &w, &rng, rays, box_edge_ray, 0, what);
         check_ray_stream(scene, &w, &rng, rays, aimed_ray, 0, what);
         check_ray_stream(scene, &w, &rng, rays / 4, grid_ray, 0, what);
