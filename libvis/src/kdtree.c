@@ -445,23 +445,15 @@ static int lower_clearance(uint32_t *e, uint32_t c)
 }
 
 /* The clearance of every cell is min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to
- * the nearest cell whose leaf holds primitives). When leaf li gets its first, each cell
+ * the nearest cell whose leaf holds primitives). When the leaf of cell i gets its first, each cell
  * at distance r < VIS_CELL_CLEAR_MAX takes min(its own, r), shell by shell outwards. The
  * clearances are 1-Lipschitz (a minimum of distances): when no cell of shell r changed, each
  * cell of shell r + 1 has a neighbour in shell r with a clearance <= r, so its own is <= r + 1
  * already, and the walk stops there. Only the steps after an edit that fills an empty cell
  * pay this; a leaf emptied again raises them (leaf_emptied). */
-static void leaf_filled(vis_scene *s, uint32_t li)
+static void leaf_filled(vis_scene *s, uint32_t i)
 {
     const int64_t n[3] = {s->cells[0], s->cells[1], s->cells[2]};
-    uint32_t i = leaf_cell_index(s, li);
-    if (i >= s->leaf_count) { /* cannot happen (see leaf_cell_index); no clearance is then safe */
-        for (i = 0; i < s->leaf_count; ++i)
-            lower_clearance(cell_entry(s, i), 0u);
-        const uint32_t first[3] = {0, 0, 0}, last[3] = {s->cells[0] - 1u, s->cells[1] - 1u, s->cells[2] - 1u};
-        widen_dirty_map(s, first, last);
-        return;
-    }
     int64_t c[3];
     cell_coords(s, i, c);
     int64_t lo[3], hi[3];
@@ -534,16 +526,13 @@ static void clearance_pass(const uint8_t *src, uint8_t *dst, const int64_t m[3],
             }
 }
 
-/* When leaf li has lost its last primitive, the clearances within CLEAR_REACH of its cell
+/* When the leaf of cell ci has lost its last primitive, the clearances within CLEAR_REACH of its cell
  * are computed again from the cells within twice that (a distance transform over at most
  * CLEAR_REGION^3 cells, 2,197 at the cap of 4), so every clearance stays what
  * leaf_filled's comment says: the distance to the nearest cell with primitives now. Only the
  * edits that empty a cell pay this. */
-static void leaf_emptied(vis_scene *s, uint32_t li)
+static void leaf_emptied(vis_scene *s, uint32_t ci)
 {
-    uint32_t ci = leaf_cell_index(s, li);
-    if (ci >= s->leaf_count)
-        return; /* cannot happen (see leaf_cell_index); the clearances only stay lower */
     int64_t c[3];
     cell_coords(s, ci, c);
     /* The region (lo, m: its corner and size in the map), and in its own coordinates the
@@ -621,13 +610,20 @@ void vis_kdtree_leaf_changed(vis_scene *s, uint32_t li, int was_empty)
     if (!s->cell_map)
         return;
     const vis_flat_leaf *lf = &s->leaves[li];
-    if (was_empty && vis_leaf_has_primitives(lf))
-        leaf_filled(s, li);
-    else if (!was_empty && !vis_leaf_has_primitives(lf))
-        leaf_emptied(s, li);
     uint32_t i = leaf_cell_index(s, li);
-    if (i >= s->leaf_count)
-        return; /* cannot happen (see leaf_cell_index) */
+    if (i >= s->leaf_count) { /* cannot happen (see leaf_cell_index); no clearance is then safe */
+        for (i = 0; i < s->leaf_count; ++i) {
+            lower_clearance(cell_entry(s, i), 0u);
+            cell_entry(s, i)[1] = VIS_CELL_HEADER; /* every leaf through its header */
+        }
+        const uint32_t first[3] = {0, 0, 0}, last[3] = {s->cells[0] - 1u, s->cells[1] - 1u, s->cells[2] - 1u};
+        widen_dirty_map(s, first, last);
+        return;
+    }
+    if (was_empty && vis_leaf_has_primitives(lf))
+        leaf_filled(s, i);
+    else if (!was_empty && !vis_leaf_has_primitives(lf))
+        leaf_emptied(s, i);
     uint32_t *e = cell_entry(s, i), w = cell_box_word(lf);
     if (e[1] == w)
         return;

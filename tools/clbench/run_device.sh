@@ -50,6 +50,11 @@
 #   run_device.sh 15     batch shapes and caps on this tree: batches of 256 with draw lists in
 #                        8x4 (the default), 4x8, 16x2 and 32x1 groups and with register caps
 #                        68 and 76, alternated, two rounds on gen:default, one on gen:large
+#   run_device.sh 16     this tree against a parent's build in old/ and candidates' builds in
+#                        b2/ and b3/ (test_opencl, vis_clbench): test_opencl, then batches of
+#                        256 on gen:default and gen:large and one view per camera of
+#                        gen:default, the builds alternated, two rounds; then test_opencl of
+#                        the candidates and the bit-for-bit comparison of every build
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -275,6 +280,29 @@ if [ "$PHASE" = 14 ]; then
   done; done; done
 fi
 
+if [ "$PHASE" = 16 ]; then
+  gpu_test() { # gpu_test DIR: test_opencl of that build
+    timeout 150 $1/test_opencl > "$O/test_gpu_${1#.}.log" 2>&1; echo "$1 test_opencl rc=$?"
+    grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu_${1#.}.log"
+  }
+  gpu_conformance() { # gpu_conformance DIR: the bit-for-bit comparison of that build
+    timeout 150 $1/vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 > "$O/conf_${1#.}.log" 2>&1
+    echo "$1 conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf_${1#.}.log" | tail -3
+  }
+  gpu_test .
+  B="."; for d in old b2 b3; do [ -x $d/vis_clbench ] && B="$B $d"; done
+  for s in gen:default gen:large; do for round in 1 2; do for b in $B; do
+    echo "$s batch 256, $b, round $round: $(timeout 60 $b/vis_clbench --scene $s --device NVIDIA --conformance 0 \
+      --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done; done; done
+  for round in 1 2; do for b in $B; do
+    timeout 60 $b/vis_clbench --device NVIDIA --conformance 0 --drawlist 1 --reps 10 > "$O/views_${b#.}_$round.log" 2>&1
+    echo "gen:default one view, $b, round $round (rc=$?):"
+    grep -E "^(default|ground|horizon|overview|topdown|walk-)" "$O/views_${b#.}_$round.log"
+  done; done
+  for d in b2 b3; do [ -x $d/test_opencl ] && gpu_test $d; done
+  for d in . b2 b3; do [ -x $d/vis_clbench ] && gpu_conformance $d; done
+fi
 if [ "$PHASE" = 15 ]; then
   for s in gen:default gen:default gen:large; do
     for e in X=0 VIS_OPENCL_TILE=4x8 VIS_OPENCL_TILE=16x2 VIS_OPENCL_TILE=32x1 \
