@@ -196,10 +196,10 @@ typedef struct vis_rope_node {
  *  - VIS_CELL_HEADER: test it through its header (vis_leaf_intersect): it has loose quads or
  *    triangles, or its box's high field is saturated on a leaf wider than 31 planes;
  *  - VIS_CELL_BOXED, with the leaf's content_box in bits 0..29 (VIS_BOX_FIELD), except that an
- *    axis on which the box spans the whole leaf (the slab vis_leaf_intersect skips) reads low
+ *    axis on which the box spans the whole leaf (the slab vis_leaf_prepare skips) reads low
  *    31, high 0. The box's offsets are from the cell's corner (float)c * cell_size, which is
  *    the leaf's lo bit for bit (kdtree.c, build_node), so the walk clips the ray to the very
- *    slabs vis_leaf_intersect would.
+ *    slabs vis_leaf_prepare would.
  * libvis rewrites it whenever it rebuilds the leaf (kdtree.c, vis_kdtree_leaf_changed). */
 #define VIS_CELL_WORDS 2u
 #define VIS_CELL_BOXED 0x40000000u
@@ -896,15 +896,17 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
 
 /* [ta, tb] narrowed to the slab of a content box on axis a, offsets bl..bh from the leaf's
  * corner lo; 0 when the ray lies parallel to the axis outside it, or the box is missed (its
- * entry lies beyond lim(lim(exit)): vis_leaf_intersect says why nothing is lost). */
+ * entry lies beyond lim(lim(exit)): vis_leaf_prepare says why nothing is lost). */
 VIS_INLINE int vis_box_slab(const vis_ray *r, uint32_t a, float lo, int bl, int bh, float *ta, float *tb)
 {
     return vis_slab(r, a, lo + (float)bl, lo + (float)bh, ta, tb) && !(*ta > vis_t_limit(vis_t_limit(*tb)));
 }
 
-/* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
- * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
- * is the minimum over all primitives tested, whatever order they come in.
+/* The leaf test up to its plane walk, for the part [*ta, *tb] of the ray inside the leaf:
+ * tests the loose quads and triangles, narrows [*ta, *tb] to the content box and fills the
+ * plane walk's E, bl and bh (vis_leaf_planes). Returns whether the plane walk has anything to
+ * do. Hits outside [ta, tb] are real hits too and are kept: the result is the minimum over
+ * all primitives tested, whatever order they come in.
  *
  * The packed quads are looked for only where the ray crosses the leaf's content box (the box
  * of every packed quad, vis_flat_leaf.content_box): the air above a terrain surface that the
@@ -931,22 +933,18 @@ VIS_INLINE int vis_box_slab(const vis_ray *r, uint32_t a, float lo, int bl, int 
  * narrowed start lies beyond lim(lim(end)) no such quad exists and the walk returns at once.
  * The plane range of each axis is also kept inside the box's offsets on that axis, where all
  * the non-empty buckets of that axis lie. */
-VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
-                                   const VIS_GLOBAL uint32_t *buckets,
-                                   const VIS_GLOBAL uint32_t *quads,
-                                   const VIS_GLOBAL vis_flat_tri *tris,
-                                   const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
-                                   vis_hit *h)
+VIS_INLINE int vis_leaf_prepare(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                const VIS_GLOBAL uint32_t *quads, const VIS_GLOBAL vis_flat_tri *tris,
+                                const VIS_GLOBAL vis_flat_object *objects, float *ta, float *tb, int *E, int *bl,
+                                int *bh, vis_hit *h)
 {
     if (leaf->loose_count | leaf->tri_count)
         vis_leaf_loose(r, leaf, quads, tris, objects, h);
     if (leaf->quad_count == 0u)
-        return;
-    int E[3];
+        return 0;
     E[0] = (int)(leaf->dims_xy & 0xFFFFu);
     E[1] = (int)(leaf->dims_xy >> 16);
     E[2] = (int)leaf->dims_z;
-    int bl[3], bh[3];
     uint32_t cb = leaf->content_box;
     /* The vertical axis (y) first: in a terrain or a city most leaves a ray enters and whose
      * box it misses it passes above (docs/performance.md, "Lone rays"), so the walk usually
@@ -965,10 +963,22 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
          * 8.8-9.5 % (docs/performance.md, "The per-ray leaf walk clips the ray"). */
         if (bl[a] == 0 && bh[a] >= E[a])
             continue;
-        if (!vis_box_slab(r, (uint32_t)a, leaf->lo[a], bl[a], bh[a], &ta, &tb))
-            return;
+        if (!vis_box_slab(r, (uint32_t)a, leaf->lo[a], bl[a], bh[a], ta, tb))
+            return 0;
     }
-    vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
+    return 1;
+}
+
+/* Tests every primitive of the leaf that can beat the best hit over [ta, tb]: its loose
+ * quads and triangles, then its planes within its content box (vis_leaf_prepare). */
+VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                   const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL uint32_t *quads,
+                                   const VIS_GLOBAL vis_flat_tri *tris, const VIS_GLOBAL vis_flat_object *objects,
+                                   float ta, float tb, vis_hit *h)
+{
+    int E[3], bl[3], bh[3];
+    if (vis_leaf_prepare(r, leaf, quads, tris, objects, &ta, &tb, E, bl, bh, h))
+        vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
 }
 
 /* ---- traversal ---------------------------------------------------------------------- */
@@ -1775,7 +1785,7 @@ VIS_INLINE float vis_dda_bound(const vis_ray *r, uint32_t a, int b, int end, flo
 /* The leaf of map entry `entry`, cell (cx, cy, cz), over [ta, tb]: a cell with a clearance
  * costs only its map entry, and so does an empty leaf, or one whose content box the ray
  * misses when its entry holds the box (VIS_CELL_BOXED): the box is clipped here, with the
- * slabs vis_leaf_intersect would use and in its order, and the plane walk starts from the
+ * slabs vis_leaf_prepare would use and in its order, and the plane walk starts from the
  * same narrowed interval. Among gen:default's dda leaf tests over the camera path, 38 % end
  * at the box (docs/performance.md, "The content box in the cell map"). Returns whether the
  * leaf's planes or primitives were tested (only then can the best hit have changed); *clear
@@ -1790,30 +1800,32 @@ VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, int cx, int cy, in
     if (*clear || w == 0u)
         return 0;
     const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[VIS_CELL_LEAF(e)];
+    int E[3], bl[3], bh[3];
     if (w & VIS_CELL_HEADER) {
-        vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
-        return 1;
-    }
-    int bl[3], bh[3];
-    for (int i = 0; i < 3; ++i) {
-        int a = i == 0 ? 1 : i == 1 ? 0 : 2; /* vis_leaf_intersect's order */
-        bl[a] = (int)VIS_BOX_FIELD(w, (uint32_t)a);
-        bh[a] = (int)VIS_BOX_FIELD(w, (uint32_t)a + 3u);
-        if (bl[a] > bh[a])
-            continue; /* the box spans the leaf on this axis */
-        float lo = (float)(a == 0 ? cx : a == 1 ? cy : cz) * cs;
-        if (!vis_box_slab(r, (uint32_t)a, lo, bl[a], bh[a], &ta, &tb))
-            return 0;
-    }
-    int E[3];
-    E[0] = (int)(leaf->dims_xy & 0xFFFFu);
-    E[1] = (int)(leaf->dims_xy >> 16);
-    E[2] = (int)leaf->dims_z;
-    for (int a = 0; a < 3; ++a)
-        if (bl[a] > bh[a]) {
-            bl[a] = 0;
-            bh[a] = E[a];
+        if (!vis_leaf_prepare(r, leaf, quads, tris, objects, &ta, &tb, E, bl, bh, h))
+            return 1;
+    } else {
+        for (int i = 0; i < 3; ++i) {
+            int a = i == 0 ? 1 : i == 1 ? 0 : 2; /* vis_leaf_prepare's order */
+            bl[a] = (int)VIS_BOX_FIELD(w, (uint32_t)a);
+            bh[a] = (int)VIS_BOX_FIELD(w, (uint32_t)a + 3u);
+            if (bl[a] > bh[a])
+                continue; /* the box spans the leaf on this axis */
+            float lo = (float)(a == 0 ? cx : a == 1 ? cy : cz) * cs;
+            if (!vis_box_slab(r, (uint32_t)a, lo, bl[a], bh[a], &ta, &tb))
+                return 0;
         }
+        E[0] = (int)(leaf->dims_xy & 0xFFFFu);
+        E[1] = (int)(leaf->dims_xy >> 16);
+        E[2] = (int)leaf->dims_z;
+        for (int a = 0; a < 3; ++a)
+            if (bl[a] > bh[a]) {
+                bl[a] = 0;
+                bh[a] = E[a];
+            }
+    }
+    /* One plane walk for both kinds of entry: a second inlined copy on a device would cost
+     * registers in the capped batch kernel. */
     vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
     return 1;
 }

@@ -580,7 +580,7 @@ static void leaf_emptied(vis_scene *s, uint32_t ci)
             }
 }
 
-/* Leaf lf's box word (trace_core.h, VIS_CELL_WORDS): what vis_leaf_intersect would read of
+/* Leaf lf's box word (trace_core.h, VIS_CELL_WORDS): what vis_leaf_prepare would read of
  * its header to clip a ray to its content box, decided here once. */
 static uint32_t cell_box_word(const vis_flat_leaf *lf)
 {
@@ -597,7 +597,7 @@ static uint32_t cell_box_word(const vis_flat_leaf *lf)
                 return VIS_CELL_HEADER; /* a slab the word cannot hold */
             bh = E[a];
         }
-        if (bl == 0u && bh >= E[a]) /* spans the leaf: vis_leaf_intersect skips the slab */
+        if (bl == 0u && bh >= E[a]) /* spans the leaf: vis_leaf_prepare skips the slab */
             w |= VIS_PQ_COORD_MAX << (5u * a);
         else
             w |= bl << (5u * a) | bh << (5u * (a + 3u));

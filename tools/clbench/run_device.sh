@@ -55,6 +55,8 @@
 #                        256 on gen:default and gen:large and one view per camera of
 #                        gen:default, the builds alternated, two rounds; then test_opencl of
 #                        the candidates and the bit-for-bit comparison of every build
+#   run_device.sh 17     batches of 256 with draw lists on gen:default and gen:large, this
+#                        tree against a parent's build in old/, alternated, two rounds
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -302,6 +304,13 @@ if [ "$PHASE" = 16 ]; then
   done; done
   for d in b2 b3; do [ -x $d/test_opencl ] && gpu_test $d; done
   for d in . b2 b3; do [ -x $d/vis_clbench ] && gpu_conformance $d; done
+fi
+if [ "$PHASE" = 17 ]; then
+  for s in gen:default gen:large; do for round in 1 2; do for b in . old; do
+    [ -x $b/vis_clbench ] || continue
+    echo "$s batch 256, $b, round $round: $(timeout 60 $b/vis_clbench --scene $s --device NVIDIA --conformance 0 \
+      --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done; done; done
 fi
 if [ "$PHASE" = 15 ]; then
   for s in gen:default gen:default gen:large; do
