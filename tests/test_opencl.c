@@ -421,8 +421,7 @@ static void test_random_worlds_bit_identical(void **state)
 
 /* The exact bytes of one chunk edit: the leaf header (64), its bucket table (16+16+16+4
  * offsets and 51 pairs of cover masks, 4 bytes each), its object table (one 4-byte word) and
- * its quads (packed: one word each, their coordinates are whole offsets in the leaf), its
- * cell's map entry (8: the entry holds the leaf's content box, which the edit changed), the
+ * its quads (packed: one word each, their coordinates are whole offsets in the leaf), the
  * object slot (16) and its one leaf index (4) — nothing else. */
 static void test_edit_uploads_only_changed_bytes(void **state)
 {
@@ -461,7 +460,7 @@ static void test_edit_uploads_only_changed_bytes(void **state)
     assert_int_equal(vis_trace(cl, p.cl_scene, &cam, &td, ids, 48 * 40, NULL, 0), VIS_OK);
     vis_timing tm;
     assert_int_equal(vis_context_last_timing(cl, &tm), VIS_OK);
-    uint64_t expect = 64 + (52 + 2 * 51) * 4 + (1 + (uint64_t)o->nq) * 4 + 8 + 16 + 4;
+    uint64_t expect = 64 + (52 + 2 * 51) * 4 + (1 + (uint64_t)o->nq) * 4 + 16 + 4;
     if (tm.upload_bytes != expect)
         fail_msg("one chunk edit (%u quads) uploaded %llu bytes, expected %llu", o->nq,
                  (unsigned long long)tm.upload_bytes, (unsigned long long)expect);

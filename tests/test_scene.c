@@ -702,49 +702,21 @@ static void test_leaving_leaf_growth_exact(void **state)
     vis_context_destroy(ctx);
 }
 
-/* The cell map after random edits. Each cell's clearance (trace_core.h, VIS_CELL_CLEAR) is
- * min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to the nearest cell whose leaf
- * holds primitives), computed here by brute force over the cells. Each cell's box word
- * (VIS_CELL_WORDS) says what its leaf's header says: 0 for an empty leaf, VIS_CELL_HEADER
- * where it has loose quads or triangles, else the content box, with the cell's corner equal
- * to the leaf's lo bit for bit. Objects are single quads in one cell, or boxes across
- * several; edits add, move, replace and remove them, so leaves fill and empty again
- * (kdtree.c, vis_kdtree_leaf_changed). At the end every object is removed: the clearances
- * must all rise to the cap again. */
-static void expect_cell_box_word(const vis_scene *s, uint32_t c, const vis_flat_leaf *lf, uint32_t w)
-{
-    const uint32_t cc[3] = {c % s->cells[0], c / s->cells[0] % s->cells[1], c / s->cells[0] / s->cells[1]};
-    for (int a = 0; a < 3; ++a)
-        assert_true(lf->lo[a] == (float)cc[a] * s->desc.cell_size);
-    if (!vis_leaf_has_primitives(lf)) {
-        assert_int_equal(w, 0u);
-        return;
-    }
-    if (lf->loose_count | lf->tri_count) {
-        assert_int_equal(w, VIS_CELL_HEADER);
-        return;
-    }
-    assert_int_equal(w & (VIS_CELL_HEADER | VIS_CELL_BOXED), VIS_CELL_BOXED);
-    /* Cells of 16 voxels: no field saturates, a spanning axis reads low 31, high 0. */
-    const uint32_t E[3] = {lf->dims_xy & 0xFFFFu, lf->dims_xy >> 16, lf->dims_z};
-    for (uint32_t a = 0; a < 3u; ++a) {
-        uint32_t bl = VIS_BOX_FIELD(lf->content_box, a), bh = VIS_BOX_FIELD(lf->content_box, a + 3u);
-        int spans = bl == 0u && bh >= E[a];
-        assert_int_equal(VIS_BOX_FIELD(w, a), spans ? VIS_PQ_COORD_MAX : bl);
-        assert_int_equal(VIS_BOX_FIELD(w, a + 3u), spans ? 0u : bh);
-    }
-}
-
+/* The cell map's clearances (trace_core.h, VIS_CELL_CLEAR) after random edits: each cell's
+ * is min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to the nearest cell whose leaf
+ * holds primitives), computed here by brute force over the cells. Objects are single quads
+ * in one cell, or boxes across several; edits add, move, replace and remove them, so leaves
+ * fill (kdtree.c, vis_kdtree_leaf_filled) and empty again (vis_kdtree_leaf_emptied). At the
+ * end every object is removed: the clearances must all rise to the cap again. */
 static void expect_clearances(const vis_scene *s, const char *when, int e)
 {
     const uint32_t nx = s->cells[0], ny = s->cells[1], nz = s->cells[2], nc = nx * ny * nz;
     const uint32_t *map = s->rope_index + s->cell_map;
-    assert_int_equal(s->cell_map % 2u, 0u); /* entries are 8-byte aligned */
     for (uint32_t c = 0; c < nc; ++c) {
         int64_t x = c % nx, y = c / nx % ny, z = c / nx / ny;
         uint32_t want = VIS_CELL_CLEAR_MAX;
         for (uint32_t m = 0; m < nc; ++m)
-            if (vis_leaf_has_primitives(&s->leaves[VIS_CELL_LEAF(map[VIS_CELL_WORDS * m])])) {
+            if (vis_leaf_has_primitives(&s->leaves[VIS_CELL_LEAF(map[m])])) {
                 int64_t dx = llabs((int64_t)(m % nx) - x), dy = llabs((int64_t)(m / nx % ny) - y),
                         dz = llabs((int64_t)(m / nx / ny) - z);
                 int64_t dist = dx > dy ? dx : dy;
@@ -752,11 +724,10 @@ static void expect_clearances(const vis_scene *s, const char *when, int e)
                 if ((uint64_t)dist < want)
                     want = (uint32_t)dist;
             }
-        uint32_t got = VIS_CELL_CLEAR(map[VIS_CELL_WORDS * c]);
+        uint32_t got = VIS_CELL_CLEAR(map[c]);
         if (got != want)
             fail_msg("%s %d: cell (%lld,%lld,%lld) has clearance %u, expected %u", when, e, (long long)x,
                      (long long)y, (long long)z, got, want);
-        expect_cell_box_word(s, c, &s->leaves[VIS_CELL_LEAF(map[VIS_CELL_WORDS * c])], map[VIS_CELL_WORDS * c + 1u]);
     }
 }
 
@@ -806,10 +777,8 @@ static void test_cell_clearance(void **state)
         expect_clearances(s, "after removing object", (int)id);
     }
     const uint32_t *map = s->rope_index + s->cell_map;
-    for (uint32_t c = 0; c < s->leaf_count; ++c) {
-        assert_int_equal(VIS_CELL_CLEAR(map[VIS_CELL_WORDS * c]), VIS_CELL_CLEAR_MAX);
-        assert_int_equal(map[VIS_CELL_WORDS * c + 1u], 0u);
-    }
+    for (uint32_t c = 0; c < s->leaf_count; ++c)
+        assert_int_equal(VIS_CELL_CLEAR(map[c]), VIS_CELL_CLEAR_MAX);
     vis_scene_destroy(s);
     vis_context_destroy(ctx);
 }

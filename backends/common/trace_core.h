@@ -180,30 +180,13 @@ typedef struct vis_rope_node {
 
 #define VIS_NO_ROPE 0xFFFFFFFFu
 
-/* A cell map entry (VIS_CELL_WORDS words at rope_index[cell_map + VIS_CELL_WORDS * cell], the
- * cell-grid walk's; cell_map is even, so an entry is one aligned 8-byte load on a device).
- *
- * Word 0: the cell's leaf in the low VIS_CELL_LEAF_BITS bits (leaves <= nodes <=
- * VIS_MAX_KD_NODES = 2^26, kdtree.c asserts it), and above them the cell's clearance: 0 where
- * the leaf may hold primitives, else a number c >= 1 such that every cell within c - 1 steps
- * of it on each axis (Chebyshev distance c - 1) has an empty leaf, at most VIS_CELL_CLEAR_MAX.
- * libvis keeps it at the distance to the nearest cell whose leaf holds primitives, through
- * every edit that fills or empties a leaf (kdtree.c).
- *
- * Word 1: how the walk tests the leaf, so that a leaf whose content box the ray misses costs
- * no read of its header (vis_dda_leaf):
- *  - 0: the leaf holds nothing;
- *  - VIS_CELL_HEADER: test it through its header (vis_leaf_intersect): it has loose quads or
- *    triangles, or its box's high field is saturated on a leaf wider than 31 planes;
- *  - VIS_CELL_BOXED, with the leaf's content_box in bits 0..29 (VIS_BOX_FIELD), except that an
- *    axis on which the box spans the whole leaf (the slab vis_leaf_prepare skips) reads low
- *    31, high 0. The box's offsets are from the cell's corner (float)c * cell_size, which is
- *    the leaf's lo bit for bit (kdtree.c, build_node), so the walk clips the ray to the very
- *    slabs vis_leaf_prepare would.
- * libvis rewrites it whenever it rebuilds the leaf (kdtree.c, vis_kdtree_leaf_changed). */
-#define VIS_CELL_WORDS 2u
-#define VIS_CELL_BOXED 0x40000000u
-#define VIS_CELL_HEADER 0x80000000u
+/* A cell map entry (rope_index[cell_map + cell], the cell-grid walk's): the cell's leaf in the
+ * low VIS_CELL_LEAF_BITS bits (leaves <= nodes <= VIS_MAX_KD_NODES = 2^26, kdtree.c asserts
+ * it), and above them the cell's clearance: 0 where the leaf may hold primitives, else a
+ * number c >= 1 such that every cell within c - 1 steps of it on each axis (Chebyshev
+ * distance c - 1) has an empty leaf, at most VIS_CELL_CLEAR_MAX. libvis keeps it at the
+ * distance to the nearest cell whose leaf holds primitives, through every edit that fills or
+ * empties a leaf (kdtree.c). */
 #define VIS_CELL_LEAF_BITS 26u
 #define VIS_CELL_LEAF(e) ((e) & ((1u << VIS_CELL_LEAF_BITS) - 1u))
 #define VIS_CELL_CLEAR(e) ((e) >> VIS_CELL_LEAF_BITS)
@@ -236,8 +219,8 @@ typedef struct vis_ray_setup {
     uint32_t leaf_count;
     uint32_t short_stack; /* N of shortstack / ropes-shortstack, 1..VIS_MAX_SHORT_STACK       */
     uint32_t cells[3];    /* the scene's cell grid (the DDA method, vis_traverse_dda)          */
-    uint32_t cell_map;    /* rope_index[cell_map + VIS_CELL_WORDS * cell]: cell (x + nx (y + ny z))'s
-                             map entry (VIS_CELL_WORDS above);
+    uint32_t cell_map;    /* rope_index[cell_map + cell]: cell (x + nx (y + ny z))'s leaf and
+                             clearance (VIS_CELL_LEAF, VIS_CELL_CLEAR);
                              0: the scene has no map (its leaves are not single cells)       */
     float cell_size;      /* split planes lie on (float)i * cell_size                          */
 } vis_ray_setup;
@@ -894,19 +877,9 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
     }
 }
 
-/* [ta, tb] narrowed to the slab of a content box on axis a, offsets bl..bh from the leaf's
- * corner lo; 0 when the ray lies parallel to the axis outside it, or the box is missed (its
- * entry lies beyond lim(lim(exit)): vis_leaf_prepare says why nothing is lost). */
-VIS_INLINE int vis_box_slab(const vis_ray *r, uint32_t a, float lo, int bl, int bh, float *ta, float *tb)
-{
-    return vis_slab(r, a, lo + (float)bl, lo + (float)bh, ta, tb) && !(*ta > vis_t_limit(vis_t_limit(*tb)));
-}
-
-/* The leaf test up to its plane walk, for the part [*ta, *tb] of the ray inside the leaf:
- * tests the loose quads and triangles, narrows [*ta, *tb] to the content box and fills the
- * plane walk's E, bl and bh (vis_leaf_planes). Returns whether the plane walk has anything to
- * do. Hits outside [ta, tb] are real hits too and are kept: the result is the minimum over
- * all primitives tested, whatever order they come in.
+/* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
+ * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
+ * is the minimum over all primitives tested, whatever order they come in.
  *
  * The packed quads are looked for only where the ray crosses the leaf's content box (the box
  * of every packed quad, vis_flat_leaf.content_box): the air above a terrain surface that the
@@ -933,18 +906,22 @@ VIS_INLINE int vis_box_slab(const vis_ray *r, uint32_t a, float lo, int bl, int 
  * narrowed start lies beyond lim(lim(end)) no such quad exists and the walk returns at once.
  * The plane range of each axis is also kept inside the box's offsets on that axis, where all
  * the non-empty buckets of that axis lie. */
-VIS_INLINE int vis_leaf_prepare(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
-                                const VIS_GLOBAL uint32_t *quads, const VIS_GLOBAL vis_flat_tri *tris,
-                                const VIS_GLOBAL vis_flat_object *objects, float *ta, float *tb, int *E, int *bl,
-                                int *bh, vis_hit *h)
+VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
+                                   const VIS_GLOBAL uint32_t *buckets,
+                                   const VIS_GLOBAL uint32_t *quads,
+                                   const VIS_GLOBAL vis_flat_tri *tris,
+                                   const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
+                                   vis_hit *h)
 {
     if (leaf->loose_count | leaf->tri_count)
         vis_leaf_loose(r, leaf, quads, tris, objects, h);
     if (leaf->quad_count == 0u)
-        return 0;
+        return;
+    int E[3];
     E[0] = (int)(leaf->dims_xy & 0xFFFFu);
     E[1] = (int)(leaf->dims_xy >> 16);
     E[2] = (int)leaf->dims_z;
+    int bl[3], bh[3];
     uint32_t cb = leaf->content_box;
     /* The vertical axis (y) first: in a terrain or a city most leaves a ray enters and whose
      * box it misses it passes above (docs/performance.md, "Lone rays"), so the walk usually
@@ -963,22 +940,12 @@ VIS_INLINE int vis_leaf_prepare(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf
          * 8.8-9.5 % (docs/performance.md, "The per-ray leaf walk clips the ray"). */
         if (bl[a] == 0 && bh[a] >= E[a])
             continue;
-        if (!vis_box_slab(r, (uint32_t)a, leaf->lo[a], bl[a], bh[a], ta, tb))
-            return 0;
+        float lo = leaf->lo[a];
+        if (!vis_slab(r, (uint32_t)a, lo + (float)bl[a], lo + (float)bh[a], &ta, &tb) ||
+            ta > vis_t_limit(vis_t_limit(tb)))
+            return; /* parallel to the axis outside the box's slab, or the box is missed */
     }
-    return 1;
-}
-
-/* Tests every primitive of the leaf that can beat the best hit over [ta, tb]: its loose
- * quads and triangles, then its planes within its content box (vis_leaf_prepare). */
-VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_leaf *leaf,
-                                   const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL uint32_t *quads,
-                                   const VIS_GLOBAL vis_flat_tri *tris, const VIS_GLOBAL vis_flat_object *objects,
-                                   float ta, float tb, vis_hit *h)
-{
-    int E[3], bl[3], bh[3];
-    if (vis_leaf_prepare(r, leaf, quads, tris, objects, &ta, &tb, E, bl, bh, h))
-        vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
+    vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
 }
 
 /* ---- traversal ---------------------------------------------------------------------- */
@@ -1764,69 +1731,27 @@ VIS_INLINE float vis_dda_bound(const vis_ray *r, uint32_t a, int b, int end, flo
 #endif
 
 /* A test may define VIS_DDA_VISIT(entry) before including this file to see each cell visited
- * (its map entry, cell_map + VIS_CELL_WORDS * cell; tests/test_traversal.c holds the walk to the cell test
+ * (its map entry, cell_map + cell; tests/test_traversal.c holds the walk to the cell test
  * above). */
 #ifndef VIS_DDA_VISIT
 #  define VIS_DDA_VISIT(entry) ((void)0)
 #endif
 
-/* Both words of map entry `entry` (VIS_CELL_WORDS): one 8-byte load on a device. */
-#ifdef __OPENCL_VERSION__
-#  define VIS_CELL_LOAD(entry, e, w)                                                         \
-      do {                                                                                   \
-          uint2 vis_cell_ = *(const __global uint2 *)(rope_index + (entry));                 \
-          (e) = vis_cell_.x;                                                                 \
-          (w) = vis_cell_.y;                                                                 \
-      } while (0)
-#else
-#  define VIS_CELL_LOAD(entry, e, w) ((e) = rope_index[(entry)], (w) = rope_index[(entry) + 1u])
-#endif
-
-/* The leaf of map entry `entry`, cell (cx, cy, cz), over [ta, tb]: a cell with a clearance
- * costs only its map entry, and so does an empty leaf, or one whose content box the ray
- * misses when its entry holds the box (VIS_CELL_BOXED): the box is clipped here, with the
- * slabs vis_leaf_prepare would use and in its order, and the plane walk starts from the
- * same narrowed interval. Among gen:default's dda leaf tests over the camera path, 38 % end
- * at the box (docs/performance.md, "The content box in the cell map"). Returns whether the
- * leaf's planes or primitives were tested (only then can the best hit have changed); *clear
- * gets the cell's clearance. */
-VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, int cx, int cy, int cz, float cs, float ta, float tb,
-                            uint32_t *clear, VIS_SCENE_PARAMS, vis_hit *h)
+/* The leaf of map entry `entry` over [ta, tb]: a cell with a clearance costs only its map
+ * entry, an empty leaf without one its header too. Returns whether the leaf was tested (only
+ * then can the best hit have changed); *clear gets the cell's clearance. */
+VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb, uint32_t *clear, VIS_SCENE_PARAMS,
+                            vis_hit *h)
 {
     VIS_DDA_VISIT(entry);
-    uint32_t e, w;
-    VIS_CELL_LOAD(entry, e, w);
+    uint32_t e = rope_index[entry];
     *clear = VIS_CELL_CLEAR(e);
-    if (*clear || w == 0u)
+    if (*clear)
         return 0;
     const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[VIS_CELL_LEAF(e)];
-    int E[3], bl[3], bh[3];
-    if (w & VIS_CELL_HEADER) {
-        if (!vis_leaf_prepare(r, leaf, quads, tris, objects, &ta, &tb, E, bl, bh, h))
-            return 1;
-    } else {
-        for (int i = 0; i < 3; ++i) {
-            int a = i == 0 ? 1 : i == 1 ? 0 : 2; /* vis_leaf_prepare's order */
-            bl[a] = (int)VIS_BOX_FIELD(w, (uint32_t)a);
-            bh[a] = (int)VIS_BOX_FIELD(w, (uint32_t)a + 3u);
-            if (bl[a] > bh[a])
-                continue; /* the box spans the leaf on this axis */
-            float lo = (float)(a == 0 ? cx : a == 1 ? cy : cz) * cs;
-            if (!vis_box_slab(r, (uint32_t)a, lo, bl[a], bh[a], &ta, &tb))
-                return 0;
-        }
-        E[0] = (int)(leaf->dims_xy & 0xFFFFu);
-        E[1] = (int)(leaf->dims_xy >> 16);
-        E[2] = (int)leaf->dims_z;
-        for (int a = 0; a < 3; ++a)
-            if (bl[a] > bh[a]) {
-                bl[a] = 0;
-                bh[a] = E[a];
-            }
-    }
-    /* One plane walk for both kinds of entry: a second inlined copy on a device would cost
-     * registers in the capped batch kernel. */
-    vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
+    if (!vis_leaf_has_primitives(leaf))
+        return 0;
+    vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
     return 1;
 }
 
@@ -1844,12 +1769,8 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
     int bx = m0[0] + (sx > 0), by = m0[1] + (sy > 0), bz = m0[2] + (sz > 0);
     int ex = sx > 0 ? nx : 0, ey = sy > 0 ? ny : 0, ez = sz > 0 ? nz : 0;
     /* The cell's map entry, and what a step on each axis adds to it. */
-    uint32_t entry =
-        s->cell_map + VIS_CELL_WORDS * ((uint32_t)m0[0] + s->cells[0] * ((uint32_t)m0[1] + s->cells[1] * (uint32_t)m0[2]));
-    uint32_t dx = VIS_CELL_WORDS * (uint32_t)sx, dy = VIS_CELL_WORDS * (uint32_t)sy * s->cells[0],
-             dz = VIS_CELL_WORDS * (uint32_t)sz * s->cells[0] * s->cells[1];
-    /* The current cell is (bx - px, by - py, bz - pz). */
-    int px = sx > 0, py = sy > 0, pz = sz > 0;
+    uint32_t entry = s->cell_map + (uint32_t)m0[0] + s->cells[0] * ((uint32_t)m0[1] + s->cells[1] * (uint32_t)m0[2]);
+    uint32_t dx = (uint32_t)sx, dy = (uint32_t)sy * s->cells[0], dz = (uint32_t)sz * s->cells[0] * s->cells[1];
     float tx = sx ? vis_dda_bound(r, 0u, bx, ex, cs) : VIS_INF;
     float ty = sy ? vis_dda_bound(r, 1u, by, ey, cs) : VIS_INF;
     float tz = sz ? vis_dda_bound(r, 2u, bz, ez, cs) : VIS_INF;
@@ -1878,7 +1799,7 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
             --free_steps;
         } else {
             uint32_t clear;
-            if (vis_dda_leaf(r, entry, bx - px, by - py, bz - pz, cs, T, e < t1 ? e : t1, &clear, VIS_SCENE_ARGS, h))
+            if (vis_dda_leaf(r, entry, T, e < t1 ? e : t1, &clear, VIS_SCENE_ARGS, h))
                 stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
             free_steps = clear ? clear - 1u : 0u;
         }
@@ -1910,8 +1831,7 @@ VIS_INLINE int vis_dda_walk(const vis_ray *r, const vis_ray_setup *s, const int 
                         if (free_steps)
                             VIS_DDA_VISIT(at); /* within the steps known empty, as the next cell */
                         else
-                            vis_dda_leaf(r, at, bx - px + ((sub & 1u) ? sx : 0), by - py + ((sub & 2u) ? sy : 0),
-                                         bz - pz + ((sub & 4u) ? sz : 0), cs, e, last, &clear, VIS_SCENE_ARGS, h);
+                            vis_dda_leaf(r, at, e, last, &clear, VIS_SCENE_ARGS, h);
                     }
                 stop = vis_t_limit(h->t) < lim_t1 ? vis_t_limit(h->t) : lim_t1;
             }

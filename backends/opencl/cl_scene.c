@@ -339,9 +339,9 @@ static int upload_map_box(upload_state *u, vis_cl_scene *sc, const vis_scene_vie
     int st = VIS_OK;
     for (uint32_t z = ch->map_lo[2]; z <= ch->map_hi[2] && st == VIS_OK; ++z)
         for (uint32_t y = ch->map_lo[1]; y <= ch->map_hi[1] && st == VIS_OK; ++y) {
-            size_t first = v->cell_map + VIS_CELL_WORDS * (ch->map_lo[0] + (size_t)n[0] * (y + (size_t)n[1] * z));
+            size_t first = v->cell_map + ch->map_lo[0] + (size_t)n[0] * (y + (size_t)n[1] * z);
             st = stage_range(u, &sc->rope_index, STAGE_ROPE_INDEX, v->rope_index, first,
-                             VIS_CELL_WORDS * (ch->map_hi[0] - ch->map_lo[0] + 1u), "cell map");
+                             ch->map_hi[0] - ch->map_lo[0] + 1u, "cell map");
         }
     return st;
 }

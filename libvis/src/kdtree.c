@@ -326,28 +326,17 @@ static void rope_fill(rope_state *rs, uint32_t node, const uint32_t c0[3], const
     rope_fill(rs, first + 1, rc0, c1, depth + 1, child);
 }
 
-/* Map cell i's entry (trace_core.h, VIS_CELL_WORDS: its leaf and clearance, then its box word). */
-static uint32_t *cell_entry(const vis_scene *s, uint64_t i)
-{
-    return s->rope_index + s->cell_map + VIS_CELL_WORDS * i;
-}
-
-/* Map cell (x, y, z)'s entry. */
-static uint32_t *cell_entry_at(const vis_scene *s, uint64_t x, uint64_t y, uint64_t z)
-{
-    return cell_entry(s, x + s->cells[0] * (y + (uint64_t)s->cells[1] * z));
-}
-
 /* The DDA method's map (trace_core.h, vis_traverse_dda): the entry of every cell, x fastest,
- * at rope_index[cell_map + VIS_CELL_WORDS * cell]: its leaf, and the largest clearance, since
- * every leaf is empty (its box word stays 0). The walk repeats build_node's splits. */
+ * at rope_index[cell_map + cell]: its leaf, and the largest clearance, since every leaf is
+ * empty. The walk repeats build_node's splits. */
 _Static_assert(VIS_MAX_KD_NODES <= 1u << VIS_CELL_LEAF_BITS, "a map entry's leaf fits below its clearance");
 static void fill_cell_map(vis_scene *s, uint32_t node, const uint32_t c0[3], const uint32_t c1[3])
 {
     uint32_t info = s->nodes[node].info;
     if ((info & 3u) == VIS_NODE_LEAF) {
         /* Full depth: every leaf is one cell. */
-        *cell_entry_at(s, c0[0], c0[1], c0[2]) = info >> 2 | VIS_CELL_CLEAR_MAX << VIS_CELL_LEAF_BITS;
+        s->rope_index[s->cell_map + c0[0] + s->cells[0] * (c0[1] + s->cells[1] * c0[2])] =
+            info >> 2 | VIS_CELL_CLEAR_MAX << VIS_CELL_LEAF_BITS;
         return;
     }
     uint32_t axis = info & 3u, first = info >> 2;
@@ -363,14 +352,12 @@ static void fill_cell_map(vis_scene *s, uint32_t node, const uint32_t c0[3], con
 static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
 {
     rope_state rs = {s, NULL, 0};
-    /* At full depth (as many leaves as cells) the cell map follows the node entries, from an
-     * even word (node_count <= 2^26: no overflow), so that each entry is 8-byte aligned. */
+    /* At full depth (as many leaves as cells) the cell map follows the node entries. */
     uint64_t ncells = (uint64_t)cells[0] * cells[1] * cells[2];
-    s->cell_map = ncells == s->leaf_count ? (s->node_count + 1u) & ~1u : 0u;
+    s->cell_map = ncells == s->leaf_count ? s->node_count : 0u;
     memcpy(s->cells, cells, sizeof s->cells);
-    s->rope_index = vis_calloc(
-        s->ctx, s->cell_map ? (size_t)s->cell_map + (size_t)VIS_CELL_WORDS * s->leaf_count : (size_t)s->node_count,
-        sizeof *s->rope_index);
+    s->rope_index = vis_calloc(s->ctx, (size_t)s->node_count + (s->cell_map ? s->leaf_count : 0u),
+                               sizeof *s->rope_index);
     if (!s->rope_index)
         return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the ropes of %u nodes", s->node_count);
     /* The heights live in rope_index until rope_fill replaces each with the node's entry: it
@@ -404,15 +391,16 @@ static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
  * entry of exactly one cell (leaf_count of them). */
 static uint32_t leaf_cell_index(const vis_scene *s, uint32_t li)
 {
+    const uint32_t *map = s->rope_index + s->cell_map;
     uint32_t c[3];
     for (int a = 0; a < 3; ++a) {
         double q = floor((double)s->leaves[li].lo[a] / (double)s->desc.cell_size + 0.5);
         c[a] = q < 0.0 ? 0u : q >= (double)s->cells[a] ? s->cells[a] - 1u : (uint32_t)q;
     }
     uint32_t i = c[0] + s->cells[0] * (c[1] + s->cells[1] * c[2]);
-    if (VIS_CELL_LEAF(*cell_entry(s, i)) == li)
+    if (VIS_CELL_LEAF(map[i]) == li)
         return i;
-    for (i = 0; i < s->leaf_count && VIS_CELL_LEAF(*cell_entry(s, i)) != li; ++i) {
+    for (i = 0; i < s->leaf_count && VIS_CELL_LEAF(map[i]) != li; ++i) {
     }
     return i;
 }
@@ -445,15 +433,26 @@ static int lower_clearance(uint32_t *e, uint32_t c)
 }
 
 /* The clearance of every cell is min(VIS_CELL_CLEAR_MAX, its Chebyshev distance in cells to
- * the nearest cell whose leaf holds primitives). When the leaf of cell i gets its first, each cell
+ * the nearest cell whose leaf holds primitives). When leaf li gets its first, each cell
  * at distance r < VIS_CELL_CLEAR_MAX takes min(its own, r), shell by shell outwards. The
  * clearances are 1-Lipschitz (a minimum of distances): when no cell of shell r changed, each
  * cell of shell r + 1 has a neighbour in shell r with a clearance <= r, so its own is <= r + 1
  * already, and the walk stops there. Only the steps after an edit that fills an empty cell
- * pay this; a leaf emptied again raises them (leaf_emptied). */
-static void leaf_filled(vis_scene *s, uint32_t i)
+ * pay this; a leaf emptied again raises them (vis_kdtree_leaf_emptied). */
+void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li)
 {
+    if (!s->cell_map)
+        return;
     const int64_t n[3] = {s->cells[0], s->cells[1], s->cells[2]};
+    uint32_t *map = s->rope_index + s->cell_map;
+    uint32_t i = leaf_cell_index(s, li);
+    if (i >= s->leaf_count) { /* cannot happen (see leaf_cell_index); no clearance is then safe */
+        for (i = 0; i < s->leaf_count; ++i)
+            lower_clearance(&map[i], 0u);
+        const uint32_t first[3] = {0, 0, 0}, last[3] = {s->cells[0] - 1u, s->cells[1] - 1u, s->cells[2] - 1u};
+        widen_dirty_map(s, first, last);
+        return;
+    }
     int64_t c[3];
     cell_coords(s, i, c);
     int64_t lo[3], hi[3];
@@ -466,15 +465,15 @@ static void leaf_filled(vis_scene *s, uint32_t i)
         int changed = 0;
         for (int64_t z = lo[2]; z <= hi[2]; ++z)
             for (int64_t y = lo[1]; y <= hi[1]; ++y) {
-                uint32_t *row = cell_entry_at(s, 0, (uint64_t)y, (uint64_t)z);
+                uint32_t *row = map + s->cells[0] * ((uint64_t)y + s->cells[1] * (uint64_t)z);
                 if (z == c[2] - r || z == c[2] + r || y == c[1] - r || y == c[1] + r) {
                     for (int64_t x = lo[0]; x <= hi[0]; ++x)
-                        changed |= lower_clearance(&row[VIS_CELL_WORDS * x], (uint32_t)r);
+                        changed |= lower_clearance(&row[x], (uint32_t)r);
                 } else { /* inside the shell on y and z: only its two x faces */
                     if (c[0] - r >= 0)
-                        changed |= lower_clearance(&row[VIS_CELL_WORDS * (c[0] - r)], (uint32_t)r);
+                        changed |= lower_clearance(&row[c[0] - r], (uint32_t)r);
                     if (r > 0 && c[0] + r < n[0])
-                        changed |= lower_clearance(&row[VIS_CELL_WORDS * (c[0] + r)], (uint32_t)r);
+                        changed |= lower_clearance(&row[c[0] + r], (uint32_t)r);
                 }
             }
         if (!changed)
@@ -526,13 +525,19 @@ static void clearance_pass(const uint8_t *src, uint8_t *dst, const int64_t m[3],
             }
 }
 
-/* When the leaf of cell ci has lost its last primitive, the clearances within CLEAR_REACH of its cell
+/* When leaf li has lost its last primitive, the clearances within CLEAR_REACH of its cell
  * are computed again from the cells within twice that (a distance transform over at most
  * CLEAR_REGION^3 cells, 2,197 at the cap of 4), so every clearance stays what
- * leaf_filled's comment says: the distance to the nearest cell with primitives now. Only the
- * edits that empty a cell pay this. */
-static void leaf_emptied(vis_scene *s, uint32_t ci)
+ * vis_kdtree_leaf_filled's comment says: the distance to the nearest cell with primitives
+ * now. Only the edits that empty a cell pay this. */
+void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li)
 {
+    if (!s->cell_map)
+        return;
+    uint32_t *map = s->rope_index + s->cell_map;
+    uint32_t ci = leaf_cell_index(s, li);
+    if (ci >= s->leaf_count)
+        return; /* cannot happen (see leaf_cell_index); the clearances only stay lower */
     int64_t c[3];
     cell_coords(s, ci, c);
     /* The region (lo, m: its corner and size in the map), and in its own coordinates the
@@ -547,16 +552,15 @@ static void leaf_emptied(vis_scene *s, uint32_t ci)
         ihi[a] = (c[a] + CLEAR_REACH > hi ? hi : c[a] + CLEAR_REACH) - lo[a];
     }
     /* The map says which cells hold primitives: a clearance of 0 is a cell's own (every
-     * clearance is exact, this function and leaf_filled keep it so; after their
+     * clearance is exact, this function and vis_kdtree_leaf_filled keep it so; after their
      * fallbacks some are lower, which only keeps more of them low), but for the cell that has
      * just emptied. */
     uint8_t d[2][CLEAR_REGION * CLEAR_REGION * CLEAR_REGION];
     for (int64_t z = 0; z < m[2]; ++z)
         for (int64_t y = 0; y < m[1]; ++y) {
-            const uint32_t *row = cell_entry_at(s, (uint64_t)lo[0], (uint64_t)(lo[1] + y), (uint64_t)(lo[2] + z));
+            const uint32_t *row = map + (uint64_t)lo[0] + s->cells[0] * ((uint64_t)(lo[1] + y) + s->cells[1] * (uint64_t)(lo[2] + z));
             for (int64_t x = 0; x < m[0]; ++x)
-                d[0][x + m[0] * (y + m[1] * z)] =
-                    VIS_CELL_CLEAR(row[VIS_CELL_WORDS * x]) ? (uint8_t)VIS_CELL_CLEAR_MAX : 0u;
+                d[0][x + m[0] * (y + m[1] * z)] = VIS_CELL_CLEAR(row[x]) ? (uint8_t)VIS_CELL_CLEAR_MAX : 0u;
         }
     d[0][(c[0] - lo[0]) + m[0] * ((c[1] - lo[1]) + m[1] * (c[2] - lo[2]))] = (uint8_t)VIS_CELL_CLEAR_MAX;
     /* x for the changing columns of every row, then y for those of every plane, then z. */
@@ -570,7 +574,8 @@ static void leaf_emptied(vis_scene *s, uint32_t ci)
     for (int64_t z = ilo[2]; z <= ihi[2]; ++z)
         for (int64_t y = ilo[1]; y <= ihi[1]; ++y)
             for (int64_t x = ilo[0]; x <= ihi[0]; ++x) {
-                uint32_t *e = cell_entry_at(s, (uint64_t)(lo[0] + x), (uint64_t)(lo[1] + y), (uint64_t)(lo[2] + z));
+                uint32_t *e = &map[(uint64_t)(lo[0] + x) +
+                                   s->cells[0] * ((uint64_t)(lo[1] + y) + s->cells[1] * (uint64_t)(lo[2] + z))];
                 uint32_t v = d[1][x + m[0] * (y + m[1] * z)];
                 if (VIS_CELL_CLEAR(*e) == v)
                     continue;
@@ -578,60 +583,6 @@ static void leaf_emptied(vis_scene *s, uint32_t ci)
                 const uint32_t p[3] = {(uint32_t)(lo[0] + x), (uint32_t)(lo[1] + y), (uint32_t)(lo[2] + z)};
                 widen_dirty_map(s, p, p);
             }
-}
-
-/* Leaf lf's box word (trace_core.h, VIS_CELL_WORDS): what vis_leaf_prepare would read of
- * its header to clip a ray to its content box, decided here once. */
-static uint32_t cell_box_word(const vis_flat_leaf *lf)
-{
-    if (!vis_leaf_has_primitives(lf))
-        return 0u;
-    if (lf->loose_count | lf->tri_count)
-        return VIS_CELL_HEADER;
-    const uint32_t E[3] = {lf->dims_xy & 0xFFFFu, lf->dims_xy >> 16, lf->dims_z};
-    uint32_t w = VIS_CELL_BOXED;
-    for (uint32_t a = 0; a < 3u; ++a) {
-        uint32_t bl = VIS_BOX_FIELD(lf->content_box, a), bh = VIS_BOX_FIELD(lf->content_box, a + 3u);
-        if (bh == VIS_PQ_COORD_MAX && E[a] > bh) { /* saturated: up to the last plane */
-            if (bl != 0u)
-                return VIS_CELL_HEADER; /* a slab the word cannot hold */
-            bh = E[a];
-        }
-        if (bl == 0u && bh >= E[a]) /* spans the leaf: vis_leaf_prepare skips the slab */
-            w |= VIS_PQ_COORD_MAX << (5u * a);
-        else
-            w |= bl << (5u * a) | bh << (5u * (a + 3u));
-    }
-    return w;
-}
-
-void vis_kdtree_leaf_changed(vis_scene *s, uint32_t li, int was_empty)
-{
-    if (!s->cell_map)
-        return;
-    const vis_flat_leaf *lf = &s->leaves[li];
-    uint32_t i = leaf_cell_index(s, li);
-    if (i >= s->leaf_count) { /* cannot happen (see leaf_cell_index); no clearance is then safe */
-        for (i = 0; i < s->leaf_count; ++i) {
-            lower_clearance(cell_entry(s, i), 0u);
-            cell_entry(s, i)[1] = VIS_CELL_HEADER; /* every leaf through its header */
-        }
-        const uint32_t first[3] = {0, 0, 0}, last[3] = {s->cells[0] - 1u, s->cells[1] - 1u, s->cells[2] - 1u};
-        widen_dirty_map(s, first, last);
-        return;
-    }
-    if (was_empty && vis_leaf_has_primitives(lf))
-        leaf_filled(s, i);
-    else if (!was_empty && !vis_leaf_has_primitives(lf))
-        leaf_emptied(s, i);
-    uint32_t *e = cell_entry(s, i), w = cell_box_word(lf);
-    if (e[1] == w)
-        return;
-    e[1] = w;
-    int64_t c[3];
-    cell_coords(s, i, c);
-    const uint32_t p[3] = {(uint32_t)c[0], (uint32_t)c[1], (uint32_t)c[2]};
-    widen_dirty_map(s, p, p);
 }
 
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)

@@ -33,12 +33,15 @@ vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vi
  * afterwards); sets s->kd_depth, node, leaf and rope counts. */
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan);
 
-/* Brings the cell map up to date after leaf li was rebuilt (was_empty: whether it held no
- * primitive before): its cell's second word (trace_core.h, VIS_CELL_WORDS), and the
- * clearances (VIS_CELL_CLEAR) around it when it got its first primitives or lost its last.
- * Widens the box of changed cells (s->dirty_map_lo/hi) over every entry it changed. Nothing
- * without a cell map. */
-void vis_kdtree_leaf_changed(vis_scene *s, uint32_t li, int was_empty);
+/* Lowers the cell map's clearances (trace_core.h, VIS_CELL_CLEAR) around leaf li, which has
+ * just got its first primitives, and widens the box of changed cells (s->dirty_map_lo/hi)
+ * over them. Nothing without a cell map. */
+void vis_kdtree_leaf_filled(vis_scene *s, uint32_t li);
+
+/* Raises the clearances around leaf li, which has just lost its last primitive, to what the
+ * cells around them hold now, and widens the box of changed cells over them. Nothing without
+ * a cell map. */
+void vis_kdtree_leaf_emptied(vis_scene *s, uint32_t li);
 
 /* Leaf indices overlapped by the box (see kdtree.c for the boundary rule). Writes at most
  * `cap` and returns the total count. */

@@ -186,15 +186,13 @@ void vis_scene_desc_defaults(vis_scene_desc *desc)
  * its entry in the dirty list. Per rope entry: the rope node. For the default 16-voxel cells
  * the leaf headers (64 + 40 + 4 bytes) and the ropes (56 bytes per node, about two nodes per
  * leaf) make up nine tenths of an empty scene. Per cell_map entry (one per leaf at full
- * depth): its VIS_CELL_WORDS words, after a word of padding where the node count is odd
- * (kdtree.c, build_ropes). */
+ * depth): its leaf index. */
 uint64_t vis_scene_tree_bytes(uint64_t nodes, uint64_t leaves, uint64_t ropes, uint64_t cell_map)
 {
     uint64_t b = sizeof(vis_scene);
     b = vis_sat_add(b, vis_sat_mul(nodes, sizeof(vis_kd_node) + sizeof(uint32_t)));
     b = vis_sat_add(b, vis_sat_mul(leaves, sizeof(vis_flat_leaf) + sizeof(vis_leaf_host) + sizeof(uint32_t)));
-    if (cell_map)
-        b = vis_sat_add(b, vis_sat_mul(vis_sat_add(vis_sat_mul(cell_map, VIS_CELL_WORDS), nodes & 1u), sizeof(uint32_t)));
+    b = vis_sat_add(b, vis_sat_mul(cell_map, sizeof(uint32_t)));
     return vis_sat_add(b, vis_sat_mul(ropes, sizeof(vis_rope_node)));
 }
 
@@ -846,7 +844,10 @@ static vis_status rebuild_leaf(vis_scene *s, uint32_t li, const pending_edit *pe
                 s->tris[lf->tri_offset + t_out++] = oh->tris[t];
     }
     lf->tri_count = t_out;
-    vis_kdtree_leaf_changed(s, li, was_empty);
+    if (was_empty && vis_leaf_has_primitives(lf))
+        vis_kdtree_leaf_filled(s, li);
+    else if (!was_empty && !vis_leaf_has_primitives(lf))
+        vis_kdtree_leaf_emptied(s, li);
     vis_scene_mark_leaf(s, li);
     return VIS_OK;
 }
@@ -1524,7 +1525,7 @@ vis_scene_view vis_scene_get_view(const vis_scene *s)
     v.ropes = s->ropes;
     v.rope_count = s->rope_count;
     v.rope_index = s->rope_index;
-    v.rope_index_count = s->cell_map ? s->cell_map + VIS_CELL_WORDS * s->leaf_count : s->node_count;
+    v.rope_index_count = s->node_count + (s->cell_map ? s->leaf_count : 0u);
     memcpy(v.cells, s->cells, sizeof v.cells);
     v.cell_map = s->cell_map;
     v.cell_size = s->desc.cell_size;

@@ -74,11 +74,9 @@ struct vis_scene {
     vis_rope_node *ropes;     /* rope nodes (built with the tree), see trace_core.h         */
     uint32_t rope_count;
     uint32_t *rope_index;     /* node -> rope entry or VIS_NO_ROPE; at full depth, then the
-                                 cell map: rope_index[cell_map + VIS_CELL_WORDS * cell] = the
-                                 cell's entry (trace_core.h)                                 */
+                                 cell map: rope_index[cell_map + cell] = the cell's leaf     */
     uint32_t cells[3];        /* the cell grid the tree splits (kdtree.c)                    */
-    uint32_t cell_map;        /* node_count rounded up to even at full depth (every leaf one
-                                 cell), else 0                                               */
+    uint32_t cell_map;        /* node_count at full depth (every leaf one cell), else 0      */
     uint32_t *buckets;        /* per-leaf bucket tables, allocated on first use              */
     uint32_t bucket_count, bucket_cap;
 

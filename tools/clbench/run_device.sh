@@ -284,7 +284,7 @@ fi
 
 if [ "$PHASE" = 16 ]; then
   gpu_test() { # gpu_test DIR: test_opencl of that build
-    timeout 150 $1/test_opencl > "$O/test_gpu_${1#.}.log" 2>&1; echo "$1 test_opencl rc=$?"
+    timeout 300 $1/test_opencl > "$O/test_gpu_${1#.}.log" 2>&1; echo "$1 test_opencl rc=$?"
     grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu_${1#.}.log"
   }
   gpu_conformance() { # gpu_conformance DIR: the bit-for-bit comparison of that build
