@@ -75,6 +75,36 @@ query_ms() { # query_ms VIS SCENE REPLAY OPTIONS...: the summary's chunk rays an
 compile_gpu() { # one run first, so that the driver's cache holds the programs the timed runs use
   ./vis query --scene gen:maze --replay replays/$1.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1
 }
+# The A/B helpers take build folders: . (this tree, shown as "new"), old/ (a parent's build),
+# b2/, b3/ (candidates); a folder without the binary is left out.
+build_name() { [ "$1" = . ] && echo new || echo "$1"; }
+gpu_test() { # gpu_test DIR LIMIT_S: test_opencl of that build
+  local n=${1#.}
+  timeout $2 $1/test_opencl > "$O/test_gpu${n:+_$n}.log" 2>&1; echo "$(build_name $1) test_opencl rc=$?"
+  grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu${n:+_$n}.log"
+}
+gpu_conformance() { # gpu_conformance DIR: the bit-for-bit comparison of that build
+  local n=${1#.}
+  timeout 150 $1/vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 \
+    > "$O/conf${n:+_$n}.log" 2>&1
+  echo "$(build_name $1) conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf${n:+_$n}.log" | tail -3
+}
+batch_rounds() { # batch_rounds DIR...: batches of 256 with draw lists, gen:default and gen:large, two rounds
+  for s in gen:default gen:large; do for round in 1 2; do for b in "$@"; do
+    [ -x $b/vis_clbench ] || continue
+    echo "$s batch 256, $(build_name $b), round $round: $(timeout 60 $b/vis_clbench --scene $s --device NVIDIA \
+      --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
+  done; done; done
+}
+view_rounds() { # view_rounds DIR...: one view per camera of gen:default, two rounds
+  for round in 1 2; do for b in "$@"; do
+    [ -x $b/vis_clbench ] || continue
+    local n=$(build_name $b)
+    timeout 60 $b/vis_clbench --device NVIDIA --conformance 0 --drawlist 1 --reps 10 > "$O/views_${n}_$round.log" 2>&1
+    echo "gen:default one view, $n, round $round (rc=$?):"
+    grep -E "^(default|ground|horizon|overview|topdown|walk-)" "$O/views_${n}_$round.log"
+  done; done
+}
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm --format=csv
 date -u
 
@@ -165,25 +195,15 @@ if [ "$PHASE" = 4 ]; then
 fi
 if [ "$PHASE" = 5 ]; then
   echo "== test_opencl"
-  timeout 150 ./test_opencl > "$O/test_gpu.log" 2>&1; echo "test_opencl rc=$?"
-  grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu.log"
-  timeout 150 ./vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 > "$O/conf.log" 2>&1
-  echo "conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf.log" | tail -3
-  B="new"; [ -x old/vis_clbench ] && B="new old" # old/: a parent's build, when there is one
-  for s in gen:default gen:large; do for round in 1 2; do for b in $B; do
-    c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
-    echo "$s batch 256, $b, round $round: $(timeout 60 $c --scene $s --device NVIDIA --conformance 0 --passes 0 \
-      --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
-  done; done; done
-  for round in 1 2; do for b in $B; do
-    c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
-    timeout 60 $c --device NVIDIA --conformance 0 --drawlist 1 --reps 10 > "$O/views_${b}_$round.log" 2>&1
-    echo "gen:default one view, $b, round $round (rc=$?):"; grep -E "^(default|ground|horizon|overview|topdown|walk-)" "$O/views_${b}_$round.log"
-  done; done
-  for b in $B; do
-    c=./vis_clbench; [ $b = old ] && c=old/vis_clbench
-    timeout 90 $c --device NVIDIA --conformance 0 --passes 0 --methods 1 --reps 10 > "$O/methods_$b.log" 2>&1
-    echo "gen:default methods, $b (rc=$?):"; cat "$O/methods_$b.log" | tail -25
+  gpu_test . 150
+  gpu_conformance .
+  batch_rounds . old
+  view_rounds . old
+  for b in . old; do
+    [ -x $b/vis_clbench ] || continue
+    n=$(build_name $b)
+    timeout 90 $b/vis_clbench --device NVIDIA --conformance 0 --passes 0 --methods 1 --reps 10 > "$O/methods_$n.log" 2>&1
+    echo "gen:default methods, $n (rc=$?):"; cat "$O/methods_$n.log" | tail -25
   done
 fi
 if [ "$PHASE" = 7 ]; then
@@ -283,34 +303,14 @@ if [ "$PHASE" = 14 ]; then
 fi
 
 if [ "$PHASE" = 16 ]; then
-  gpu_test() { # gpu_test DIR: test_opencl of that build
-    timeout 300 $1/test_opencl > "$O/test_gpu_${1#.}.log" 2>&1; echo "$1 test_opencl rc=$?"
-    grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu_${1#.}.log"
-  }
-  gpu_conformance() { # gpu_conformance DIR: the bit-for-bit comparison of that build
-    timeout 150 $1/vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 > "$O/conf_${1#.}.log" 2>&1
-    echo "$1 conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf_${1#.}.log" | tail -3
-  }
-  gpu_test .
-  B="."; for d in old b2 b3; do [ -x $d/vis_clbench ] && B="$B $d"; done
-  for s in gen:default gen:large; do for round in 1 2; do for b in $B; do
-    echo "$s batch 256, $b, round $round: $(timeout 60 $b/vis_clbench --scene $s --device NVIDIA --conformance 0 \
-      --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
-  done; done; done
-  for round in 1 2; do for b in $B; do
-    timeout 60 $b/vis_clbench --device NVIDIA --conformance 0 --drawlist 1 --reps 10 > "$O/views_${b#.}_$round.log" 2>&1
-    echo "gen:default one view, $b, round $round (rc=$?):"
-    grep -E "^(default|ground|horizon|overview|topdown|walk-)" "$O/views_${b#.}_$round.log"
-  done; done
-  for d in b2 b3; do [ -x $d/test_opencl ] && gpu_test $d; done
+  gpu_test . 300
+  batch_rounds . old b2 b3
+  view_rounds . old b2 b3
+  for d in b2 b3; do [ -x $d/test_opencl ] && gpu_test $d 300; done
   for d in . b2 b3; do [ -x $d/vis_clbench ] && gpu_conformance $d; done
 fi
 if [ "$PHASE" = 17 ]; then
-  for s in gen:default gen:large; do for round in 1 2; do for b in . old; do
-    [ -x $b/vis_clbench ] || continue
-    echo "$s batch 256, $b, round $round: $(timeout 60 $b/vis_clbench --scene $s --device NVIDIA --conformance 0 \
-      --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
-  done; done; done
+  batch_rounds . old
 fi
 if [ "$PHASE" = 15 ]; then
   for s in gen:default gen:default gen:large; do
