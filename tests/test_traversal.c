@@ -964,9 +964,7 @@ static void test_content_box_spanning_the_leaf(void **state)
             vis_scene_desc_defaults(&d);
             memcpy(d.size, w.size, sizeof d.size);
             d.cell_size = 32.0f;
-            assert_int_equal(vis_scene_create(ctx, &d, &scene), VIS_OK);
-            for (uint32_t i = 0; i < w.n; ++i)
-                set_obj(scene, &w.objs[i]);
+            scene = make_scene_desc(ctx, &w, &d);
             /* both saturated kinds occur: a slab that narrows, and one that spans the leaf */
             int narrows = 0, spans = 0;
             for (uint32_t li = 0; li < scene->leaf_count; ++li) {
@@ -981,7 +979,7 @@ static void test_content_box_spanning_the_leaf(void **state)
             assert_true(scene->cell_map != 0u && narrows > 0 && spans > 0);
         }
         char what[64];
-        snprintf(what, sizeof what, "walls, kd_depth %u, cells of %g", depths[wi], (double)(wi < 3 ? 16.0 : 32.0));
+        snprintf(what, sizeof what, "walls, kd_depth %u, cells of %g", depths[wi], (double)scene->desc.cell_size);
         check_ray_stream(scene, &w, &rng, rays, box_edge_ray, 0, what);
         check_ray_stream(scene, &w, &rng, rays, aimed_ray, 0, what);
         check_ray_stream(scene, &w, &rng, rays / 4, grid_ray, 0, what);

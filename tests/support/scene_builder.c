@@ -123,8 +123,13 @@ vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3],
     if (origin)
         memcpy(d.origin, origin, sizeof d.origin);
     d.kd_depth = kd_depth;
+    return make_scene_desc(ctx, w, &d);
+}
+
+vis_scene *make_scene_desc(vis_context *ctx, const tworld *w, const vis_scene_desc *d)
+{
     vis_scene *s = NULL;
-    if (vis_scene_create(ctx, &d, &s) != VIS_OK)
+    if (vis_scene_create(ctx, d, &s) != VIS_OK)
         fail_msg("vis_scene_create: %s", vis_context_last_error(ctx));
     for (uint32_t i = 0; i < w->n; ++i)
         set_obj(s, &w->objs[i]);

@@ -50,6 +50,8 @@ vis_scene *make_cube_scene(vis_context *ctx, float side);
 void set_obj(vis_scene *s, const tobj *o);
 /* A scene over [0, w->size] (origin may be NULL) holding every object; fails the test on error. */
 vis_scene *make_scene(vis_context *ctx, const tworld *w, const double origin[3], uint32_t kd_depth);
+/* A scene of desc d holding every object of w; fails the test on error. */
+vis_scene *make_scene_desc(vis_context *ctx, const tworld *w, const vis_scene_desc *d);
 
 /* Random worlds (vt_rand streams, so a seed gives the same world everywhere). */
 /* What a random chunk world holds (see random_chunk_world for the default). */
