@@ -57,6 +57,12 @@
 #                        the candidates and the bit-for-bit comparison of every build
 #   run_device.sh 17     batches of 256 with draw lists on gen:default and gen:large, this
 #                        tree against a parent's build in old/, alternated, two rounds
+#   run_device.sh 18     the content box in the cell map with one plane walk (a build of
+#                        70a032e in b2/) against this tree: the dda program's registers and
+#                        spills under ptxas, uncapped and at the batch cap of 72; batches of
+#                        256 on gen:default and gen:large and one view per camera of
+#                        gen:default, alternated, two rounds; then the candidate's
+#                        bit-for-bit comparison
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -308,6 +314,16 @@ if [ "$PHASE" = 16 ]; then
   view_rounds . old b2 b3
   for d in b2 b3; do [ -x $d/test_opencl ] && gpu_test $d 300; done
   for d in . b2 b3; do [ -x $d/vis_clbench ] && gpu_conformance $d; done
+fi
+if [ "$PHASE" = 18 ]; then
+  for d in . b2; do for cap in "" -cl-nv-maxrregcount=72; do
+    echo "== ptxas, $(build_name $d), dda program, options '$cap'"
+    VIS_CLBENCH_NV_ONLY=9 VIS_OPENCL_BUILD_OPTIONS=$cap timeout 60 $d/vis_clbench --nv-verbose 1 2>&1 |
+      grep -E "Function properties|spill|Used [0-9]+ registers"
+  done; done
+  batch_rounds . b2
+  view_rounds . b2
+  gpu_conformance b2
 fi
 if [ "$PHASE" = 17 ]; then
   batch_rounds . old

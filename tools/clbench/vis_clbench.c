@@ -30,7 +30,8 @@
  * alone.
  * With --nv-verbose 1 it only prints NVIDIA's kernel build log with -cl-nv-verbose
  * (registers, spills, stack per kernel), for the program of every method, and with
- * $VIS_CLBENCH_PTX=DIR writes each program's binary (PTX on NVIDIA) into DIR.
+ * $VIS_CLBENCH_PTX=DIR writes each program's binary (PTX on NVIDIA) into DIR;
+ * $VIS_CLBENCH_NV_ONLY=N builds only method N's plain program (fewer builds per device call).
  *
  * Built as the CMake target vis_clbench whenever the OpenCL backend is (docs/opencl.md). */
 #define _POSIX_C_SOURCE 200809L
@@ -217,7 +218,10 @@ static void nv_verbose(void)
                                            "-DVIS_CL_POSTPONE=1", "-DVIS_CL_POSTPONE=2",
                                            "-DVIS_CL_POSTPONE=2 -DVIS_CL_VOTE",
                                            "-DVIS_CL_POSTPONE=2 -DVIS_CL_PERSISTENT"};
+        const char *one = getenv("VIS_CLBENCH_NV_ONLY");
         for (size_t m = 0; m < sizeof only / sizeof only[0]; ++m) {
+            if (one && (walk[m][0] != '\0' || only[m] != atoi(one)))
+                continue;
             char opts[512];
             snprintf(opts, sizeof opts,
                      "-cl-fp32-correctly-rounded-divide-sqrt -cl-nv-verbose -DVIS_TRAVERSAL_ONLY=%du %s %s", only[m],
