@@ -58,11 +58,12 @@
 #   run_device.sh 17     batches of 256 with draw lists on gen:default and gen:large, this
 #                        tree against a parent's build in old/, alternated, two rounds
 #   run_device.sh 18     the content box in the cell map with one plane walk (a build of
-#                        70a032e in b2/) against this tree: the dda program's registers and
-#                        spills under ptxas, uncapped and at the batch cap of 72; batches of
-#                        256 on gen:default and gen:large and one view per camera of
-#                        gen:default, alternated, two rounds; then the candidate's
-#                        bit-for-bit comparison
+#                        70a032e in b2/) and persistent groups that ask for their next tile
+#                        one tile ahead (b3/) against this tree: the dda program's registers
+#                        and spills under ptxas, uncapped and at the batch cap of 72; batches
+#                        of 256 on gen:default and gen:large (all three) and one view per
+#                        camera of gen:default (this tree and b2), alternated, two rounds;
+#                        then the candidates' bit-for-bit comparisons
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -321,8 +322,9 @@ if [ "$PHASE" = 18 ]; then
     VIS_CLBENCH_NV_ONLY=9 VIS_OPENCL_BUILD_OPTIONS=$cap timeout 60 $d/vis_clbench --nv-verbose 1 2>&1 |
       grep -E "Function properties|spill|Used [0-9]+ registers"
   done; done
-  batch_rounds . b2
+  batch_rounds . b2 b3
   view_rounds . b2
+  gpu_conformance b3
   gpu_conformance b2
 fi
 if [ "$PHASE" = 17 ]; then
