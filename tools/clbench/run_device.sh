@@ -86,14 +86,16 @@ compile_gpu() { # one run first, so that the driver's cache holds the programs t
   ./vis query --scene gen:maze --replay replays/$1.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1
 }
 # The A/B helpers take build folders: . (this tree, shown as "new"), old/ (a parent's build),
-# b2/, b3/ (candidates); a folder without the binary is left out.
+# b2/, b3/, b4/ (candidates); a folder without the binary is left out.
 build_name() { [ "$1" = . ] && echo new || echo "$1"; }
 gpu_test() { # gpu_test DIR LIMIT_S: test_opencl of that build
+  [ -x $1/test_opencl ] || return 0
   local n=${1#.}
   timeout $2 $1/test_opencl > "$O/test_gpu${n:+_$n}.log" 2>&1; echo "$(build_name $1) test_opencl rc=$?"
   grep -E "PASSED|FAILED|cameras compared" "$O/test_gpu${n:+_$n}.log"
 }
 gpu_conformance() { # gpu_conformance DIR: the bit-for-bit comparison of that build
+  [ -x $1/vis_clbench ] || return 0
   local n=${1#.}
   timeout 150 $1/vis_clbench --device NVIDIA --cameras 20 --reps 5 --drawlist 1 --batch 1,7,256 \
     > "$O/conf${n:+_$n}.log" 2>&1
@@ -316,8 +318,8 @@ if [ "$PHASE" = 16 ]; then
   gpu_test . 300
   batch_rounds . old b2 b3
   view_rounds . old b2 b3
-  for d in b2 b3; do [ -x $d/test_opencl ] && gpu_test $d 300; done
-  for d in . b2 b3; do [ -x $d/vis_clbench ] && gpu_conformance $d; done
+  for d in b2 b3; do gpu_test $d 300; done
+  for d in . b2 b3; do gpu_conformance $d; done
 fi
 if [ "$PHASE" = 18 ]; then
   for d in . b2; do for cap in "" -cl-nv-maxrregcount=72; do
@@ -329,7 +331,7 @@ if [ "$PHASE" = 18 ]; then
   view_rounds . b2 b4
 fi
 if [ "$PHASE" = 18 ] || [ "$PHASE" = 19 ]; then
-  for d in b3 b4 b2; do [ -x $d/vis_clbench ] && gpu_conformance $d; done
+  for d in b3 b4 b2; do gpu_conformance $d; done
 fi
 if [ "$PHASE" = 17 ]; then
   batch_rounds . old
