@@ -60,12 +60,13 @@
 #   run_device.sh 18     the content box in the cell map with one plane walk (a build of
 #                        70a032e in b2/) and persistent groups that ask for their next tile
 #                        one tile ahead (b3/) and the dda walk prefetching the next cell's map
-#                        entry (b4/) against this tree: the dda program's registers and
-#                        spills under ptxas (tree and b2), uncapped and at the batch cap of
-#                        72; batches of 256 on gen:default and gen:large (all four) and one
+#                        entry (b4/), and both of the last two together (b5/), against this
+#                        tree: the dda program's registers and spills under ptxas (tree and
+#                        b2), uncapped and at the batch cap of 72; batches of 256 on
+#                        gen:default and gen:large (all five) and one
 #                        view per camera of gen:default (tree, b2, b4), alternated, two
 #                        rounds; then the candidates' bit-for-bit comparisons
-#   run_device.sh 19     the bit-for-bit comparisons of b3/, b4/ and b2/ alone (what phase 18
+#   run_device.sh 19     the bit-for-bit comparisons of b3/, b4/, b5/ and b2/ alone (what phase 18
 #                        leaves when it runs out of time)
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
@@ -327,11 +328,11 @@ if [ "$PHASE" = 18 ]; then
     VIS_CLBENCH_NV_ONLY=9 VIS_OPENCL_BUILD_OPTIONS=$cap timeout 60 $d/vis_clbench --nv-verbose 1 2>&1 |
       grep -E "Function properties|spill|Used [0-9]+ registers"
   done; done
-  batch_rounds . b2 b3 b4
+  batch_rounds . b2 b3 b4 b5
   view_rounds . b2 b4
 fi
 if [ "$PHASE" = 18 ] || [ "$PHASE" = 19 ]; then
-  for d in b3 b4 b2; do gpu_conformance $d; done
+  for d in b3 b4 b5 b2; do gpu_conformance $d; done
 fi
 if [ "$PHASE" = 17 ]; then
   batch_rounds . old
