@@ -590,9 +590,17 @@ static void test_bench_json(void **state)
     r = vt_run(VIS_EXE, tmp_dir, "VIS_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1",
                "bench --scene %s --res 32x32 --frames 1 --edits 5 --threads 2 --compare embree --json", SMALL);
     if (r.code == 0) {
-        static const char *const ekeys[] = {"embree", "single_ms", "stream_ms", "ratio", "recommit_ms",
-                                            "diff_pixels_single", NULL};
+        static const char *const ekeys[] = {"embree",      "single_ms",         "stream_ms",          "ratio",
+                                            "recommit_ms", "diff_pixels_single", "static_bytes",       "dynamic_bytes",
+                                            "scene_bytes", NULL};
         assert_keys(r.out, ekeys);
+        /* Embree's memory holds at least its own copy of the quads: four 12-byte vertices
+         * each and a 12-byte index triple per triangle (two per quad), 36 bytes a triangle. */
+        double triangles = json_num(r.out, "triangles");
+        assert_true(triangles > 0.0);
+        assert_true(json_num(r.out, "static_bytes") >= 36.0 * triangles);
+        assert_true(json_num(r.out, "dynamic_bytes") >= 36.0 * triangles);
+        assert_true(json_num(r.out, "scene_bytes") > 0.0);
     } else {
         vt_assert_exit(r, 2);
         assert_non_null(strstr(r.err, "not available"));

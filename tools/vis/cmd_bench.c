@@ -152,6 +152,17 @@ static int embree_pass(bench *b, size_t v, int stream, double *med, double *mn, 
     return CLI_EXIT_OK;
 }
 
+/* Embree's memory for the same quads next to the scene's own (vis_scene_info.bytes: every
+ * array the traced scene holds, at its capacity). */
+static void print_memory(const bench *b)
+{
+    double quads = b->info.quads ? (double)b->info.quads : 1.0, mb = 1024.0 * 1024.0;
+    uint64_t st = embree_compare_bytes(b->ec, 0), dy = embree_compare_bytes(b->ec, 1);
+    printf("  memory: static scene %.1f MB (%.1f bytes per quad), dynamic %.1f MB (%.1f); ours %.1f MB (%.1f)\n",
+           (double)st / mb, (double)st / quads, (double)dy / mb, (double)dy / quads, (double)b->info.bytes / mb,
+           (double)b->info.bytes / quads);
+}
+
 static int run_embree(bench *b)
 {
     const cli_args *a = b->a;
@@ -170,6 +181,7 @@ static int run_embree(bench *b)
                "dynamic in %.0f ms\n",
                "3", threads, (unsigned long long)embree_compare_triangles(b->ec), embree_compare_static_build_ms(b->ec),
                embree_compare_dynamic_build_ms(b->ec));
+        print_memory(b);
         printf("  %-10s %10s %10s %10s %12s %12s %9s %9s\n", "view", "single ms", "stream ms", "ours ms",
                "ours/single", "ours/stream", "diff px", "diff px");
         printf("  %-10s %10s %10s %10s %12s %12s %9s %9s\n", "", "(1M)", "(8x8 1M)", "", "", "", "single", "stream");
@@ -217,6 +229,7 @@ static void print_json(const bench *b)
     json_string(&w, "ids", vc_name_of(&vc_id_modes, (int)a->ids));
     json_uint(&w, "objects", b->info.objects);
     json_uint(&w, "quads", b->info.quads);
+    json_uint(&w, "scene_bytes", b->info.bytes);
     json_number(&w, "load_ms", b->world.load_ms);
     json_array_begin(&w, "configs");
     for (size_t i = 0; i < b->nconfigs; ++i) {
@@ -278,6 +291,8 @@ static void print_json(const bench *b)
         json_uint(&w, "triangles", embree_compare_triangles(b->ec));
         json_number(&w, "build_ms", embree_compare_static_build_ms(b->ec));
         json_number(&w, "dynamic_build_ms", embree_compare_dynamic_build_ms(b->ec));
+        json_uint(&w, "static_bytes", embree_compare_bytes(b->ec, 0));
+        json_uint(&w, "dynamic_bytes", embree_compare_bytes(b->ec, 1));
         double ours = 0.0, single = 0.0, stream = 0.0;
         uint64_t diff_single = 0, diff_stream = 0;
         json_array_begin(&w, "views");

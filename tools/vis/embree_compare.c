@@ -21,6 +21,12 @@ void embree_compare_destroy(embree_compare *ec) { (void)ec; }
 double embree_compare_static_build_ms(const embree_compare *ec) { (void)ec; return 0.0; }
 double embree_compare_dynamic_build_ms(const embree_compare *ec) { (void)ec; return 0.0; }
 uint64_t embree_compare_triangles(const embree_compare *ec) { (void)ec; return 0; }
+uint64_t embree_compare_bytes(const embree_compare *ec, int dynamic)
+{
+    (void)ec;
+    (void)dynamic;
+    return 0;
+}
 int embree_compare_trace(embree_compare *ec, const vis_camera *camera, uint32_t width, uint32_t height,
                          int stream, uint32_t *ids, double *ms, char *err, size_t err_size)
 {
@@ -88,6 +94,10 @@ struct embree_compare {
     uint64_t triangles;
     double static_ms, dynamic_ms;
     char error[256];
+    /* What the device holds for each scene (its geometry buffers and its BVH), summed by the
+     * memory monitor (on_memory) into the scene that `mem_scene` names while it builds. */
+    atomic_int mem_scene;      /* SCENE_STATIC or SCENE_DYNAMIC                            */
+    atomic_llong mem_bytes[2];
 
     /* The tile workers: the caller traces too; `started` others wait for a new generation. */
     uint32_t threads;
@@ -100,6 +110,19 @@ struct embree_compare {
     int quit;
     pass_job job;
 };
+
+enum { SCENE_STATIC, SCENE_DYNAMIC };
+
+/* Embree's memory monitor: every allocation and free of the device (negative bytes), each
+ * reported once, before (post = 0, when it may be refused) or after it; from any of the
+ * device's threads. Only one scene is built at a time, so what it allocates goes to that one. */
+static bool on_memory(void *user, ssize_t bytes, bool post)
+{
+    (void)post;
+    embree_compare *ec = user;
+    atomic_fetch_add(&ec->mem_bytes[atomic_load(&ec->mem_scene)], (long long)bytes);
+    return true;
+}
 
 static void on_error(void *user, enum RTCError code, const char *msg)
 {
@@ -179,6 +202,7 @@ static void add_object(uint32_t chunk, uint32_t id, const vw_mesh *mesh, void *u
         ec->geom_cap = cap;
     }
     double t0 = vc_now_ms();
+    atomic_store(&ec->mem_scene, SCENE_STATIC);
     RTCGeometry g = make_geometry(ec, b->quads, mesh->count, RTC_BUILD_QUALITY_HIGH);
     if (!g) {
         b->failed = 1;
@@ -187,6 +211,7 @@ static void add_object(uint32_t chunk, uint32_t id, const vw_mesh *mesh, void *u
     unsigned gid = rtcAttachGeometry(ec->scene, g);
     rtcReleaseGeometry(g);
     double t1 = vc_now_ms();
+    atomic_store(&ec->mem_scene, SCENE_DYNAMIC);
     RTCGeometry d = make_geometry(ec, b->quads, mesh->count, RTC_BUILD_QUALITY_MEDIUM);
     if (!d) {
         b->failed = 1;
@@ -335,6 +360,9 @@ int embree_compare_create(world_scene *ws, uint32_t threads, embree_compare **ou
         return -1;
     }
     ec->ctx = world_scene_context(ws);
+    atomic_init(&ec->mem_scene, SCENE_STATIC);
+    atomic_init(&ec->mem_bytes[SCENE_STATIC], 0);
+    atomic_init(&ec->mem_bytes[SCENE_DYNAMIC], 0);
     vw_world_info wi;
     vw_world_get_info(world_scene_world(ws), &wi);
     ec->dyn_cap = wi.chunk_count + 1;
@@ -356,6 +384,7 @@ int embree_compare_create(world_scene *ws, uint32_t threads, embree_compare **ou
         return -1;
     }
     rtcSetDeviceErrorFunction(ec->device, on_error, ec);
+    rtcSetDeviceMemoryMonitorFunction(ec->device, on_memory, ec);
     ec->scene = rtcNewScene(ec->device);
     rtcSetSceneFlags(ec->scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(ec->scene, RTC_BUILD_QUALITY_HIGH);
@@ -374,8 +403,10 @@ int embree_compare_create(world_scene *ws, uint32_t threads, embree_compare **ou
         return -1;
     }
     double t0 = vc_now_ms();
+    atomic_store(&ec->mem_scene, SCENE_STATIC);
     rtcCommitScene(ec->scene);
     double t1 = vc_now_ms();
+    atomic_store(&ec->mem_scene, SCENE_DYNAMIC); /* and the edits' replacements after it */
     rtcCommitScene(ec->dynamic);
     double t2 = vc_now_ms();
     ec->static_ms = b.static_ms + (t1 - t0);
@@ -443,6 +474,12 @@ void embree_compare_destroy(embree_compare *ec)
 double embree_compare_static_build_ms(const embree_compare *ec) { return ec->static_ms; }
 double embree_compare_dynamic_build_ms(const embree_compare *ec) { return ec->dynamic_ms; }
 uint64_t embree_compare_triangles(const embree_compare *ec) { return ec->triangles; }
+
+uint64_t embree_compare_bytes(const embree_compare *ec, int dynamic)
+{
+    long long n = atomic_load(&ec->mem_bytes[dynamic ? SCENE_DYNAMIC : SCENE_STATIC]);
+    return n > 0 ? (uint64_t)n : 0u;
+}
 
 double embree_compare_replace(embree_compare *ec, uint32_t id, const vis_quad *quads, size_t count)
 {
