@@ -158,7 +158,7 @@ static void print_memory(const bench *b)
 {
     double quads = b->info.quads ? (double)b->info.quads : 1.0, mb = 1024.0 * 1024.0;
     uint64_t st = embree_compare_bytes(b->ec, 0), dy = embree_compare_bytes(b->ec, 1);
-    printf("  memory: static scene %.1f MB (%.1f bytes per quad), dynamic %.1f MB (%.1f); ours %.1f MB (%.1f)\n",
+    printf("  memory: static scene %.1f MiB (%.1f bytes per quad), dynamic %.1f MiB (%.1f); ours %.1f MiB (%.1f)\n",
            (double)st / mb, (double)st / quads, (double)dy / mb, (double)dy / quads, (double)b->info.bytes / mb,
            (double)b->info.bytes / quads);
 }
