@@ -61,11 +61,11 @@
 #                        70a032e in b2/) and persistent groups that ask for their next tile
 #                        one tile ahead (b3/) and the dda walk prefetching the next cell's map
 #                        entry (b4/), and both of the last two together (b5/), against this
-#                        tree: the dda program's registers and spills under ptxas (tree and
-#                        b2), uncapped and at the batch cap of 72; batches of 256 on
-#                        gen:default and gen:large (all five) and one
-#                        view per camera of gen:default (tree, b2, b4), alternated, two
-#                        rounds; then the candidates' bit-for-bit comparisons
+#                        tree, alternated, two rounds: batches of 256 on gen:default (all
+#                        five), one view per camera of gen:default (tree, b2, b4), batches
+#                        on gen:large; then the dda program's registers and spills under
+#                        ptxas (tree and b2), uncapped and at the batch cap of 72, and the
+#                        candidates' bit-for-bit comparisons
 #   run_device.sh 19     the bit-for-bit comparisons of b3/, b4/, b5/ and b2/ alone (what phase 18
 #                        leaves when it runs out of time)
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
@@ -102,12 +102,16 @@ gpu_conformance() { # gpu_conformance DIR: the bit-for-bit comparison of that bu
     > "$O/conf${n:+_$n}.log" 2>&1
   echo "$(build_name $1) conformance rc=$?"; grep -E "RESULT|mismatch" "$O/conf${n:+_$n}.log" | tail -3
 }
-batch_rounds() { # batch_rounds DIR...: batches of 256 with draw lists, gen:default and gen:large, two rounds
-  for s in gen:default gen:large; do for round in 1 2; do for b in "$@"; do
+batch_rounds_on() { # batch_rounds_on SCENE DIR...: batches of 256 with draw lists, two rounds
+  local s=$1; shift
+  for round in 1 2; do for b in "$@"; do
     [ -x $b/vis_clbench ] || continue
     echo "$s batch 256, $(build_name $b), round $round: $(timeout 60 $b/vis_clbench --scene $s --device NVIDIA \
       --conformance 0 --passes 0 --drawlist 1 --reps 5 --batch 256 2>&1 | grep -E '^ +256' | tr -s ' ')"
-  done; done; done
+  done; done
+}
+batch_rounds() { # batch_rounds DIR...: batch_rounds_on gen:default, then gen:large
+  batch_rounds_on gen:default "$@"; batch_rounds_on gen:large "$@"
 }
 view_rounds() { # view_rounds DIR...: one view per camera of gen:default, two rounds
   for round in 1 2; do for b in "$@"; do
@@ -323,13 +327,15 @@ if [ "$PHASE" = 16 ]; then
   for d in . b2 b3; do gpu_conformance $d; done
 fi
 if [ "$PHASE" = 18 ]; then
+  # What the goal asks first (batches on gen:default), then the rest, in case time runs out.
+  batch_rounds_on gen:default . b2 b3 b4 b5
+  view_rounds . b2 b4
+  batch_rounds_on gen:large . b2 b3 b4 b5
   for d in . b2; do for cap in "" -cl-nv-maxrregcount=72; do
     echo "== ptxas, $(build_name $d), dda program, options '$cap'"
     VIS_CLBENCH_NV_ONLY=9 VIS_OPENCL_BUILD_OPTIONS=$cap timeout 60 $d/vis_clbench --nv-verbose 1 2>&1 |
       grep -E "Function properties|spill|Used [0-9]+ registers"
   done; done
-  batch_rounds . b2 b3 b4 b5
-  view_rounds . b2 b4
 fi
 if [ "$PHASE" = 18 ] || [ "$PHASE" = 19 ]; then
   for d in b3 b4 b5 b2; do gpu_conformance $d; done
