@@ -157,7 +157,7 @@ static int embree_pass(bench *b, size_t v, int stream, double *med, double *mn, 
 static void print_memory(const bench *b)
 {
     double quads = b->info.quads ? (double)b->info.quads : 1.0, mb = 1024.0 * 1024.0;
-    uint64_t st = embree_compare_bytes(b->ec, 0), dy = embree_compare_bytes(b->ec, 1);
+    uint64_t st = embree_compare_static_bytes(b->ec), dy = embree_compare_dynamic_bytes(b->ec);
     printf("  memory: static scene %.1f MiB (%.1f bytes per quad), dynamic %.1f MiB (%.1f); ours %.1f MiB (%.1f)\n",
            (double)st / mb, (double)st / quads, (double)dy / mb, (double)dy / quads, (double)b->info.bytes / mb,
            (double)b->info.bytes / quads);
@@ -291,8 +291,8 @@ static void print_json(const bench *b)
         json_uint(&w, "triangles", embree_compare_triangles(b->ec));
         json_number(&w, "build_ms", embree_compare_static_build_ms(b->ec));
         json_number(&w, "dynamic_build_ms", embree_compare_dynamic_build_ms(b->ec));
-        json_uint(&w, "static_bytes", embree_compare_bytes(b->ec, 0));
-        json_uint(&w, "dynamic_bytes", embree_compare_bytes(b->ec, 1));
+        json_uint(&w, "static_bytes", embree_compare_static_bytes(b->ec));
+        json_uint(&w, "dynamic_bytes", embree_compare_dynamic_bytes(b->ec));
         double ours = 0.0, single = 0.0, stream = 0.0;
         uint64_t diff_single = 0, diff_stream = 0;
         json_array_begin(&w, "views");

@@ -21,12 +21,8 @@ void embree_compare_destroy(embree_compare *ec) { (void)ec; }
 double embree_compare_static_build_ms(const embree_compare *ec) { (void)ec; return 0.0; }
 double embree_compare_dynamic_build_ms(const embree_compare *ec) { (void)ec; return 0.0; }
 uint64_t embree_compare_triangles(const embree_compare *ec) { (void)ec; return 0; }
-uint64_t embree_compare_bytes(const embree_compare *ec, int dynamic)
-{
-    (void)ec;
-    (void)dynamic;
-    return 0;
-}
+uint64_t embree_compare_static_bytes(const embree_compare *ec) { (void)ec; return 0; }
+uint64_t embree_compare_dynamic_bytes(const embree_compare *ec) { (void)ec; return 0; }
 int embree_compare_trace(embree_compare *ec, const vis_camera *camera, uint32_t width, uint32_t height,
                          int stream, uint32_t *ids, double *ms, char *err, size_t err_size)
 {
@@ -475,11 +471,13 @@ double embree_compare_static_build_ms(const embree_compare *ec) { return ec->sta
 double embree_compare_dynamic_build_ms(const embree_compare *ec) { return ec->dynamic_ms; }
 uint64_t embree_compare_triangles(const embree_compare *ec) { return ec->triangles; }
 
-uint64_t embree_compare_bytes(const embree_compare *ec, int dynamic)
+static uint64_t scene_bytes(const embree_compare *ec, int scene)
 {
-    long long n = atomic_load(&ec->mem_bytes[dynamic ? SCENE_DYNAMIC : SCENE_STATIC]);
+    long long n = atomic_load(&ec->mem_bytes[scene]);
     return n > 0 ? (uint64_t)n : 0u;
 }
+uint64_t embree_compare_static_bytes(const embree_compare *ec) { return scene_bytes(ec, SCENE_STATIC); }
+uint64_t embree_compare_dynamic_bytes(const embree_compare *ec) { return scene_bytes(ec, SCENE_DYNAMIC); }
 
 double embree_compare_replace(embree_compare *ec, uint32_t id, const vis_quad *quads, size_t count)
 {

@@ -36,10 +36,10 @@ double embree_compare_static_build_ms(const embree_compare *ec);
 double embree_compare_dynamic_build_ms(const embree_compare *ec);
 uint64_t embree_compare_triangles(const embree_compare *ec);
 
-/* The bytes the Embree device holds for the static scene (dynamic 0) or the dynamic one
- * (dynamic 1): geometry buffers and BVH, as its memory monitor reports them, after the build
- * and the edits replaced so far. */
-uint64_t embree_compare_bytes(const embree_compare *ec, int dynamic);
+/* The bytes the Embree device holds for the static and the dynamic scene: geometry buffers
+ * and BVH, as its memory monitor reports them, after the build and the edits replaced so far. */
+uint64_t embree_compare_static_bytes(const embree_compare *ec);
+uint64_t embree_compare_dynamic_bytes(const embree_compare *ec);
 
 /* One pass over the camera's W x H pixels on the static scene: object IDs (0 where nothing
  * is hit) into ids, the pass time into *ms. stream: 0 = rtcIntersect1 per ray, 1 =
