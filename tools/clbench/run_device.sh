@@ -87,7 +87,7 @@ compile_gpu() { # one run first, so that the driver's cache holds the programs t
   ./vis query --scene gen:maze --replay replays/$1.jsonl --threads 2 --backend opencl --json > /dev/null 2>&1
 }
 # The A/B helpers take build folders: . (this tree, shown as "new"), old/ (a parent's build),
-# b2/, b3/, b4/ (candidates); a folder without the binary is left out.
+# b2/ to b5/ (candidates); a folder without the binary is left out.
 build_name() { [ "$1" = . ] && echo new || echo "$1"; }
 gpu_test() { # gpu_test DIR LIMIT_S: test_opencl of that build
   [ -x $1/test_opencl ] || return 0

@@ -218,9 +218,10 @@ static void nv_verbose(void)
                                            "-DVIS_CL_POSTPONE=1", "-DVIS_CL_POSTPONE=2",
                                            "-DVIS_CL_POSTPONE=2 -DVIS_CL_VOTE",
                                            "-DVIS_CL_POSTPONE=2 -DVIS_CL_PERSISTENT"};
-        const char *one = getenv("VIS_CLBENCH_NV_ONLY");
+        const char *one_env = getenv("VIS_CLBENCH_NV_ONLY");
+        const int one = one_env ? atoi(one_env) : 0; /* read once; unset: every program */
         for (size_t m = 0; m < sizeof only / sizeof only[0]; ++m) {
-            if (one && (walk[m][0] != '\0' || only[m] != atoi(one)))
+            if (one_env && (walk[m][0] != '\0' || only[m] != one))
                 continue;
             char opts[512];
             snprintf(opts, sizeof opts,
