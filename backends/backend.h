@@ -100,7 +100,8 @@ typedef struct vis_scene_view {
     uint32_t object_count;
     const uint32_t *object_leaves;
     uint32_t object_leaf_count;
-    const vis_rope_node *ropes;   /* built once with the tree; never change afterwards       */
+    const vis_rope_node *ropes;   /* NULL (rope_count 0) until the first pass that walks them
+                                     builds them; never change afterwards                   */
     uint32_t rope_count;
     const uint32_t *rope_index;   /* rope_index_count entries: node_count, then the cell map  */
     uint32_t rope_index_count;

@@ -306,6 +306,10 @@ static void test_scene_stats(void **state)
     assert_int_equal(st.tris_in_leaves, refs[3]);
     assert_true(st.quad_slots >= st.quads_in_leaves);
     assert_true(st.tri_slots >= st.tris_in_leaves);
+    for (uint32_t n = 0; n <= VIS_MAX_SHORT_STACK; ++n)
+        assert_int_equal(st.rope_bytes_used[n], 0); /* no pass has walked ropes */
+    assert_int_equal(vis_kdtree_build_ropes(s, ctx), VIS_OK);
+    assert_int_equal(vis_scene_get_stats(s, &st), VIS_OK);
     assert_true(st.rope_bytes_used[0] > 0 && st.rope_bytes_used[0] <= st.rope_bytes);
     vis_scene_destroy(s);
     vis_context_destroy(ctx);
@@ -459,6 +463,12 @@ static void test_plan_matches_build(void **state)
                 assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
                 vis_scene_info info;
                 assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+                assert_true(plan.bytes >= info.bytes); /* the estimate never falls short ... */
+                assert_true(plan.bytes == info.bytes); /* ... and is the figure itself (no ropes yet) */
+                assert_int_equal(s->rope_count, 0);
+                assert_int_equal(vis_kdtree_build_ropes(s, ctx), VIS_OK);
+                assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+                assert_true(info.bytes == plan.bytes + plan.ropes * sizeof(vis_rope_node));
                 if (plan.nodes != s->node_count || plan.leaves != s->leaf_count || plan.ropes != s->rope_count ||
                     plan.kd_depth != s->kd_depth)
                     fail_msg("%gx%gx%g cell %g depth %u: plan %llu nodes %llu leaves %llu ropes depth %u, built %u %u "
@@ -467,8 +477,6 @@ static void test_plan_matches_build(void **state)
                              (unsigned long long)plan.nodes, (unsigned long long)plan.leaves,
                              (unsigned long long)plan.ropes, plan.kd_depth, s->node_count, s->leaf_count,
                              s->rope_count, s->kd_depth);
-                assert_true(plan.bytes >= info.bytes); /* the estimate never falls short ... */
-                assert_true(plan.bytes == info.bytes); /* ... and is the figure itself */
                 vis_scene_destroy(s);
                 ++built;
             }
@@ -502,6 +510,68 @@ static vis_quad *quads_in(uint32_t n, int cx, int cz, uint64_t *rng)
 }
 
 /* What a refused edit must leave as it was. */
+/* The ropes are built by the first pass that walks them, not with the tree: they count in
+ * the scene's bytes from then on, within max_bytes, and a pass over a scene without room for
+ * them fails with VIS_ERROR_BUDGET while the other methods go on (docs/traversal.md). */
+static void trace_64(vis_context *ctx, vis_scene *s, vis_traversal t, vis_status want, uint32_t *ids)
+{
+    vis_camera cam = {{70, 40, 70}, {0, 0, 0}, 70, 0, 0};
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = 64;
+    td.traversal = t;
+    assert_int_equal(vis_trace(ctx, s, &cam, &td, ids, 64 * 64, NULL, 0), want);
+}
+
+static void test_ropes_built_by_first_rope_pass(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2), *other = make_cpu_ctx(1);
+    static uint32_t stack_ids[64 * 64], ids[64 * 64];
+    for (int foreign = 0; foreign < 2; ++foreign) {
+        vis_scene *s = make_cube_scene(ctx, 64);
+        vis_quad q[2] = {{1, 0, 8, 0, 0, 64, 64}, {2, 0, 30, 10, 10, 40, 60}};
+        vis_mesh m = {q, 2, NULL, 0};
+        assert_int_equal(vis_scene_set_object(s, 1, &m), VIS_OK);
+        vis_context *tc = foreign ? other : ctx;
+        vis_scene_info before, after;
+        trace_64(tc, s, VIS_TRAVERSAL_STACK, VIS_OK, stack_ids);
+        trace_64(tc, s, VIS_TRAVERSAL_DDA, VIS_OK, ids);
+        assert_int_equal(vis_scene_get_info(s, &before), VIS_OK);
+        assert_null(s->ropes);
+        for (int i = 0; i < 2; ++i) {
+            memset(ids, 0xAB, sizeof ids);
+            trace_64(tc, s, i ? VIS_TRAVERSAL_ROPES_SHORTSTACK : VIS_TRAVERSAL_ROPES, VIS_OK, ids);
+            assert_memory_equal(ids, stack_ids, sizeof ids);
+        }
+        assert_non_null(s->ropes);
+        assert_int_equal(vis_scene_get_info(s, &after), VIS_OK);
+        assert_true(after.bytes == before.bytes + (uint64_t)s->rope_count * sizeof(vis_rope_node));
+        vis_scene_destroy(s);
+    }
+
+    /* No room for the ropes: the rope pass fails and changes nothing; the others trace. */
+    vis_scene *s = make_cube_scene(ctx, 64);
+    vis_quad q = {1, 0, 8, 0, 0, 64, 64};
+    vis_mesh m = {&q, 1, NULL, 0};
+    assert_int_equal(vis_scene_set_object(s, 1, &m), VIS_OK);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    s->desc.max_bytes = info.bytes + 8; /* what vis_scene_desc.max_bytes would have set */
+    trace_64(ctx, s, VIS_TRAVERSAL_STACK, VIS_OK, stack_ids);
+    trace_64(ctx, s, VIS_TRAVERSAL_ROPES, VIS_ERROR_BUDGET, ids);
+    assert_non_null(strstr(vis_context_last_error(ctx), "ropes"));
+    assert_null(s->ropes);
+    vis_scene_info again;
+    assert_int_equal(vis_scene_get_info(s, &again), VIS_OK);
+    assert_true(again.bytes == info.bytes);
+    trace_64(ctx, s, VIS_TRAVERSAL_DDA, VIS_OK, ids);
+    assert_memory_equal(ids, stack_ids, sizeof ids);
+    vis_scene_destroy(s);
+    vis_context_destroy(other);
+    vis_context_destroy(ctx);
+}
+
 typedef struct scene_state {
     vis_scene_info info;
     vis_scene_stats stats;
@@ -884,6 +954,7 @@ int main(void)
         cmocka_unit_test(test_edits_equal_fresh_build),
         cmocka_unit_test(test_no_allocation_per_frame),
         cmocka_unit_test(test_scene_stats),
+        cmocka_unit_test(test_ropes_built_by_first_rope_pass),
         cmocka_unit_test(test_huge_scenes_refused),
         cmocka_unit_test(test_scene_max_bytes),
         cmocka_unit_test(test_edits_respect_max_bytes),

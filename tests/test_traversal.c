@@ -12,7 +12,8 @@
  * under the conservative rule (docs/traversal.md, "Exactness"). The ropes themselves are
  * checked against their definition (Popov et al. 2007): each link points to the smallest
  * node, no deeper than its own, that covers the face; VIS_NO_ROPE exactly on the scene
- * boundary. */
+ * boundary. The scene builds them for the first pass that walks them; the tests that call
+ * the rope methods directly build them first (vis_kdtree_build_ropes). */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -30,6 +31,7 @@ static uint32_t g_dda_base; /* the scene's cell_map */
 #define VIS_DDA_VISIT(entry) (g_dda_seen ? (void)++g_dda_seen[(entry)-g_dda_base] : (void)0)
 #include "common/trace_core.h"
 #include "camera.h"
+#include "kdtree.h"
 #include "scene.h"
 #include "ref_trace.h"
 #include "scene_builder.h"
@@ -245,6 +247,7 @@ static void test_edits_between_passes(void **state)
     tworld w;
     random_chunk_world_opts(&w, &rng, 4, 2, 3, &edgy_world);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    assert_int_equal(vis_kdtree_build_ropes(scene, ctx), VIS_OK); /* as the first ropes pass does */
     vis_scene_stats before;
     assert_int_equal(vis_scene_get_stats(scene, &before), VIS_OK);
     const double zero[3] = {0, 0, 0};
@@ -566,6 +569,7 @@ typedef void (*ray_gen)(uint64_t *rng, const tworld *w, int i, int lattice, vis_
 static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, int count, ray_gen gen, int lattice,
                              const char *what)
 {
+    assert_int_equal(vis_kdtree_build_ropes(scene, scene->ctx), VIS_OK); /* the rope methods are called directly */
     vis_scene_view v = vis_scene_get_view(scene);
     vis_ray_setup s;
     memset(&s, 0, sizeof s);
@@ -1042,6 +1046,7 @@ static void check_ropes(vis_context *ctx, const float size[3], uint32_t kd_depth
     d.kd_depth = kd_depth;
     vis_scene *s = NULL;
     assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    assert_int_equal(vis_kdtree_build_ropes(s, ctx), VIS_OK);
     node_box *box = calloc(s->node_count, sizeof *box);
     uint32_t *height = calloc(s->node_count, sizeof *height);
     float zero[3] = {0, 0, 0};

@@ -170,7 +170,8 @@ typedef struct vis_flat_object {
  * outside): the smallest node covering that face, never deeper than the node itself.
  * rope_index[node] gives the node's entry in `ropes`, or VIS_NO_ROPE. Every node at most
  * VIS_MAX_SHORT_STACK levels above the leaves has one; entry i < leaf count is leaf i
- * (libvis/src/kdtree.c builds them, once, with the tree). */
+ * (libvis/src/kdtree.c builds them once, for the first pass that walks them; until then
+ * rope_index[node] is VIS_NO_ROPE for every node). */
 typedef struct vis_rope_node {
     float lo[3], hi[3];
     uint32_t link[6];

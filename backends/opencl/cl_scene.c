@@ -8,8 +8,8 @@
  *  - a changed object: its 16-byte slot;
  *  - the object_leaves range [lo, hi) that edits rewrote;
  *  - the cell map entries whose clearance an edit lowered (trace_core.h, VIS_CELL_CLEAR).
- * The tree (nodes, ropes, the cell map's leaves) never changes after creation and is sent
- * once.
+ * The tree (nodes, the cell map's leaves) never changes after creation and is sent once;
+ * so are the ropes, once the first pass that walks them has built them.
  *
  * Those ranges are staged: copied into pinned host memory, sent with one write and put in
  * place by one kernel (kernels/upload.cl), instead of one clEnqueueWriteBuffer per range —
@@ -377,8 +377,9 @@ static int sync_partial(upload_state *u, vis_cl_scene *sc, const vis_scene_view 
      * mean the backend's copy is of another tree; send everything again. */
     if (v->node_count != sc->nodes.valid || v->leaf_count != sc->leaves.valid)
         return sync_full(u, sc, v);
-    /* Ropes are built with the tree and never change; if they appeared since the last sync
-     * (built on first use), they are sent once, whole. */
+    /* Ropes are built by the first pass that walks them and never change; if they appeared
+     * since the last sync, they are sent once, whole, with the index that now points at
+     * them. */
     int st = VIS_OK;
     size_t ropes = v->ropes ? v->rope_count : 0, rope_index = v->rope_index ? v->rope_index_count : 0;
     if (ropes != sc->ropes.valid || rope_index != sc->rope_index.valid) {

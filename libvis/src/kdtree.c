@@ -184,7 +184,7 @@ vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vi
     vis_free(ctx, e);
     /* Every leaf one cell (full depth): the DDA method's cell map, one entry a leaf. */
     uint64_t ncells = (uint64_t)out->cells[0] * out->cells[1] * out->cells[2];
-    out->bytes = vis_scene_tree_bytes(out->nodes, out->leaves, out->ropes, out->leaves == ncells ? out->leaves : 0);
+    out->bytes = vis_scene_tree_bytes(out->nodes, out->leaves, 0, out->leaves == ncells ? out->leaves : 0);
     return VIS_OK;
 }
 
@@ -197,7 +197,9 @@ vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vi
  * stack") keep ropes only on the nodes N levels above the leaves and walk the N levels below
  * them with a short stack, which cuts the rope memory (their Table 4).
  *
- * The tree never changes after creation, so neither do the ropes: they are built once here.
+ * The tree never changes after creation, so neither do the ropes. They are built once, by the
+ * first pass that walks them (vis_kdtree_build_ropes): no other method reads them, and at
+ * 56 bytes a node they would be a tenth of a large world's scene.
  * N is chosen per pass (vis_trace_desc.short_stack), so every node up to
  * VIS_MAX_SHORT_STACK levels above the leaves gets an entry: a pass with N uses the highest
  * nodes of height <= N on each path (exactly the nodes N levels up when all leaves are at one
@@ -349,37 +351,58 @@ static void fill_cell_map(vis_scene *s, uint32_t node, const uint32_t c0[3], con
     fill_cell_map(s, first + 1, rc0, c1);
 }
 
-static vis_status build_ropes(vis_scene *s, const uint32_t cells[3])
+/* The index (node_count entries, VIS_NO_ROPE until vis_kdtree_build_ropes fills them) and,
+ * at full depth (as many leaves as cells), the cell map after it. */
+static vis_status build_index(vis_scene *s, const uint32_t cells[3])
 {
-    rope_state rs = {s, NULL, 0};
-    /* At full depth (as many leaves as cells) the cell map follows the node entries. */
     uint64_t ncells = (uint64_t)cells[0] * cells[1] * cells[2];
     s->cell_map = ncells == s->leaf_count ? s->node_count : 0u;
     memcpy(s->cells, cells, sizeof s->cells);
-    s->rope_index = vis_calloc(s->ctx, (size_t)s->node_count + (s->cell_map ? s->leaf_count : 0u),
-                               sizeof *s->rope_index);
+    s->rope_index = vis_alloc(s->ctx, ((size_t)s->node_count + (s->cell_map ? s->leaf_count : 0u)) *
+                                          sizeof *s->rope_index);
     if (!s->rope_index)
-        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the ropes of %u nodes", s->node_count);
+        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for the index of %u nodes", s->node_count);
+    for (uint32_t i = 0; i < s->node_count; ++i)
+        s->rope_index[i] = VIS_NO_ROPE;
+    uint32_t zero[3] = {0, 0, 0};
+    if (s->cell_map)
+        fill_cell_map(s, 0, zero, cells);
+    return VIS_OK;
+}
+
+vis_status vis_kdtree_build_ropes(vis_scene *s, vis_context *ctx)
+{
+    if (s->ropes || s->node_count == 0)
+        return VIS_OK;
+    rope_state rs = {s, NULL, 0};
     /* The heights live in rope_index until rope_fill replaces each with the node's entry: it
      * reads a node's height before it writes the node's entry, and its children's after.
-     * That keeps the build within the bytes the plan counted (no array of its own). */
+     * That keeps the build within the bytes counted below (no array of its own). */
     rs.height = s->rope_index;
     compute_heights(s, 0, rs.height);
     uint32_t count = 0;
     for (uint32_t i = 0; i < s->node_count; ++i)
         count += rs.height[i] <= VIS_MAX_SHORT_STACK;
-    s->ropes = vis_calloc(s->ctx, count, sizeof *s->ropes);
-    if (!s->ropes)
-        return vis_fail(s->ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for %u rope nodes", count);
+    const uint64_t now = vis_scene_bytes(s), add = (uint64_t)count * sizeof *s->ropes;
+    vis_status st = VIS_OK;
+    if (vis_sat_add(now, add) > s->desc.max_bytes)
+        st = vis_fail(ctx, VIS_ERROR_BUDGET, "the ropes of %u nodes would grow the scene from %llu to %llu bytes, over "
+                      "max_bytes %llu", count, (unsigned long long)now, (unsigned long long)(now + add),
+                      (unsigned long long)s->desc.max_bytes);
+    else if (!(s->ropes = vis_calloc(s->ctx, count, sizeof *s->ropes)))
+        st = vis_fail(ctx, VIS_ERROR_OUT_OF_MEMORY, "out of memory for %u rope nodes", count);
+    if (st != VIS_OK) {
+        for (uint32_t i = 0; i < s->node_count; ++i)
+            s->rope_index[i] = VIS_NO_ROPE;
+        return st;
+    }
     s->rope_count = count;
     rs.next_inner = s->leaf_count;
     rope_target none[6];
     for (int f = 0; f < 6; ++f)
         none[f].node = VIS_NO_ROPE; /* the root's faces are the scene's */
     uint32_t zero[3] = {0, 0, 0};
-    rope_fill(&rs, 0, zero, cells, 0, none);
-    if (s->cell_map)
-        fill_cell_map(s, 0, zero, cells);
+    rope_fill(&rs, 0, zero, s->cells, 0, none);
     return VIS_OK;
 }
 
@@ -606,7 +629,7 @@ vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan)
         return vis_fail(s->ctx, VIS_ERROR_INVALID_ARGUMENT,
                         "internal: the kd-tree build does not match its plan (%llu nodes, %llu leaves)",
                         (unsigned long long)plan->nodes, (unsigned long long)plan->leaves);
-    return build_ropes(s, plan->cells);
+    return build_index(s, plan->cells);
 }
 
 /* Leaves whose closed box overlaps the object's box. A box touching a split plane only from

@@ -20,7 +20,7 @@ typedef struct vis_kdtree_plan {
     uint64_t nodes;     /* inner nodes + leaves                                             */
     uint64_t leaves;
     uint64_t ropes;     /* nodes at most VIS_MAX_SHORT_STACK levels above their deepest leaf */
-    uint64_t bytes;     /* what vis_scene_info.bytes reports for the empty scene            */
+    uint64_t bytes;     /* what vis_scene_info.bytes reports for the empty scene (no ropes)  */
 } vis_kdtree_plan;
 
 /* Fills *out from the desc's size, cell_size and kd_depth alone: its work grows with the
@@ -29,9 +29,15 @@ typedef struct vis_kdtree_plan {
  * nodes or bytes (the caller does). */
 vis_status vis_kdtree_plan_make(vis_context *ctx, const vis_scene_desc *desc, vis_kdtree_plan *out);
 
-/* Builds nodes and (empty) leaves of the plan over s->desc, and the ropes (never changed
- * afterwards); sets s->kd_depth, node, leaf and rope counts. */
+/* Builds nodes and (empty) leaves of the plan over s->desc, the node-to-rope index (no ropes
+ * yet) and the cell map; sets s->kd_depth, node and leaf counts. */
 vis_status vis_kdtree_build(vis_scene *s, const vis_kdtree_plan *plan);
+
+/* Builds the ropes (plan.ropes of them; never changed afterwards) unless the scene has them:
+ * VIS_ERROR_BUDGET when they would take the scene past max_bytes, VIS_ERROR_OUT_OF_MEMORY,
+ * failures reported on ctx, the scene then as before. Allocates through the scene's context.
+ * The caller holds the scene's lock exclusive. */
+vis_status vis_kdtree_build_ropes(vis_scene *s, vis_context *ctx);
 
 /* Lowers the cell map's clearances (trace_core.h, VIS_CELL_CLEAR) around leaf li, which has
  * just got its first primitives, and widens the box of changed cells (s->dirty_map_lo/hi)

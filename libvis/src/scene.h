@@ -71,7 +71,7 @@ struct vis_scene {
     vis_flat_leaf *leaves;
     vis_leaf_host *leaf_host;
     uint32_t leaf_count;
-    vis_rope_node *ropes;     /* rope nodes (built with the tree), see trace_core.h         */
+    vis_rope_node *ropes;     /* rope nodes (NULL until a pass walks them), trace_core.h    */
     uint32_t rope_count;
     uint32_t *rope_index;     /* node -> rope entry or VIS_NO_ROPE; at full depth, then the
                                  cell map: rope_index[cell_map + cell] = the cell's leaf     */
@@ -161,8 +161,10 @@ vis_status vis_scene_apply_remove(vis_scene *scene, uint32_t id);
 vis_status vis_scene_check_mesh(vis_scene *scene, uint32_t id, const vis_mesh *mesh);
 
 /* For a pass of `ctx` over the scene: takes the scene's lock shared, with ctx's backend copy
- * up to date, and gives the copy's data. vis_scene_end_read releases the lock. */
-vis_status vis_scene_begin_trace(vis_context *ctx, vis_scene *scene, void **backend_data, uint64_t *upload_bytes);
+ * up to date (and the ropes built, for a pass that walks them), and gives the copy's data.
+ * vis_scene_end_read releases the lock. */
+vis_status vis_scene_begin_trace(vis_context *ctx, vis_scene *scene, int ropes, void **backend_data,
+                                 uint64_t *upload_bytes);
 void vis_scene_begin_read(const vis_scene *scene);
 void vis_scene_end_read(const vis_scene *scene);
 

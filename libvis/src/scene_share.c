@@ -5,6 +5,7 @@
 #include <pthread.h>
 #include <string.h>
 
+#include "kdtree.h"
 #include "scene.h"
 
 struct vis_scene_lock {
@@ -122,7 +123,22 @@ static vis_scene_copy *find_copy(const vis_scene *s, const vis_context *ctx)
     return NULL;
 }
 
-vis_status vis_scene_begin_trace(vis_context *ctx, vis_scene *s, void **backend_data, uint64_t *upload_bytes)
+/* Builds the ropes for the first pass that walks them. Every backend copy is then behind:
+ * its next sync takes them (the owner's from its change lists, which hold no edit, others
+ * whole). */
+static vis_status build_ropes(vis_context *ctx, vis_scene *s)
+{
+    vis_status st = vis_kdtree_build_ropes(s, ctx);
+    if (st != VIS_OK || !s->ropes)
+        return st;
+    s->synced_generation = s->generation - 1u;
+    for (vis_scene_copy *c = s->copies; c; c = c->next)
+        c->synced_generation = s->generation - 1u;
+    return VIS_OK;
+}
+
+vis_status vis_scene_begin_trace(vis_context *ctx, vis_scene *s, int ropes, void **backend_data,
+                                 uint64_t *upload_bytes)
 {
     *upload_bytes = 0;
     for (;;) {
@@ -137,22 +153,23 @@ vis_status vis_scene_begin_trace(vis_context *ctx, vis_scene *s, void **backend_
             data = c ? c->data : NULL;
             current = c && c->data && c->synced_generation == s->generation;
         }
-        if (current) {
+        if (current && (!ropes || s->ropes)) {
             *backend_data = data;
             return VIS_OK; /* the lock stays shared until vis_scene_end_read */
         }
         vis_scene_end_read(s);
-        /* The copy is behind: bring it up under the exclusive lock, then look again (a
-         * commit may come in between; the loop ends when none does). */
+        /* The copy is behind, or the pass needs ropes the scene has not built: bring it up
+         * under the exclusive lock, then look again (a commit may come in between; the loop
+         * ends when none does). */
         begin_write(s);
-        vis_status st = VIS_OK;
+        vis_status st = ropes ? build_ropes(ctx, s) : VIS_OK;
         void **data_slot = NULL;
-        if (s->ctx == ctx) {
+        if (st == VIS_OK && s->ctx == ctx) {
             if (!(s->backend_data && s->synced_generation == s->generation)) {
                 st = sync_owner(s);
                 data_slot = &s->backend_data;
             }
-        } else {
+        } else if (st == VIS_OK) {
             vis_scene_copy *c = find_copy(s, ctx);
             if (!(c && c->data && c->synced_generation == s->generation)) {
                 st = sync_copy(ctx, s, &c);

@@ -145,7 +145,7 @@ static vis_status trace_one(vis_context *ctx, vis_scene *scene, const vis_camera
 
     uint64_t upload = 0;
     void *data = NULL;
-    if ((st = vis_scene_begin_trace(ctx, scene, &data, &upload)) != VIS_OK)
+    if ((st = vis_scene_begin_trace(ctx, scene, vis_trace_walks_ropes(&setup), &data, &upload)) != VIS_OK)
         return st;
     vis_scene_view view = vis_scene_get_view(scene);
     char err[1024] = "";
@@ -227,7 +227,7 @@ vis_status vis_trace_batch_held(vis_context *ctx, vis_scene *scene, const vis_ca
     uint64_t upload = 0;
     void *data = NULL;
     if (st == VIS_OK)
-        st = vis_scene_begin_trace(ctx, scene, &data, &upload);
+        st = vis_scene_begin_trace(ctx, scene, vis_trace_walks_ropes(&setups[0]), &data, &upload);
     if (st != VIS_OK)
         return st;
     vis_scene_view view = vis_scene_get_view(scene);

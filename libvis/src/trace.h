@@ -17,6 +17,11 @@ vis_traversal vis_trace_auto_stack(const vis_context *ctx, vis_traversal t);
 
 vis_status vis_trace_make_setup(vis_context *ctx, const vis_scene *scene, const vis_camera *camera,
                                 const vis_trace_desc *d, vis_ray_setup *setup);
+/* Whether a pass of this setup walks the scene's ropes (vis_scene_begin_trace builds them). */
+static inline int vis_trace_walks_ropes(const vis_ray_setup *setup)
+{
+    return setup->traversal == VIS_TRAVERSAL_ID_ROPES || setup->traversal == VIS_TRAVERSAL_ID_ROPES_SHORTSTACK;
+}
 double vis_trace_now_ms(void);
 /* VIS_ERROR_INVALID_ARGUMENT, naming fn, for any effect but fog (d resolved). */
 vis_status vis_trace_check_plain_effects(vis_context *ctx, const vis_trace_desc *d, const char *fn);

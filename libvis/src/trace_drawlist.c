@@ -96,7 +96,7 @@ static vis_status run(vis_context *ctx, vis_scene *scene, const vis_trace_desc *
         return st;
     uint64_t upload = 0;
     void *data = NULL;
-    if ((st = vis_scene_begin_trace(ctx, scene, &data, &upload)) != VIS_OK)
+    if ((st = vis_scene_begin_trace(ctx, scene, vis_trace_walks_ropes(&setups[0]), &data, &upload)) != VIS_OK)
         return st;
     vis_scene_view view = vis_scene_get_view(scene);
     double p0 = vis_trace_now_ms();

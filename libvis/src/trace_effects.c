@@ -93,7 +93,7 @@ static vis_status trace_effects(vis_context *ctx, vis_scene *scene, const vis_ca
 
     uint64_t upload = 0;
     void *data = NULL;
-    if ((st = vis_scene_begin_trace(ctx, scene, &data, &upload)) != VIS_OK)
+    if ((st = vis_scene_begin_trace(ctx, scene, vis_trace_walks_ropes(&setup), &data, &upload)) != VIS_OK)
         return st;
     vis_scene_view view = vis_scene_get_view(scene);
     char err[1024] = "";

@@ -42,6 +42,10 @@
  *  - vis_scene_destroy gives back every context's copy of the scene, through that context's
  *    backend and allocator, on the destroying thread: a context that traces scenes of
  *    other contexts needs an allocator that may be called from their threads (malloc may).
+ *    Likewise the first pass that walks ropes (VIS_TRAVERSAL_ROPES, _ROPES_SHORTSTACK)
+ *    builds the scene's ropes through the scene's own context's allocator, on the tracing
+ *    thread, under the exclusive lock; it fails with VIS_ERROR_BUDGET where they would take
+ *    the scene past max_bytes.
  *  - The CPU backend runs its pool's worker threads (or desc.parallel_for) inside the trace
  *    calls; the pool's workers live as long as the context. After a pass each worker spins
  *    for up to 0.1 ms, so that a pass following soon finds it awake, then sleeps until the
@@ -354,10 +358,12 @@ typedef struct vis_scene_stats {
                                  leaf it overlaps)                                           */
     uint64_t tri_slots;       /* the same for the triangle pool, in triangles                 */
     uint64_t tris_in_leaves;
-    uint64_t rope_bytes;      /* rope data held (built once with the tree, part of
-                                 vis_scene_info.bytes): box + six neighbour links of every
-                                 node up to VIS_MAX_SHORT_STACK levels above the leaves, and a
-                                 4-byte node-to-rope index                                   */
+    uint64_t rope_bytes;      /* rope data held (part of vis_scene_info.bytes): the 4-byte
+                                 node-to-rope index, and once a pass has walked ropes
+                                 (VIS_TRAVERSAL_ROPES, _ROPES_SHORTSTACK; built by the first
+                                 such pass, never changed afterwards) box + six neighbour
+                                 links of every node up to VIS_MAX_SHORT_STACK levels above
+                                 the leaves                                                  */
     uint64_t rope_bytes_used[VIS_MAX_SHORT_STACK + 1]; /* of those, the rope nodes a method
                                  walks: [0] ropes (one per leaf), [N] ropes-shortstack with N
                                  (one per node N levels above the leaves; Chang & Ihm 2010,
