@@ -110,13 +110,15 @@ typedef struct vis_scene_view {
     float cell_size;
     float size[3];
     uint32_t kd_depth;
+    const uint32_t *labels;       /* the CPU backend's voxel labels (trace_core.h, the label
+                                     walk), set by it for its passes; NULL from libvis       */
 } vis_scene_view;
 
 /* VIS_SCENE_ARGS (common/trace_core.h) taken from a vis_scene_view: the traversal functions'
  * scene parameters, in their order. */
 #define VIS_SCENE_VIEW_ARGS(v)                                                               \
     (v)->nodes, (v)->leaves, (v)->buckets, (v)->quads, (v)->tris, (v)->objects, (v)->object_leaves, \
-        (v)->ropes, (v)->rope_index
+        (v)->ropes, (v)->rope_index, (v)->labels
 
 /* What changed since the backend's last sync of this scene. `full` is set for the backend's
  * first sync of the scene (and for every sync of a copy held by a context other than the
@@ -192,6 +194,9 @@ typedef struct vis_backend_ops {
     vis_status (*trace_effects)(void *impl, void *scene_data, const vis_scene_view *view, const vis_ray_setup *setup,
                                 const vis_effect_setup *effects, const vis_effect_outputs *out, char *err,
                                 size_t err_size);
+    /* Optional (NULL: none): host memory the backend holds for its copy of a scene, beside
+     * the scene's own arrays (vis_scene_info.backend_bytes). */
+    uint64_t (*scene_bytes)(void *impl, void *scene_data);
 } vis_backend_ops;
 
 typedef struct vis_backend {

@@ -31,6 +31,7 @@ static uint32_t g_dda_base; /* the scene's cell_map */
 #define VIS_DDA_VISIT(entry) (g_dda_seen ? (void)++g_dda_seen[(entry)-g_dda_base] : (void)0)
 #include "common/trace_core.h"
 #include "camera.h"
+#include "cpu/labels.h"
 #include "kdtree.h"
 #include "scene.h"
 #include "ref_trace.h"
@@ -565,6 +566,28 @@ static void check_ray(const vis_scene_view *v, vis_ray_setup *s, const tworld *w
 /* Ray i of a stream (its vt_rand draws from rng), named in `ray`. */
 typedef void (*ray_gen)(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap);
 
+static void *heap_alloc(size_t size, size_t align, void *user)
+{
+    (void)user;
+    size_t rounded = (size + align - 1) / align * align;
+    return aligned_alloc(align, rounded ? rounded : align);
+}
+
+static void heap_free(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+static const vis_allocator test_heap = {heap_alloc, heap_free, NULL};
+
+static void run_serial(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg)
+{
+    (void)user;
+    for (uint32_t i = 0; i < count; ++i)
+        job(arg, i);
+}
+
 /* count rays of gen through the whole scene, each checked by check_ray. */
 static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, int count, ray_gen gen, int lattice,
                              const char *what)
@@ -581,12 +604,27 @@ static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, i
     s.cell_size = v.cell_size;
     ref_scene rs;
     ref_scene_init(&rs, w);
+    /* Every ray twice: through the plane walk (the devices' and the effects pass's), and
+     * through the CPU's label walk where a leaf has labels (cpu/labels.h). */
+    vis_labels lab;
+    memset(&lab, 0, sizeof lab);
+    lab.alloc = &test_heap;
+    vis_scene_changes full;
+    memset(&full, 0, sizeof full);
+    full.full = 1;
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, run_serial, NULL), VIS_OK);
+    vis_scene_view lv = v;
+    lv.labels = lab.words;
+    char labelled[224];
+    snprintf(labelled, sizeof labelled, "%s, label walk", what);
     for (int i = 0; i < count; ++i) {
         vis_ray r;
         char ray[192];
         gen(rng, w, i, lattice, &r, ray, sizeof ray);
         check_ray(&v, &s, w, &rs, &r, what, ray);
+        check_ray(&lv, &s, w, &rs, &r, labelled, ray);
     }
+    vis_labels_free(&lab);
     ref_scene_free(&rs);
 }
 

@@ -228,13 +228,23 @@ typedef struct vis_ray_setup {
 
 /* The scene arrays, as separate parameters because OpenCL 1.2 kernels cannot take structs
  * of pointers. */
+/* On the CPU the scene arrays end with the CPU backend's voxel labels (labels, NULL where a
+ * caller has none: vis_label_walk below); the devices walk planes and take no such array. */
+#ifdef __OPENCL_VERSION__
+#  define VIS_LABELS_PARAM
+#  define VIS_LABELS_ARG
+#else
+#  define VIS_LABEL_WALK 1
+#  define VIS_LABELS_PARAM , const uint32_t *labels
+#  define VIS_LABELS_ARG , labels
+#endif
 #define VIS_SCENE_PARAMS                                                                     \
     const VIS_GLOBAL vis_kd_node *nodes, const VIS_GLOBAL vis_flat_leaf *leaves,              \
         const VIS_GLOBAL uint32_t *buckets, const VIS_GLOBAL uint32_t *quads,                  \
         const VIS_GLOBAL vis_flat_tri *tris, const VIS_GLOBAL vis_flat_object *objects,       \
         const VIS_GLOBAL uint32_t *object_leaves, const VIS_GLOBAL vis_rope_node *ropes,       \
-        const VIS_GLOBAL uint32_t *rope_index
-#define VIS_SCENE_ARGS nodes, leaves, buckets, quads, tris, objects, object_leaves, ropes, rope_index
+        const VIS_GLOBAL uint32_t *rope_index VIS_LABELS_PARAM
+#define VIS_SCENE_ARGS nodes, leaves, buckets, quads, tris, objects, object_leaves, ropes, rope_index VIS_LABELS_ARG
 
 /* Material flags of a primitive (meta's flags field): vis.h's VIS_PRIM_* (backend.h checks). */
 #define VIS_FLAG_SEE_THROUGH 1u
@@ -743,6 +753,45 @@ VIS_NOINLINE void vis_leaf_loose(const vis_ray *r, const VIS_GLOBAL vis_flat_lea
         vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
 }
 
+/* The quads of bucket b (plane k of axis a, crossed at t >= t_near, t <= t_far and no
+ * farther than the best hit) that the exact test takes. The bucket's cover masks come first,
+ * u then v: most buckets end there, an empty one (masks 0) at the first word, and only the
+ * buckets they let through read their offsets (one cache line, one load on a device, fewer
+ * per plane visited). mg: the leaf's crossing margins, or per_bucket for the bucket's own. */
+VIS_INLINE void vis_bucket_visit(const vis_ray *r, uint32_t a, uint32_t b, float t, int k, const float *lo,
+                                 const float *mg, int per_bucket, const VIS_GLOBAL uint32_t *packed,
+                                 const VIS_GLOBAL uint32_t *table, const VIS_GLOBAL uint32_t *bk,
+                                 const VIS_GLOBAL uint32_t *cover, const VIS_GLOBAL vis_flat_object *objects,
+                                 vis_hit *h)
+{
+    uint32_t u = a == 2u ? 0u : a + 1u;
+    uint32_t v = a == 0u ? 2u : a - 1u;
+    float lu = lo[u], lv = lo[v];
+    int cu[2], cv[2];
+    uint32_t mu = cover[2u * b];
+    if (!(mu != 0u && vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, mu, cu) &&
+          vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)))
+        return;
+    /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach the
+     * crossing's range (vis_crossing_cells) is one the exact test would miss; one whose u0
+     * starts past it ends the bucket, as every quad after it does too. */
+    for (uint32_t i = bk[b], end = bk[b + 1u]; i < end; ++i) {
+        uint32_t w = packed[i];
+        int u0 = (int)VIS_PQ_FIELD(w, 0u);
+        if (u0 > cu[1])
+            break; /* this quad and the rest of the bucket start past the crossing */
+        if ((int)VIS_PQ_FIELD(w, 2u) < cu[0] || (int)VIS_PQ_FIELD(w, 1u) > cv[1] || (int)VIS_PQ_FIELD(w, 3u) < cv[0])
+            continue;
+        /* vis_test_quad, with what the walk already knows: the plane's distance t
+         * (vis_quad_intersect's t for each quad of the bucket), within [t_near, t_far] and
+         * no farther than the best hit. */
+        if (!vis_quad_slab(r, u, v, t, lu + (float)u0, lv + (float)VIS_PQ_FIELD(w, 1u), lu + (float)VIS_PQ_FIELD(w, 2u),
+                           lv + (float)VIS_PQ_FIELD(w, 3u)))
+            continue;
+        vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], a, VIS_PQ_FLAGS(w), lo[a] + (float)k, objects, h);
+    }
+}
+
 /* The plane walk of vis_leaf_intersect over [ta, tb] (already narrowed to the content box),
  * with the leaf's plane counts E and the box's offsets bl, bh (bh read as the last plane when
  * saturated). Kept out of line on the CPU so that the leaves whose box a ray misses, most of
@@ -836,39 +885,9 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
          * plane beyond the best hit can beat it; equal t is still visited for the tie rule. */
         if (t == VIS_INF || !(t <= h->t) || t > t_stop)
             break; /* every axis walked, or past the best hit / the leaf's end / far plane */
-        uint32_t b = (uint32_t)(base[a] + k[a]);
-        uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
-        uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
-        float lu = lo[u], lv = lo[v];
-        int cu[2], cv[2];
-        /* The bucket's cover masks come first, u then v: most buckets end there, an empty
-         * one (masks 0) at the first word, and only the buckets they let through read their
-         * offsets (one cache line, one load on a device, fewer per plane visited). */
-        uint32_t mu = cover[2u * b];
-        if (t >= r->t_near && mu != 0u &&
-            vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, mu, cu) &&
-            vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)) {
-            /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach
-             * the crossing's range (vis_crossing_cells) is one the exact test would miss;
-             * one whose u0 starts past it ends the bucket, as every quad after it does too. */
-            for (uint32_t i = bk[b], end = bk[b + 1u]; i < end; ++i) {
-                uint32_t w = packed[i];
-                int u0 = (int)VIS_PQ_FIELD(w, 0u);
-                if (u0 > cu[1])
-                    break; /* this quad and the rest of the bucket start past the crossing */
-                if ((int)VIS_PQ_FIELD(w, 2u) < cu[0] || (int)VIS_PQ_FIELD(w, 1u) > cv[1] ||
-                    (int)VIS_PQ_FIELD(w, 3u) < cv[0])
-                    continue;
-                /* vis_test_quad, with what this walk already knows: the plane's distance t
-                 * (vis_quad_intersect's t for each quad of the bucket), within [t_near,
-                 * t_far] and no farther than the best hit. */
-                if (!vis_quad_slab(r, u, v, t, lu + (float)u0, lv + (float)VIS_PQ_FIELD(w, 1u),
-                                   lu + (float)VIS_PQ_FIELD(w, 2u), lv + (float)VIS_PQ_FIELD(w, 3u)))
-                    continue;
-                vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], (uint32_t)a, VIS_PQ_FLAGS(w), lo[a] + (float)k[a], objects,
-                                   h);
-            }
-        }
+        if (t >= r->t_near)
+            vis_bucket_visit(r, (uint32_t)a, (uint32_t)(base[a] + k[a]), t, k[a], lo, mg, per_bucket, packed, table, bk,
+                             cover, objects, h);
         if (k[a] == kend[a]) {
             tk[a] = VIS_INF;
         } else {
@@ -877,6 +896,223 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
         }
     }
 }
+
+#if VIS_LABEL_WALK
+/* ---- the CPU's label walk ------------------------------------------------------------
+ *
+ * A leaf of one object's packed quads, 16 cells a side, no loose quads, triangles or material
+ * flags, gets from the CPU backend (backends/cpu/labels.c) two labels for its 16^3 voxels
+ * such that two face-neighbours differ exactly where a quad covers the square between them,
+ * and a "loud" bit for every voxel that touches a quad (its square, edge or corner). A ray
+ * then walks the leaf voxel by voxel (the 3D-DDA of Amanatides & Woo 1987) instead of plane
+ * by plane, and decides most crossings without reading a quad:
+ *  - a crossing out of a quiet voxel meets no quad: none touches the voxel;
+ *  - a crossing out of a loud voxel into a loud one, away from the square's edges, meets a
+ *    quad exactly when the labels differ (the quads cover whole squares): the object is the
+ *    leaf's one, the distance the plane's, computed as the quad test computes it;
+ *  - every other crossing out of a loud voxel (near an edge or a corner, within the walk's
+ *    slack; leaving the leaf, whose boundary planes the labels do not see) visits its bucket
+ *    as the plane walk does (vis_bucket_visit).
+ * The labels are the parity of the covered squares crossed from the leaf's corner; a leaf
+ * whose quads admit no such parity keeps the plane walk (docs/performance.md, "The label
+ * walk"). The leaf's block, in 32-bit words: L (bricks holding a loud voxel), X (of those,
+ * bricks whose loud voxels hold both labels), U (the one label of every other brick of L),
+ * each 64 bits over the 4^3 bricks; then a 64-bit word of loud bits per brick of L, then one of
+ * labels per brick of X, in brick order. Brick j holds voxels x, y, z with j = x/4 + 4 (y/4) +
+ * 16 (z/4), bit (x%4) + 4 (y%4) + 16 (z%4). */
+#define VIS_LW_BRICK(b) ((((b) >> 2) & 3u) | (((b) >> 4) & 12u) | (((b) >> 6) & 48u))
+#define VIS_LW_BIT(b) (((b) & 3u) | (((b) >> 2) & 12u) | (((b) >> 4) & 48u))
+#define VIS_LW_HEADER 6u
+
+VIS_INLINE vis_u64 vis_lw_u64(const uint32_t *p) { return (vis_u64)p[0] | (vis_u64)p[1] << 32; }
+
+/* Set bits of x (SWAR: the library builds for any x86-64, without the popcnt instruction). */
+VIS_INLINE uint32_t vis_popcount64(vis_u64 x)
+{
+    x = x - ((x >> 1) & 0x5555555555555555ull);
+    x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+    x = (x + (x >> 4)) & 0x0F0F0F0F0F0F0F0Full;
+    return (uint32_t)((x * 0x0101010101010101ull) >> 56);
+}
+
+/* Leaf li's block, or NULL: labels[li] is its word offset in labels, 0 for none. */
+VIS_INLINE const uint32_t *vis_leaf_labels(const uint32_t *labels, uint32_t li)
+{
+    return labels && labels[li] ? labels + labels[li] : (const uint32_t *)0;
+}
+#  define VIS_LEAF_LABELS(li) , vis_leaf_labels(labels, (li))
+#  define VIS_LEAF_LABELS_PARAM , const uint32_t *lab
+
+typedef struct vis_lw_block {
+    const uint32_t *loud, *label; /* the blocks' loud and label words                         */
+    vis_u64 L, X, U;
+} vis_lw_block;
+
+/* Brick j's loud bits and its labels as a word (every bit the brick's one label where it
+ * has one; only the loud voxels' bits are read). Both 0 for a brick outside L. */
+VIS_INLINE vis_u64 vis_lw_brick(const vis_lw_block *B, uint32_t j, vis_u64 *label)
+{
+    vis_u64 below = ((vis_u64)1u << j) - 1u;
+    *label = 0u;
+    if (!(B->L >> j & 1u))
+        return 0u;
+    if (B->X >> j & 1u)
+        *label = vis_lw_u64(B->label + 2u * vis_popcount64(B->X & below));
+    else if (B->U >> j & 1u)
+        *label = ~(vis_u64)0u;
+    return vis_lw_u64(B->loud + 2u * vis_popcount64(B->L & below));
+}
+
+/* Plane k of axis a, crossed at t, as the plane walk visits it. */
+VIS_INLINE void vis_lw_visit(const vis_ray *r, const vis_flat_leaf *leaf, const uint32_t *buckets, const uint32_t *quads,
+                             const vis_flat_object *objects, const float *lo, uint32_t a, int k, float t, vis_hit *h)
+{
+    if (!(t >= r->t_near && t <= r->t_far))
+        return;
+    const uint32_t *bk = buckets + leaf->bucket_offset;
+    const float no_margin[3] = {0.0f, 0.0f, 0.0f}; /* per_bucket: each bucket's own margin */
+    vis_bucket_visit(r, a, 17u * a + (uint32_t)k, t, k, lo, no_margin, 1, quads + leaf->quad_offset,
+                     quads + leaf->table_offset, bk, bk + vis_bucket_offsets(16u, 16u, 16u), objects, h);
+}
+
+/* Whether the ray may take the label walk through this leaf: not lying in one of the
+ * leaf's integer planes (its crossings there are no crossings), and the slack of a distance
+ * at the leaf's far end under half a voxel (so that "near an edge" is a neighbourhood of the
+ * edge, not of the whole voxel). */
+VIS_INLINE int vis_lw_walkable(const vis_ray *r, const vis_flat_leaf *leaf, float tb)
+{
+    float m = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+        if (r->d[a] == 0.0f) {
+            float p = r->o[a] - leaf->lo[a];
+            if (p >= 0.0f && p <= 16.0f && p == (float)(int)p)
+                return 0;
+        }
+        m = VIS_FABSF(r->d[a]) > m ? VIS_FABSF(r->d[a]) : m;
+    }
+    return (vis_t_limit(tb) - tb) * m < 0.5f;
+}
+
+/* The label walk over [ta, tb] (vis_leaf_intersect's interval, within the content box).
+ * Returns 0, having done nothing, where the plane walk must take the leaf instead. */
+VIS_NOINLINE int vis_label_walk(const vis_ray *r, const vis_flat_leaf *leaf, const uint32_t *buckets,
+                                const uint32_t *quads, const vis_flat_object *objects, const uint32_t *lab, float ta,
+                                float tb, vis_hit *h)
+{
+    if (!vis_lw_walkable(r, leaf, tb))
+        return 0;
+    /* Only where the ray has entered the leaf by ta, by the walk's own distances: the entry
+     * plane of each axis crossed at or before ta (the CPU's walks clip to the leaf's slabs,
+     * so they always qualify). From an interval that began before the leaf, a crossing of
+     * another axis before the entry would read the labels of a voxel the ray is not in. */
+    float lo[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = leaf->lo[a];
+        if (r->d[a] == 0.0f) {
+            if (!(r->o[a] >= lo[a] && r->o[a] <= lo[a] + 16.0f))
+                return 0;
+        } else if (!(vis_plane_t(r, a, lo[a], r->d[a] > 0.0f ? 0 : 16) <= ta)) {
+            return 0;
+        }
+    }
+    vis_lw_block B;
+    B.L = vis_lw_u64(lab);
+    B.X = vis_lw_u64(lab + 2);
+    B.U = vis_lw_u64(lab + 4);
+    B.loud = lab + VIS_LW_HEADER;
+    B.label = B.loud + 2u * vis_popcount64(B.L);
+    const uint32_t owner = quads[leaf->table_offset];
+    const float lim_b = vis_t_limit(tb);
+    int ix[3], st[3], stride[3];
+    float tn[3];
+    for (int a = 0; a < 3; ++a) {
+        float p = (r->o[a] + ta * r->d[a]) - lo[a];
+        int i = vis_clamp_plane(p, 0, 15);
+        st[a] = r->d[a] > 0.0f ? 1 : r->d[a] < 0.0f ? -1 : 0;
+        /* The start voxel by the crossings' own distances where the rounded point lies within
+         * its rounding of a voxel's side. */
+        float f = p - (float)i, e = 0.0009765625f + (VIS_FABSF(r->o[a]) + VIS_FABSF(ta * r->d[a])) * 1.52587890625e-5f;
+        if (!(f >= e && f <= 1.0f - e)) {
+            if (st[a] > 0) {
+                while (i > 0 && vis_plane_t(r, a, lo[a], i) > ta)
+                    --i;
+                while (i < 15 && vis_plane_t(r, a, lo[a], i + 1) <= ta)
+                    ++i;
+            } else if (st[a] < 0) {
+                while (i < 15 && vis_plane_t(r, a, lo[a], i + 1) > ta)
+                    ++i;
+                while (i > 0 && vis_plane_t(r, a, lo[a], i) <= ta)
+                    --i;
+            }
+        }
+        ix[a] = i;
+        tn[a] = st[a] > 0 ? vis_plane_t(r, a, lo[a], i + 1) : st[a] < 0 ? vis_plane_t(r, a, lo[a], i) : VIS_INF;
+    }
+    stride[0] = st[0];
+    stride[1] = 16 * st[1];
+    stride[2] = 256 * st[2];
+    uint32_t bit = (uint32_t)ix[0] + 16u * ((uint32_t)ix[1] + 16u * (uint32_t)ix[2]);
+    uint32_t j = VIS_LW_BRICK(bit);
+    vis_u64 label, loud = vis_lw_brick(&B, j, &label); /* the current brick's */
+    if (loud >> VIS_LW_BIT(bit) & 1u) {
+        /* The plane behind the start voxel on each axis, within the slack of ta: exact. */
+        for (int a = 0; a < 3; ++a) {
+            if (!st[a])
+                continue;
+            int k = st[a] > 0 ? ix[a] : ix[a] + 1;
+            float t = vis_plane_t(r, a, lo[a], k);
+            if (vis_t_limit(t) >= ta && t <= lim_b && t <= h->t)
+                vis_lw_visit(r, leaf, buckets, quads, objects, lo, (uint32_t)a, k, t, h);
+        }
+    }
+    float t_prev = ta;
+    int out = 0;
+    for (;;) {
+        int a = tn[1] < tn[0] ? 1 : 0;
+        a = tn[2] < tn[a] ? 2 : a;
+        float t = tn[a];
+        if (t == VIS_INF || t > lim_b || !(t <= h->t))
+            return 1;
+        int next = ix[a] + st[a];
+        int inside = next >= 0 && next <= 15;
+
+        if (out || (loud >> VIS_LW_BIT(bit) & 1u)) {
+            int k = st[a] > 0 ? ix[a] + 1 : ix[a];
+            float second = a == 0 ? (tn[1] < tn[2] ? tn[1] : tn[2])
+                                   : a == 1 ? (tn[0] < tn[2] ? tn[0] : tn[2]) : (tn[0] < tn[1] ? tn[0] : tn[1]);
+            if (out || !inside || t <= vis_t_limit(t_prev) || second <= vis_t_limit(t)) {
+                vis_lw_visit(r, leaf, buckets, quads, objects, lo, (uint32_t)a, k, t, h);
+            } else {
+                /* A quad covers the square between the two voxels: both are loud, and their
+                 * labels differ. */
+                uint32_t nb = (uint32_t)((int)bit + stride[a]), jn = VIS_LW_BRICK(nb);
+                vis_u64 nlabel = label, nloud = loud;
+                if (jn != j)
+                    nloud = vis_lw_brick(&B, jn, &nlabel);
+                if ((nloud >> VIS_LW_BIT(nb) & 1u) && ((label >> VIS_LW_BIT(bit) ^ nlabel >> VIS_LW_BIT(nb)) & 1u) &&
+                    t >= r->t_near && t <= r->t_far)
+                    vis_hit_offer_prim(t, owner, (uint32_t)a, 0u, lo[a] + (float)k, objects, h);
+            }
+        }
+        t_prev = t;
+        if (!inside) {
+            tn[a] = VIS_INF; /* out of the leaf on this axis; the others' crossings within lim(tb) still count */
+            out = 1;
+            continue;
+        }
+        ix[a] = next;
+        bit = (uint32_t)((int)bit + stride[a]);
+        tn[a] = vis_plane_t(r, a, lo[a], st[a] > 0 ? next + 1 : next);
+        if (VIS_LW_BRICK(bit) != j) {
+            j = VIS_LW_BRICK(bit);
+            loud = vis_lw_brick(&B, j, &label);
+        }
+    }
+}
+#else
+#  define VIS_LEAF_LABELS(li)
+#  define VIS_LEAF_LABELS_PARAM
+#endif
 
 /* Tests every primitive of the leaf that can beat the best hit, for the part [ta, tb] of
  * the ray inside the leaf. Hits outside [ta, tb] are real hits too and are kept: the result
@@ -911,8 +1147,8 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
                                    const VIS_GLOBAL uint32_t *buckets,
                                    const VIS_GLOBAL uint32_t *quads,
                                    const VIS_GLOBAL vis_flat_tri *tris,
-                                   const VIS_GLOBAL vis_flat_object *objects, float ta, float tb,
-                                   vis_hit *h)
+                                   const VIS_GLOBAL vis_flat_object *objects VIS_LEAF_LABELS_PARAM, float ta,
+                                   float tb, vis_hit *h)
 {
     if (leaf->loose_count | leaf->tri_count)
         vis_leaf_loose(r, leaf, quads, tris, objects, h);
@@ -946,6 +1182,12 @@ VIS_INLINE void vis_leaf_intersect(const vis_ray *r, const VIS_GLOBAL vis_flat_l
             ta > vis_t_limit(vis_t_limit(tb)))
             return; /* parallel to the axis outside the box's slab, or the box is missed */
     }
+#if VIS_LABEL_WALK && !defined(VIS_TRACE_EFFECTS)
+    if (lab && vis_label_walk(r, leaf, buckets, quads, objects, lab, ta, tb, h))
+        return;
+#elif VIS_LABEL_WALK
+    (void)lab; /* the effects pass offers every plane's quads: it walks planes */
+#endif
     vis_leaf_planes(r, leaf, buckets, quads, objects, ta, tb, E, bl, bh, h);
 }
 
@@ -1087,7 +1329,8 @@ VIS_INLINE void vis_traverse_stack(const vis_ray *r, const vis_ray_setup *s, VIS
             node = vis_descend(r, nodes, node, info, &t_min, &t_max, stack, &sp, VIS_STACK_SIZE);
             info = nodes[node].info;
         }
-        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects VIS_LEAF_LABELS(info >> 2), t_min,
+                           t_max, h);
         if (sp == 0)
             return;
         --sp;
@@ -1252,7 +1495,8 @@ VIS_INLINE void vis_traverse_restart_range(const vis_ray *r, uint32_t root, floa
             }
             info = nodes[node].info;
         }
-        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects VIS_LEAF_LABELS(info >> 2), t_min,
+                           t_max, h);
         for (;;) {
             if (pending == 0u)
                 return;
@@ -1326,7 +1570,8 @@ VIS_INLINE int vis_traverse_subtree(const vis_ray *r, uint32_t node, float t_min
             node = vis_descend(r, nodes, node, info, &t_min, &t_max, stack, &sp, (int)VIS_MAX_SHORT_STACK);
             info = nodes[node].info;
         }
-        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects VIS_LEAF_LABELS(info >> 2), t_min,
+                           t_max, h);
         if (sp == 0)
             return 0;
         --sp;
@@ -1467,8 +1712,8 @@ VIS_INLINE void vis_traverse_ropes(const vis_ray *r, const vis_ray_setup *s, uin
         int last = e > vis_t_limit(t1) || (e >= t1 && !exit_inside);
         float t_end = e < t1 ? e : t1;
         if (n == 0u || rn->height == 0u) {
-            vis_leaf_intersect(r, &leaves[n == 0u ? entry : nodes[rn->node].info >> 2], buckets, quads, tris,
-                               objects, b, t_end, h);
+            uint32_t li = n == 0u ? entry : nodes[rn->node].info >> 2;
+            vis_leaf_intersect(r, &leaves[li], buckets, quads, tris, objects VIS_LEAF_LABELS(li), b, t_end, h);
         } else if (vis_traverse_subtree(r, rn->node, b, t_end, VIS_SCENE_ARGS, h)) {
             return;
         }
@@ -1636,7 +1881,8 @@ VIS_INLINE void vis_traverse_cached_stack(const vis_ray *r, const vis_ray_setup 
             }
             info = nodes[node].info;
         }
-        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects, t_min, t_max, h);
+        vis_leaf_intersect(r, &leaves[info >> 2], buckets, quads, tris, objects VIS_LEAF_LABELS(info >> 2), t_min,
+                           t_max, h);
         if (cs.nb + cs.nc == 0u)
             return;
         vis_stack_entry e = vis_cached_pop(&cs, backing);
@@ -1752,7 +1998,7 @@ VIS_INLINE int vis_dda_leaf(const vis_ray *r, uint32_t entry, float ta, float tb
     const VIS_GLOBAL vis_flat_leaf *leaf = &leaves[VIS_CELL_LEAF(e)];
     if (!vis_leaf_has_primitives(leaf))
         return 0;
-    vis_leaf_intersect(r, leaf, buckets, quads, tris, objects, ta, tb, h);
+    vis_leaf_intersect(r, leaf, buckets, quads, tris, objects VIS_LEAF_LABELS(VIS_CELL_LEAF(e)), ta, tb, h);
     return 1;
 }
 

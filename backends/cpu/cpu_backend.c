@@ -4,7 +4,8 @@
  * rays a side), handed out dynamically by the pool. A batch of views is one pool run over the
  * tiles of all of them, so that the threads share out a batch of small passes (a server's
  * 32x32 faces: 16 tiles each) as they do one large pass, woken once. The scene arrays are the host's own; a sync
- * only refreshes the subtree occupancy flags the packet method skips empty space with.
+ * refreshes only what this backend keeps beside them: the subtree occupancy flags the packet
+ * method skips empty space with, and the voxel labels of the per-ray leaf walk (labels.h).
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
  * instance of that code (effects.c): per ray in 8x8 tiles, or for the packet method in
@@ -16,6 +17,7 @@
 
 #include "backend.h"
 #include "cpu/effects.h"
+#include "cpu/labels.h"
 #include "cpu/occupancy.h"
 #include "cpu/packet.h"
 #include "cpu/threadpool.h"
@@ -29,8 +31,15 @@ typedef struct cpu_backend {
     void *parallel_for_user;
 } cpu_backend;
 
+/* The backend's own data for a scene, beside the host arrays it traces: the subtree
+ * occupancy flags of the packets and the voxel labels of the per-ray leaf walk. */
+typedef struct cpu_scene {
+    vis_occupancy occ;
+    vis_labels labels;
+} cpu_scene;
+
 typedef struct cpu_job {
-    const vis_scene_view *view;
+    vis_scene_view view;        /* the scene's arrays and this backend's labels */
     const uint8_t *occupied;
     const vis_ray_setup *setup; /* `views` setups of one size and method (a batch), or one */
     uint32_t views;
@@ -46,7 +55,7 @@ typedef struct cpu_job {
 static void trace_tile(void *user, uint32_t item)
 {
     const cpu_job *job = user;
-    const vis_scene_view v = *job->view; /* a local copy: its arrays stay in registers */
+    const vis_scene_view v = job->view; /* a local copy: its arrays stay in registers */
     const uint32_t view = item / job->tiles, tile = item % job->tiles;
     const vis_ray_setup *s = &job->setup[view];
     const size_t first = (size_t)view * s->width * s->height; /* the view's first pixel */
@@ -95,23 +104,49 @@ static void cpu_destroy(void *impl)
     vis_host_free(&a, b);
 }
 
+/* The labels' full build on the caller's job system or the pool. */
+typedef struct labels_call {
+    void (*job)(void *arg, uint32_t index);
+    void *arg;
+} labels_call;
+
+static void labels_call_item(uint32_t index, void *arg)
+{
+    const labels_call *c = arg;
+    c->job(c->arg, index);
+}
+
+static void labels_run(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg)
+{
+    cpu_backend *b = user;
+    if (b->parallel_for) {
+        labels_call c = {job, arg};
+        b->parallel_for(count, labels_call_item, &c, b->parallel_for_user);
+    } else {
+        vis_pool_run(b->pool, count, job, arg);
+    }
+}
+
 static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_view *view,
                                  const vis_scene_changes *changes, char *err, size_t err_size)
 {
     cpu_backend *b = impl;
-    vis_occupancy *occ = *scene_data;
-    if (!occ) {
-        if (!(occ = vis_host_calloc(&b->alloc, 1, sizeof *occ))) {
+    cpu_scene *cs = *scene_data;
+    if (!cs) {
+        if (!(cs = vis_host_calloc(&b->alloc, 1, sizeof *cs))) {
             snprintf(err, err_size, "out of memory");
             return VIS_ERROR_OUT_OF_MEMORY;
         }
-        occ->alloc = &b->alloc;
+        cs->occ.alloc = cs->labels.alloc = &b->alloc;
     }
-    *scene_data = occ; /* the host arrays are the scene: only the occupancy is ours */
-    vis_status st = vis_occupancy_sync(occ, view, changes);
-    if (st != VIS_OK) {
+    *scene_data = cs; /* the host arrays are the scene: only the flags and labels are ours */
+    if (vis_occupancy_sync(&cs->occ, view, changes) != VIS_OK) {
         snprintf(err, err_size, "out of memory for the occupancy of %u kd nodes", view->node_count);
-        return st;
+        return VIS_ERROR_OUT_OF_MEMORY;
+    }
+    if (vis_labels_sync(&cs->labels, view, changes, labels_run, b) != VIS_OK) {
+        snprintf(err, err_size, "out of memory for the voxel labels of %u leaves", view->leaf_count);
+        return VIS_ERROR_OUT_OF_MEMORY;
     }
     return VIS_OK;
 }
@@ -119,11 +154,12 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
 static void cpu_scene_release(void *impl, void *scene_data)
 {
     cpu_backend *b = impl;
-    vis_occupancy *occ = scene_data;
-    if (!occ)
+    cpu_scene *cs = scene_data;
+    if (!cs)
         return;
-    vis_occupancy_free(occ);
-    vis_host_free(&b->alloc, occ);
+    vis_occupancy_free(&cs->occ);
+    vis_labels_free(&cs->labels);
+    vis_host_free(&b->alloc, cs);
 }
 
 /* A job over the `views` passes setup[0..views) (one size and method): its items are the
@@ -132,7 +168,7 @@ static void cpu_scene_release(void *impl, void *scene_data)
  * instead of 4, so that its threads share a face whose work lies in one corner (a hill's
  * horizon: docs/server.md, "Chunk faces traced one by one"). An effects pass keeps
  * VIS_PACKET_SIDE tiles. */
-static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_view *view, const vis_ray_setup *setup,
+static void init_job(cpu_job *job, const cpu_scene *cs, const vis_scene_view *view, const vis_ray_setup *setup,
                      uint32_t views, uint32_t *ids, float *depth, const vis_effect_setup *effects)
 {
     uint32_t side = TILE;
@@ -143,8 +179,9 @@ static void init_job(cpu_job *job, const vis_occupancy *occ, const vis_scene_vie
                 side = VIS_PACKET_SIDE;
     }
     memset(job, 0, sizeof *job);
-    job->view = view;
-    job->occupied = occ->occupied;
+    job->view = *view;
+    job->view.labels = cs->labels.words;
+    job->occupied = cs->occ.occupied;
     job->setup = setup;
     job->views = views;
     job->ids = ids;
@@ -255,12 +292,22 @@ static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
     return 0;
 }
 
+/* The occupancy flags and the voxel labels, at their capacity. */
+static uint64_t cpu_scene_bytes(void *impl, void *scene_data)
+{
+    (void)impl;
+    const cpu_scene *cs = scene_data;
+    if (!cs)
+        return 0;
+    return sizeof *cs + vis_occupancy_bytes(&cs->occ) + vis_labels_bytes(&cs->labels);
+}
+
 static const vis_backend_ops cpu_ops = {"cpu", cpu_destroy, cpu_scene_sync, cpu_scene_release, cpu_trace,
                                         cpu_trace_cost, cpu_last_upload_bytes,
                                         cpu_trace_batch,
                                         NULL /* last_kernel_ms: libvis times the pass */,
                                         NULL /* trace_drawlist: libvis builds lists from the IDs */,
-                                        cpu_trace_effects};
+                                        cpu_trace_effects, cpu_scene_bytes};
 
 vis_status vis_cpu_backend_create(uint32_t threads, const vis_allocator *alloc, vis_backend *out,
                                   uint32_t *out_threads, char *err, size_t err_size)

@@ -26,4 +26,11 @@ vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, co
 
 void vis_occupancy_free(vis_occupancy *occ);
 
+/* Bytes allocated. */
+static inline uint64_t vis_occupancy_bytes(const vis_occupancy *occ)
+{
+    return (uint64_t)occ->node_count * (sizeof *occ->parent + sizeof *occ->occupied) +
+           (uint64_t)occ->leaf_count * sizeof *occ->leaf_node;
+}
+
 #endif /* VIS_CPU_OCCUPANCY_H */

@@ -1071,8 +1071,7 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
                 vis_ray r;
                 vis_hit h;
                 packet_lane(&p, i, &r, &h);
-                id = vis_hit_leaf_id(&r, &h, view->nodes, view->leaves, view->buckets, view->quads, view->tris,
-                                     view->objects, view->object_leaves, view->ropes, view->rope_index);
+                id = vis_hit_leaf_id(&r, &h, VIS_SCENE_VIEW_ARGS(view));
             }
         }
         ids[at] = id;

@@ -1450,6 +1450,8 @@ static vis_status get_info_locked(const vis_scene *s, vis_scene_info *out)
     out->edits = s->edits;
     out->bytes = vis_scene_bytes(s); /* ropes included */
     out->max_bytes = s->desc.max_bytes;
+    const vis_backend_ops *ops = s->ctx->backend.ops;
+    out->backend_bytes = s->backend_data && ops->scene_bytes ? ops->scene_bytes(s->ctx->backend.impl, s->backend_data) : 0;
     return VIS_OK;
 }
 

@@ -173,6 +173,24 @@ vis_status vis_trace(vis_context *ctx, vis_scene *scene, const vis_camera *camer
     return st;
 }
 
+vis_status vis_scene_prepare(vis_context *ctx, vis_scene *scene)
+{
+    if (!ctx)
+        return VIS_ERROR_INVALID_ARGUMENT;
+    if (vis_enter(ctx) != VIS_OK)
+        return VIS_ERROR_BUSY;
+    vis_clear_error(ctx);
+    vis_status st = VIS_OK;
+    void *data = NULL;
+    uint64_t upload = 0;
+    if (!scene)
+        st = vis_fail(ctx, VIS_ERROR_INVALID_ARGUMENT, "vis_scene_prepare: scene must not be NULL");
+    else if ((st = vis_scene_begin_trace(ctx, scene, 0, &data, &upload)) == VIS_OK)
+        vis_scene_end_read(scene);
+    vis_leave(ctx);
+    return st;
+}
+
 vis_status vis_trace_cost(vis_context *ctx, vis_scene *scene, const vis_camera *camera, const vis_trace_desc *desc,
                           uint32_t *out_ids, size_t ids_capacity, uint32_t *out_cost, size_t cost_capacity)
 {

@@ -162,8 +162,10 @@ typedef void (*vis_log_fn)(vis_log_level level, const char *message, void *user)
 
 /* Optional job system for the CPU backend: runs job(i, arg) once for every i in [0, count),
  * on any threads, in any order, and returns when all have finished. Called from inside
- * vis_trace()/vis_trace_batch() on the calling thread; several contexts sharing one job
- * system may call it at the same time. A job keeps a whole ray packet on its stack: give its
+ * vis_trace()/vis_trace_batch() on the calling thread: once for the pass, and in the first
+ * pass over a scene (or the first after the context's copy was rebuilt whole) once more for
+ * every 1024 kd leaves, to build the voxel labels of the per-ray leaf walk. Several contexts
+ * sharing one job system may call it at the same time. A job keeps a whole ray packet on its stack: give its
  * threads (or fibers) at least 64 KiB of stack (a 16x16 packet of an effects pass is 39 KB,
  * of a plain pass 15 KB). */
 typedef void (*vis_parallel_for_fn)(uint32_t count, void (*job)(uint32_t index, void *arg), void *arg,
@@ -340,9 +342,22 @@ typedef struct vis_scene_info {
     uint64_t bytes;         /* host memory held by the scene (its arrays at their capacity) */
     uint64_t max_bytes;     /* the limit on `bytes` (vis_scene_desc.max_bytes)              */
     uint64_t edits;         /* set/remove calls so far                                      */
+    uint64_t backend_bytes; /* host memory the scene's own context's backend holds for it
+                               beside `bytes` (the CPU backend: the subtree occupancy flags
+                               and the voxel labels of its per-ray leaf walk), as of its last
+                               trace or vis_scene_prepare; 0 before the first. `bytes` +
+                               backend_bytes is what tracing the scene holds all told      */
 } vis_scene_info;
 
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
+
+/* Brings `context`'s copy of the scene up to date now, as its next trace would first do: the
+ * CPU backend builds its occupancy flags and voxel labels (whole at the first call, then the
+ * changed leaves), a device backend uploads. For an engine that would rather pay that when it
+ * loads a world than in its first frame. A call on `context` as a trace is (threads: as
+ * vis_trace); VIS_ERROR_OUT_OF_MEMORY, or the upload's error, leaves the copy to the next
+ * trace. */
+VIS_API vis_status vis_scene_prepare(vis_context *context, vis_scene *scene);
 
 /* How the scene's memory is used inside: for benchmarks and debugging, not for deciding
  * anything (the fields follow the implementation and may change between versions). */
