@@ -753,45 +753,6 @@ VIS_NOINLINE void vis_leaf_loose(const vis_ray *r, const VIS_GLOBAL vis_flat_lea
         vis_test_tri(r, &tris[leaf->tri_offset + i], objects, h);
 }
 
-/* The quads of bucket b (plane k of axis a, crossed at t >= t_near, t <= t_far and no
- * farther than the best hit) that the exact test takes. The bucket's cover masks come first,
- * u then v: most buckets end there, an empty one (masks 0) at the first word, and only the
- * buckets they let through read their offsets (one cache line, one load on a device, fewer
- * per plane visited). mg: the leaf's crossing margins, or per_bucket for the bucket's own. */
-VIS_INLINE void vis_bucket_visit(const vis_ray *r, uint32_t a, uint32_t b, float t, int k, const float *lo,
-                                 const float *mg, int per_bucket, const VIS_GLOBAL uint32_t *packed,
-                                 const VIS_GLOBAL uint32_t *table, const VIS_GLOBAL uint32_t *bk,
-                                 const VIS_GLOBAL uint32_t *cover, const VIS_GLOBAL vis_flat_object *objects,
-                                 vis_hit *h)
-{
-    uint32_t u = a == 2u ? 0u : a + 1u;
-    uint32_t v = a == 0u ? 2u : a - 1u;
-    float lu = lo[u], lv = lo[v];
-    int cu[2], cv[2];
-    uint32_t mu = cover[2u * b];
-    if (!(mu != 0u && vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, mu, cu) &&
-          vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)))
-        return;
-    /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach the
-     * crossing's range (vis_crossing_cells) is one the exact test would miss; one whose u0
-     * starts past it ends the bucket, as every quad after it does too. */
-    for (uint32_t i = bk[b], end = bk[b + 1u]; i < end; ++i) {
-        uint32_t w = packed[i];
-        int u0 = (int)VIS_PQ_FIELD(w, 0u);
-        if (u0 > cu[1])
-            break; /* this quad and the rest of the bucket start past the crossing */
-        if ((int)VIS_PQ_FIELD(w, 2u) < cu[0] || (int)VIS_PQ_FIELD(w, 1u) > cv[1] || (int)VIS_PQ_FIELD(w, 3u) < cv[0])
-            continue;
-        /* vis_test_quad, with what the walk already knows: the plane's distance t
-         * (vis_quad_intersect's t for each quad of the bucket), within [t_near, t_far] and
-         * no farther than the best hit. */
-        if (!vis_quad_slab(r, u, v, t, lu + (float)u0, lv + (float)VIS_PQ_FIELD(w, 1u), lu + (float)VIS_PQ_FIELD(w, 2u),
-                           lv + (float)VIS_PQ_FIELD(w, 3u)))
-            continue;
-        vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], a, VIS_PQ_FLAGS(w), lo[a] + (float)k, objects, h);
-    }
-}
-
 /* The plane walk of vis_leaf_intersect over [ta, tb] (already narrowed to the content box),
  * with the leaf's plane counts E and the box's offsets bl, bh (bh read as the last plane when
  * saturated). Kept out of line on the CPU so that the leaves whose box a ray misses, most of
@@ -885,9 +846,39 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
          * plane beyond the best hit can beat it; equal t is still visited for the tie rule. */
         if (t == VIS_INF || !(t <= h->t) || t > t_stop)
             break; /* every axis walked, or past the best hit / the leaf's end / far plane */
-        if (t >= r->t_near)
-            vis_bucket_visit(r, (uint32_t)a, (uint32_t)(base[a] + k[a]), t, k[a], lo, mg, per_bucket, packed, table, bk,
-                             cover, objects, h);
+        uint32_t b = (uint32_t)(base[a] + k[a]);
+        uint32_t u = a == 2 ? 0u : (uint32_t)a + 1u;
+        uint32_t v = a == 0 ? 2u : (uint32_t)a - 1u;
+        float lu = lo[u], lv = lo[v];
+        int cu[2], cv[2];
+        /* The bucket's cover masks come first, u then v: most buckets end there, an empty
+         * one (masks 0) at the first word, and only the buckets they let through read their
+         * offsets (one cache line, one load on a device, fewer per plane visited). */
+        uint32_t mu = cover[2u * b];
+        if (t >= r->t_near && mu != 0u &&
+            vis_crossing_covered(r->o[u], t * r->d[u], lu, mg[u], per_bucket, mu, cu) &&
+            vis_crossing_covered(r->o[v], t * r->d[v], lv, mg[v], per_bucket, cover[2u * b + 1u], cv)) {
+            /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach
+             * the crossing's range (vis_crossing_cells) is one the exact test would miss;
+             * one whose u0 starts past it ends the bucket, as every quad after it does too. */
+            for (uint32_t i = bk[b], end = bk[b + 1u]; i < end; ++i) {
+                uint32_t w = packed[i];
+                int u0 = (int)VIS_PQ_FIELD(w, 0u);
+                if (u0 > cu[1])
+                    break; /* this quad and the rest of the bucket start past the crossing */
+                if ((int)VIS_PQ_FIELD(w, 2u) < cu[0] || (int)VIS_PQ_FIELD(w, 1u) > cv[1] ||
+                    (int)VIS_PQ_FIELD(w, 3u) < cv[0])
+                    continue;
+                /* vis_test_quad, with what this walk already knows: the plane's distance t
+                 * (vis_quad_intersect's t for each quad of the bucket), within [t_near,
+                 * t_far] and no farther than the best hit. */
+                if (!vis_quad_slab(r, u, v, t, lu + (float)u0, lv + (float)VIS_PQ_FIELD(w, 1u),
+                                   lu + (float)VIS_PQ_FIELD(w, 2u), lv + (float)VIS_PQ_FIELD(w, 3u)))
+                    continue;
+                vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], (uint32_t)a, VIS_PQ_FLAGS(w), lo[a] + (float)k[a], objects,
+                                   h);
+            }
+        }
         if (k[a] == kend[a]) {
             tk[a] = VIS_INF;
         } else {
@@ -963,6 +954,45 @@ VIS_INLINE vis_u64 vis_lw_brick(const vis_lw_block *B, uint32_t j, vis_u64 *labe
     return vis_lw_u64(B->loud + 2u * vis_popcount64(B->L & below));
 }
 
+/* The quads of bucket b (the plane `plane` of axis a, crossed at t >= t_near, t <= t_far and
+ * no farther than the best hit) that the exact test takes, as vis_leaf_planes visits a
+ * bucket: its cover masks first, then its quads by u0. u, v are the plane's axes, lu, lv the
+ * leaf's corner on them, mu_m, mv_m the leaf's crossing margins there (per_bucket: each
+ * bucket's own). vis_leaf_planes keeps its own copy of these lines inline: called from there
+ * as a function, the same code made the H100's batches of 256 views 2.3-2.5 % slower
+ * (docs/opencl.md, "The plane walk's bucket visit as a function"), one more value held across
+ * the walk under the batch programs' register cap. */
+VIS_INLINE void vis_bucket_visit(const vis_ray *r, uint32_t a, uint32_t u, uint32_t v, uint32_t b, float t, float plane,
+                                 float lu, float lv, float mu_m, float mv_m, int per_bucket,
+                                 const VIS_GLOBAL uint32_t *packed, const VIS_GLOBAL uint32_t *table,
+                                 const VIS_GLOBAL uint32_t *bk, const VIS_GLOBAL uint32_t *cover,
+                                 const VIS_GLOBAL vis_flat_object *objects, vis_hit *h)
+{
+    int cu[2], cv[2];
+    uint32_t mu = cover[2u * b];
+    if (!(mu != 0u && vis_crossing_covered(r->o[u], t * r->d[u], lu, mu_m, per_bucket, mu, cu) &&
+          vis_crossing_covered(r->o[v], t * r->d[v], lv, mv_m, per_bucket, cover[2u * b + 1u], cv)))
+        return;
+    /* A bucket's quads are sorted by u0 (scene.c). A quad whose offsets do not reach the
+     * crossing's range (vis_crossing_cells) is one the exact test would miss; one whose u0
+     * starts past it ends the bucket, as every quad after it does too. */
+    for (uint32_t i = bk[b], end = bk[b + 1u]; i < end; ++i) {
+        uint32_t w = packed[i];
+        int u0 = (int)VIS_PQ_FIELD(w, 0u);
+        if (u0 > cu[1])
+            break; /* this quad and the rest of the bucket start past the crossing */
+        if ((int)VIS_PQ_FIELD(w, 2u) < cu[0] || (int)VIS_PQ_FIELD(w, 1u) > cv[1] || (int)VIS_PQ_FIELD(w, 3u) < cv[0])
+            continue;
+        /* vis_test_quad, with what the walk already knows: the plane's distance t
+         * (vis_quad_intersect's t for each quad of the bucket), within [t_near, t_far] and
+         * no farther than the best hit. */
+        if (!vis_quad_slab(r, u, v, t, lu + (float)u0, lv + (float)VIS_PQ_FIELD(w, 1u), lu + (float)VIS_PQ_FIELD(w, 2u),
+                           lv + (float)VIS_PQ_FIELD(w, 3u)))
+            continue;
+        vis_hit_offer_prim(t, table[VIS_PQ_TABLE(w)], a, VIS_PQ_FLAGS(w), plane, objects, h);
+    }
+}
+
 /* Plane k of axis a, crossed at t, as the plane walk visits it. */
 VIS_INLINE void vis_lw_visit(const vis_ray *r, const vis_flat_leaf *leaf, const uint32_t *buckets, const uint32_t *quads,
                              const vis_flat_object *objects, const float *lo, uint32_t a, int k, float t, vis_hit *h)
@@ -970,9 +1000,11 @@ VIS_INLINE void vis_lw_visit(const vis_ray *r, const vis_flat_leaf *leaf, const 
     if (!(t >= r->t_near && t <= r->t_far))
         return;
     const uint32_t *bk = buckets + leaf->bucket_offset;
-    const float no_margin[3] = {0.0f, 0.0f, 0.0f}; /* per_bucket: each bucket's own margin */
-    vis_bucket_visit(r, a, 17u * a + (uint32_t)k, t, k, lo, no_margin, 1, quads + leaf->quad_offset,
-                     quads + leaf->table_offset, bk, bk + vis_bucket_offsets(16u, 16u, 16u), objects, h);
+    uint32_t u = a == 2u ? 0u : a + 1u, v = a == 0u ? 2u : a - 1u;
+    /* per_bucket: each bucket's own margin (the leaf's, 0 here, is not read) */
+    vis_bucket_visit(r, a, u, v, 17u * a + (uint32_t)k, t, lo[a] + (float)k, lo[u], lo[v], 0.0f, 0.0f, 1,
+                     quads + leaf->quad_offset, quads + leaf->table_offset, bk, bk + vis_bucket_offsets(16u, 16u, 16u),
+                     objects, h);
 }
 
 /* Whether the ray may take the label walk through this leaf: not lying in one of the

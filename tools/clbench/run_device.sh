@@ -68,6 +68,11 @@
 #                        candidates' bit-for-bit comparisons
 #   run_device.sh 19     the bit-for-bit comparisons of b3/, b4/, b5/ and b2/ alone (what phase 18
 #                        leaves when it runs out of time)
+#   run_device.sh 20     the plane walk's bucket visit as a function of its own (2026-12-07,
+#                        shared with the CPU's label walk): test_opencl and the bit-for-bit
+#                        comparison, then this tree against a parent's build in old/,
+#                        alternated, two rounds: batches of 256 on gen:default and gen:large,
+#                        one view per camera of gen:default
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -339,6 +344,12 @@ if [ "$PHASE" = 18 ]; then
 fi
 if [ "$PHASE" = 18 ] || [ "$PHASE" = 19 ]; then
   for d in b3 b4 b5 b2; do gpu_conformance $d; done
+fi
+if [ "$PHASE" = 20 ]; then
+  gpu_test . 150
+  batch_rounds . old
+  view_rounds . old
+  gpu_conformance .
 fi
 if [ "$PHASE" = 17 ]; then
   batch_rounds . old
