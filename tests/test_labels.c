@@ -28,37 +28,10 @@
 #include "test_support.h"
 #include "vis/vis.h"
 
-static void *t_alloc(size_t size, size_t align, void *user)
-{
-    (void)user;
-    size_t rounded = (size + align - 1) / align * align;
-    return aligned_alloc(align, rounded ? rounded : align);
-}
-
-static void t_free(void *p, void *user)
-{
-    (void)user;
-    free(p);
-}
-
-static const vis_allocator heap = {t_alloc, t_free, NULL};
-
-static void run_serial(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg)
-{
-    (void)user;
-    for (uint32_t i = 0; i < count; ++i)
-        job(arg, i);
-}
-
 static vis_labels labels_of(const vis_scene_view *v)
 {
     vis_labels lab;
-    memset(&lab, 0, sizeof lab);
-    lab.alloc = &heap;
-    vis_scene_changes ch;
-    memset(&ch, 0, sizeof ch);
-    ch.full = 1;
-    assert_int_equal(vis_labels_sync(&lab, v, &ch, run_serial, NULL), VIS_OK);
+    assert_int_equal(vt_labels_build(&lab, v), VIS_OK);
     return lab;
 }
 
@@ -389,7 +362,7 @@ static void test_edits_keep_blocks_current(void **state)
         ch.leaves = s->dirty_leaves;
         ch.leaf_count = s->dirty_leaf_count;
         size_t stale = lab.stale;
-        assert_int_equal(vis_labels_sync(&lab, &v, &ch, run_serial, NULL), VIS_OK);
+        assert_int_equal(vis_labels_sync(&lab, &v, &ch, NULL, NULL), VIS_OK);
         compactions += lab.stale < stale;
         most = lab.cap > most ? lab.cap : most;
     }

@@ -572,6 +572,61 @@ static void test_ropes_built_by_first_rope_pass(void **state)
     vis_context_destroy(ctx);
 }
 
+/* vis_scene_prepare: the context's copy made without a trace, counted in backend_bytes (the
+ * CPU backend's occupancy flags and voxel labels), kept up to date after edits. */
+static void test_prepare_counts_backend_bytes(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2), *other = make_cpu_ctx(1);
+    vis_scene *s = make_cube_scene(ctx, 64);
+    /* A closed box in one chunk: its leaf gets labels. */
+    tworld w;
+    memset(&w, 0, sizeof w);
+    tobj *o = add_obj(&w, 7);
+    float lo[3] = {2, 3, 4}, hi[3] = {9, 12, 10};
+    obj_box(o, lo, hi);
+    set_obj(s, o);
+    vis_scene_info info;
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_int_equal(info.backend_bytes, 0); /* nothing traced or prepared yet */
+    assert_int_equal(vis_scene_prepare(NULL, s), VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_scene_prepare(ctx, NULL), VIS_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(vis_scene_prepare(ctx, s), VIS_OK);
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    uint64_t prepared = info.backend_bytes;
+    assert_true(prepared > 0);
+    /* Another context's copy is its own: the scene's figure is its own context's. */
+    assert_int_equal(vis_scene_prepare(other, s), VIS_OK);
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_int_equal(info.backend_bytes, prepared);
+    /* An edit, then prepare again: the trace after it sees the edit. */
+    float hi2[3] = {9, 14, 10};
+    obj_clear(o);
+    obj_box(o, lo, hi2);
+    set_obj(s, o);
+    assert_int_equal(vis_scene_prepare(ctx, s), VIS_OK);
+    assert_int_equal(vis_scene_get_info(s, &info), VIS_OK);
+    assert_true(info.backend_bytes > 0);
+    vis_camera cam = {{5.5, 30, -20}, {5.5, 13, 7}, 60, 0, 0};
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = 32;
+    td.traversal = VIS_TRAVERSAL_DDA;
+    static uint32_t ids[32 * 32], ref[32 * 32];
+    assert_int_equal(vis_trace(ctx, s, &cam, &td, ids, 32 * 32, NULL, 0), VIS_OK);
+    td.traversal = VIS_TRAVERSAL_BRUTEFORCE;
+    assert_int_equal(vis_trace(ctx, s, &cam, &td, ref, 32 * 32, NULL, 0), VIS_OK);
+    assert_memory_equal(ids, ref, sizeof ids);
+    int seen = 0;
+    for (size_t i = 0; i < 32 * 32; ++i)
+        seen |= ids[i] == 7;
+    assert_true(seen);
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(other);
+    vis_context_destroy(ctx);
+}
+
 typedef struct scene_state {
     vis_scene_info info;
     vis_scene_stats stats;
@@ -955,6 +1010,7 @@ int main(void)
         cmocka_unit_test(test_no_allocation_per_frame),
         cmocka_unit_test(test_scene_stats),
         cmocka_unit_test(test_ropes_built_by_first_rope_pass),
+        cmocka_unit_test(test_prepare_counts_backend_bytes),
         cmocka_unit_test(test_huge_scenes_refused),
         cmocka_unit_test(test_scene_max_bytes),
         cmocka_unit_test(test_edits_respect_max_bytes),

@@ -566,28 +566,6 @@ static void check_ray(const vis_scene_view *v, vis_ray_setup *s, const tworld *w
 /* Ray i of a stream (its vt_rand draws from rng), named in `ray`. */
 typedef void (*ray_gen)(uint64_t *rng, const tworld *w, int i, int lattice, vis_ray *r, char *ray, size_t cap);
 
-static void *heap_alloc(size_t size, size_t align, void *user)
-{
-    (void)user;
-    size_t rounded = (size + align - 1) / align * align;
-    return aligned_alloc(align, rounded ? rounded : align);
-}
-
-static void heap_free(void *p, void *user)
-{
-    (void)user;
-    free(p);
-}
-
-static const vis_allocator test_heap = {heap_alloc, heap_free, NULL};
-
-static void run_serial(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg)
-{
-    (void)user;
-    for (uint32_t i = 0; i < count; ++i)
-        job(arg, i);
-}
-
 /* count rays of gen through the whole scene, each checked by check_ray. */
 static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, int count, ray_gen gen, int lattice,
                              const char *what)
@@ -607,12 +585,7 @@ static void check_ray_stream(vis_scene *scene, const tworld *w, uint64_t *rng, i
     /* Every ray twice: through the plane walk (the devices' and the effects pass's), and
      * through the CPU's label walk where a leaf has labels (cpu/labels.h). */
     vis_labels lab;
-    memset(&lab, 0, sizeof lab);
-    lab.alloc = &test_heap;
-    vis_scene_changes full;
-    memset(&full, 0, sizeof full);
-    full.full = 1;
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, run_serial, NULL), VIS_OK);
+    assert_int_equal(vt_labels_build(&lab, &v), VIS_OK);
     vis_scene_view lv = v;
     lv.labels = lab.words;
     char labelled[224];

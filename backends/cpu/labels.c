@@ -326,7 +326,11 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, vis_labels_r
     int ok = 1;
     for (b.first = 0; ok && b.first < v->leaf_count; b.first += b.count) {
         b.count = v->leaf_count - b.first < BATCH ? v->leaf_count - b.first : BATCH;
-        run(run_user, b.count, build_one, &b);
+        if (run)
+            run(run_user, b.count, build_one, &b);
+        else
+            for (uint32_t i = 0; i < b.count; ++i)
+                build_one(&b, i);
         for (uint32_t i = 0; ok && i < b.count; ++i) {
             uint32_t n = b.words[i];
             if (!n)

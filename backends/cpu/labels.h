@@ -39,7 +39,8 @@ uint32_t vis_labels_build_leaf(const vis_flat_leaf *lf, const uint32_t *buckets,
 typedef void (*vis_labels_run_fn)(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg);
 
 /* Brings *lab up to date with the view: every leaf when `changes->full` or the leaf count
- * differs (their blocks built on run's threads), else the changed leaves.
+ * differs (their blocks built on run's threads; run NULL: on the calling thread), else the
+ * changed leaves.
  * VIS_ERROR_OUT_OF_MEMORY leaves *lab empty (no leaf labelled: the plane walk traces every
  * leaf). */
 vis_status vis_labels_sync(vis_labels *lab, const vis_scene_view *view, const vis_scene_changes *changes,

@@ -72,3 +72,32 @@ double vt_rand_unit(uint64_t *state)
 {
     return (double)(vt_rand(state) >> 11) * (1.0 / 9007199254740992.0);
 }
+
+/* ---- the CPU backend's labels, for the walks called directly ------------------------------ */
+
+#include "cpu/labels.h"
+
+static void *heap_alloc(size_t size, size_t align, void *user)
+{
+    (void)user;
+    size_t rounded = (size + align - 1) / align * align;
+    return aligned_alloc(align, rounded ? rounded : align);
+}
+
+static void heap_free(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+static const vis_allocator heap = {heap_alloc, heap_free, NULL};
+
+int vt_labels_build(struct vis_labels *out, const struct vis_scene_view *view)
+{
+    memset(out, 0, sizeof *out);
+    out->alloc = &heap;
+    vis_scene_changes full;
+    memset(&full, 0, sizeof full);
+    full.full = 1;
+    return (int)vis_labels_sync(out, view, &full, NULL, NULL); /* on this thread */
+}

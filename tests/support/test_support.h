@@ -28,6 +28,13 @@ int vt_small(void);
 /* Reads a whole file; caller frees. NULL on failure. */
 void *vt_read_file(const char *path, size_t *out_size);
 
+/* The CPU backend's voxel labels (backends/cpu/labels.h) of a view, built whole on the
+ * calling thread from malloc'd memory, for the tests that call the walks directly; free with
+ * vis_labels_free. Returns vis_labels_sync's status. */
+struct vis_labels;
+struct vis_scene_view;
+int vt_labels_build(struct vis_labels *out, const struct vis_scene_view *view);
+
 /* A deterministic 64-bit generator (splitmix64) for random tests. */
 uint64_t vt_rand(uint64_t *state);
 double vt_rand_unit(uint64_t *state); /* [0, 1) */

@@ -38,6 +38,7 @@ typedef struct edit_result {
     uint32_t count;
     double median_ms, p99_ms, max_ms, per_s;
     double update_median_ms, remesh_median_ms; /* leaf update alone, remesh alone */
+    double sync_median_ms, sync_max_ms; /* vis_scene_prepare after each edit (the next pass's share) */
     double chunks_per_edit;
     int embree;                                /* the Embree columns below are filled */
     double embree_median_ms, embree_p99_ms;

@@ -152,15 +152,17 @@ static int embree_pass(bench *b, size_t v, int stream, double *med, double *mn, 
     return CLI_EXIT_OK;
 }
 
-/* Embree's memory for the same quads next to the scene's own (vis_scene_info.bytes: every
- * array the traced scene holds, at its capacity). */
+/* Embree's memory for the same quads next to ours: every array the traced scene holds, at its
+ * capacity, and what its context's backend keeps beside them (vis_scene_info.bytes and
+ * backend_bytes). */
 static void print_memory(const bench *b)
 {
     double quads = b->info.quads ? (double)b->info.quads : 1.0, mb = 1024.0 * 1024.0;
     uint64_t st = embree_compare_static_bytes(b->ec), dy = embree_compare_dynamic_bytes(b->ec);
+    uint64_t ours = b->info.bytes + b->info.backend_bytes;
     printf("  memory: static scene %.1f MiB (%.1f bytes per quad), dynamic %.1f MiB (%.1f); ours %.1f MiB (%.1f)\n",
-           (double)st / mb, (double)st / quads, (double)dy / mb, (double)dy / quads, (double)b->info.bytes / mb,
-           (double)b->info.bytes / quads);
+           (double)st / mb, (double)st / quads, (double)dy / mb, (double)dy / quads, (double)ours / mb,
+           (double)ours / quads);
 }
 
 static int run_embree(bench *b)
@@ -230,6 +232,7 @@ static void print_json(const bench *b)
     json_uint(&w, "objects", b->info.objects);
     json_uint(&w, "quads", b->info.quads);
     json_uint(&w, "scene_bytes", b->info.bytes);
+    json_uint(&w, "backend_bytes", b->info.backend_bytes);
     json_number(&w, "load_ms", b->world.load_ms);
     json_array_begin(&w, "configs");
     for (size_t i = 0; i < b->nconfigs; ++i) {
@@ -271,6 +274,8 @@ static void print_json(const bench *b)
         json_number(&w, "max_ms", er->max_ms);
         json_number(&w, "remesh_median_ms", er->remesh_median_ms);
         json_number(&w, "update_median_ms", er->update_median_ms);
+        json_number(&w, "sync_median_ms", er->sync_median_ms);
+        json_number(&w, "sync_max_ms", er->sync_max_ms);
         json_number(&w, "chunks_per_edit", er->chunks_per_edit);
         if (er->fresh_bytes) {
             json_uint(&w, "edited_scene_bytes", er->edited_bytes);
