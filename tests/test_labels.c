@@ -9,7 +9,8 @@
  * - The label walk against the plane walk, ray by ray, on random worlds and rays aimed at
  *   voxel edges and corners, from eyes on split and voxel planes: the same hit, bit for bit.
  * - Edits: the blocks after partial syncs equal a fresh build's, and the array stays within
- *   a bound of what the leaves need. */
+ *   a bound of what the leaves need.
+ * - Without memory: no labels, no retry until the next full sync. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -391,12 +392,73 @@ static void test_edits_keep_blocks_current(void **state)
     vis_context_destroy(ctx);
 }
 
+/* ---- without memory ------------------------------------------------------------------------ */
+
+typedef struct gate {
+    int open;      /* 0: every allocation fails */
+    unsigned calls;
+} gate;
+
+static void *gate_alloc(size_t size, size_t align, void *user)
+{
+    gate *g = user;
+    g->calls++;
+    if (!g->open)
+        return NULL;
+    size_t rounded = (size + align - 1) / align * align;
+    return aligned_alloc(align, rounded ? rounded : align);
+}
+
+static void gate_free(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+/* A build without memory leaves no labels and says so once: the partial syncs after it do not
+ * try again (the plane walk traces meanwhile); a full sync does, and then succeeds. */
+static void test_no_memory_no_labels(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 5;
+    tworld w;
+    random_chunk_world_opts(&w, &rng, 4, 2, 3, &busy_world);
+    vis_scene *s = make_scene(ctx, &w, NULL, 0);
+    vis_scene_view v = vis_scene_get_view(s);
+    gate g = {0, 0};
+    vis_allocator a = {gate_alloc, gate_free, &g};
+    vis_labels lab;
+    memset(&lab, 0, sizeof lab);
+    lab.alloc = &a;
+    vis_scene_changes full, part;
+    memset(&full, 0, sizeof full);
+    memset(&part, 0, sizeof part);
+    full.full = 1;
+    uint32_t leaf = 0;
+    part.leaves = &leaf;
+    part.leaf_count = 1;
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_true(lab.failed && !lab.words && lab.labelled == 0);
+    unsigned calls = g.calls;
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_int_equal(g.calls, calls); /* no retry on a partial sync */
+    g.open = 1;
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, NULL, NULL), VIS_OK);
+    assert_true(!lab.failed && lab.words && lab.labelled > 0);
+    vis_labels_free(&lab);
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_blocks_match_definition),
         cmocka_unit_test(test_walk_equals_plane_walk),
         cmocka_unit_test(test_edits_keep_blocks_current),
+        cmocka_unit_test(test_no_memory_no_labels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

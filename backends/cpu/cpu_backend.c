@@ -144,10 +144,9 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
         snprintf(err, err_size, "out of memory for the occupancy of %u kd nodes", view->node_count);
         return VIS_ERROR_OUT_OF_MEMORY;
     }
-    if (vis_labels_sync(&cs->labels, view, changes, labels_run, b) != VIS_OK) {
-        snprintf(err, err_size, "out of memory for the voxel labels of %u leaves", view->leaf_count);
-        return VIS_ERROR_OUT_OF_MEMORY;
-    }
+    /* The labels only accelerate the per-ray leaf walk: without their memory every leaf takes
+     * the plane walk, with the same buffers (labels.h). */
+    (void)vis_labels_sync(&cs->labels, view, changes, labels_run, b);
     return VIS_OK;
 }
 

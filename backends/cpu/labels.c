@@ -220,6 +220,7 @@ void vis_labels_free(vis_labels *lab)
     lab->words = NULL;
     lab->leaf_count = lab->labelled = 0;
     lab->used = lab->cap = lab->stale = 0;
+    lab->failed = 0;
 }
 
 /* Room for `more` words past `used`: the array grows by an eighth, at least (memory counts
@@ -349,6 +350,7 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, vis_labels_r
         return VIS_ERROR_OUT_OF_MEMORY;
     }
     compact(lab); /* to what the blocks need (it keeps the array if that memory cannot be had) */
+    lab->failed = 0;
     return VIS_OK;
 }
 
@@ -384,13 +386,22 @@ static int compact(vis_labels *lab)
 vis_status vis_labels_sync(vis_labels *lab, const vis_scene_view *view, const vis_scene_changes *changes,
                            vis_labels_run_fn run, void *run_user)
 {
-    if (changes->full || !lab->words || lab->leaf_count != view->leaf_count)
-        return rebuild(lab, view, run, run_user);
-    for (uint32_t i = 0; i < changes->leaf_count; ++i)
-        if (!update_leaf(lab, view, changes->leaves[i])) {
-            vis_labels_free(lab);
-            return VIS_ERROR_OUT_OF_MEMORY;
-        }
+    int same_tree = lab->leaf_count == view->leaf_count;
+    if (lab->failed && !changes->full && same_tree)
+        return VIS_ERROR_OUT_OF_MEMORY; /* still without labels: no retry per pass */
+    vis_status st = VIS_OK;
+    if (changes->full || !lab->words || !same_tree) {
+        st = rebuild(lab, view, run, run_user);
+    } else {
+        for (uint32_t i = 0; st == VIS_OK && i < changes->leaf_count; ++i)
+            st = update_leaf(lab, view, changes->leaves[i]) ? VIS_OK : VIS_ERROR_OUT_OF_MEMORY;
+    }
+    if (st != VIS_OK) {
+        vis_labels_free(lab);
+        lab->leaf_count = view->leaf_count;
+        lab->failed = 1;
+        return st;
+    }
     /* Stale blocks past an eighth of the array: copied out (if that memory cannot be had now,
      * the next sync tries again; the array is still correct). */
     if (lab->stale > lab->used / 8u)

@@ -22,6 +22,9 @@ typedef struct vis_labels {
     size_t used, cap;  /* words in use (the offsets included) and allocated                  */
     size_t stale;      /* words of blocks no leaf points at any more                         */
     uint32_t labelled; /* leaves with a block                                                */
+    int failed;        /* the last full build could not have its memory: no labels (the
+                          plane walk traces every leaf, the same buffers) until the next full
+                          sync or another leaf count                                         */
 } vis_labels;
 
 /* The words of one leaf's block at most: the header, and two words of loud bits and two of
@@ -40,9 +43,9 @@ typedef void (*vis_labels_run_fn)(void *user, uint32_t count, void (*job)(void *
 
 /* Brings *lab up to date with the view: every leaf when `changes->full` or the leaf count
  * differs (their blocks built on run's threads; run NULL: on the calling thread), else the
- * changed leaves.
- * VIS_ERROR_OUT_OF_MEMORY leaves *lab empty (no leaf labelled: the plane walk traces every
- * leaf). */
+ * changed leaves. VIS_ERROR_OUT_OF_MEMORY leaves *lab empty and `failed` (no leaf labelled:
+ * the plane walk traces every leaf); the labels are only an acceleration, so the caller may
+ * trace on. */
 vis_status vis_labels_sync(vis_labels *lab, const vis_scene_view *view, const vis_scene_changes *changes,
                            vis_labels_run_fn run, void *run_user);
 
