@@ -131,6 +131,8 @@ typedef struct vis_scene_view {
 typedef struct vis_scene_changes {
     uint64_t generation;
     int full;
+    int copy; /* a context's copy of another context's scene: every sync of it is full, as
+                 that context never sees the owner's change lists (scene_share.c)          */
     const uint32_t *leaves;
     uint32_t leaf_count;
     const uint32_t *objects;

@@ -525,6 +525,25 @@ static void test_parallel_for_hook(void **state)
             assert_memory_equal(depth, ref_depth, PIX * sizeof *depth);
         }
         assert_true(atomic_load(&j.items) > 3);
+        /* A context tracing this scene as another's copy (made whole at every sync after an
+         * edit) keeps no voxel labels: its first pass is one call, as every later one. */
+        vis_context *owner = NULL;
+        vis_context_desc od;
+        vis_context_desc_defaults(&od);
+        od.backend = VIS_BACKEND_CPU;
+        od.threads = 1;
+        assert_int_equal(vis_context_create(&od, &owner), VIS_OK);
+        vis_scene *os = NULL;
+        assert_int_equal(vis_scene_create(owner, &sd, &os), VIS_OK);
+        apply_state(os, 1);
+        vis_trace_desc pk = trace_desc(VIS_TRAVERSAL_PACKET);
+        unsigned before = atomic_load(&j.calls);
+        assert_int_equal(vis_trace(ctx, os, &c, &pk, ids, PIX, depth, PIX), VIS_OK);
+        assert_int_equal(atomic_load(&j.calls), before + 1);
+        reference(1, VIS_TRAVERSAL_PACKET, ref, ref_depth);
+        assert_memory_equal(ids, ref, PIX * sizeof *ids);
+        vis_scene_destroy(os);
+        assert_int_equal(vis_context_destroy(owner), VIS_OK);
         vis_scene_destroy(s);
         assert_int_equal(vis_context_destroy(ctx), VIS_OK);
         free(ids);

@@ -891,7 +891,7 @@ VIS_NOINLINE void vis_leaf_planes(const vis_ray *r, const VIS_GLOBAL vis_flat_le
 #if VIS_LABEL_WALK
 /* ---- the CPU's label walk ------------------------------------------------------------
  *
- * A leaf of one object's packed quads, 16 cells a side, no loose quads, triangles or material
+ * A leaf of one object's packed quads, 16 voxels a side, no loose quads, triangles or material
  * flags, gets from the CPU backend (backends/cpu/labels.c) two labels for its 16^3 voxels
  * such that two face-neighbours differ exactly where a quad covers the square between them,
  * and a "loud" bit for every voxel that touches a quad (its square, edge or corner). A ray

@@ -33,7 +33,7 @@ typedef struct vis_labels {
 
 /* Writes leaf lf's block (trace_core.h, "the CPU's label walk") to out, which holds
  * VIS_LABELS_MAX_BLOCK words, and returns its word count; 0 when the leaf does not take the
- * label walk (not 16 cells a side, not one object's packed quads alone, material flags, or
+ * label walk (not 16 voxels a side, not one object's packed quads alone, material flags, or
  * no labelling exists). */
 uint32_t vis_labels_build_leaf(const vis_flat_leaf *lf, const uint32_t *buckets, const uint32_t *quads,
                                uint32_t *out);

@@ -107,6 +107,7 @@ static vis_status sync_copy(vis_context *ctx, vis_scene *s, vis_scene_copy **slo
     memset(&ch, 0, sizeof ch);
     ch.generation = s->generation;
     ch.full = 1;
+    ch.copy = 1;
     char err[1024] = "";
     int st = ctx->backend.ops->scene_sync(ctx->backend.impl, &c->data, &view, &ch, err, sizeof err);
     if (st != VIS_OK)
