@@ -204,6 +204,13 @@ static uint32_t check_blocks(vis_scene *s, const char *what)
  * several, with loose quads and triangles. */
 static const chunk_world_opts busy_world = {0.2, 5, 0.3, 1, 2, 0};
 
+/* A random world of nx x ny x nz chunks as busy_world makes them, and its scene. */
+static vis_scene *busy_scene(vis_context *ctx, uint64_t *rng, int nx, int ny, int nz, tworld *w)
+{
+    random_chunk_world_opts(w, rng, nx, ny, nz, &busy_world);
+    return make_scene(ctx, w, NULL, 0);
+}
+
 /* Chunk object c of a random world (ID 1 + chunk index), or NULL if that chunk is empty. */
 static tobj *chunk_obj(tworld *w, int nx, int ny, const int c[3])
 {
@@ -309,8 +316,7 @@ static void test_walk_equals_plane_walk(void **state)
     int rays = vt_small() ? 20000 : 100000;
     for (int round = 0; round < 3; ++round) {
         tworld w;
-        random_chunk_world_opts(&w, &rng, 6, 2, 5, &busy_world);
-        vis_scene *s = make_scene(ctx, &w, NULL, 0);
+        vis_scene *s = busy_scene(ctx, &rng, 6, 2, 5, &w);
         vis_scene_view plain = vis_scene_get_view(s), lv = plain;
         vis_labels lab = labels_of(&plain);
         assert_true(lab.labelled > 5);
@@ -342,8 +348,7 @@ static void test_edits_keep_blocks_current(void **state)
     vis_context *ctx = make_cpu_ctx(1);
     uint64_t rng = 99;
     tworld w;
-    random_chunk_world_opts(&w, &rng, 6, 2, 5, &busy_world);
-    vis_scene *s = make_scene(ctx, &w, NULL, 0);
+    vis_scene *s = busy_scene(ctx, &rng, 6, 2, 5, &w);
     vis_scene_view v = vis_scene_get_view(s);
     vis_labels lab = labels_of(&v);
     size_t most = 0;
@@ -423,8 +428,7 @@ static void test_no_memory_no_labels(void **state)
     vis_context *ctx = make_cpu_ctx(1);
     uint64_t rng = 5;
     tworld w;
-    random_chunk_world_opts(&w, &rng, 4, 2, 3, &busy_world);
-    vis_scene *s = make_scene(ctx, &w, NULL, 0);
+    vis_scene *s = busy_scene(ctx, &rng, 4, 2, 3, &w);
     vis_scene_view v = vis_scene_get_view(s);
     gate g = {0, 0};
     vis_allocator a = {gate_alloc, gate_free, &g};
