@@ -1,7 +1,8 @@
 /* labels.c — see labels.h; the walk that reads the blocks is trace_core.h's vis_label_walk.
  *
- * A leaf's labels, bit-parallel: the squares its quads cover go into 16-bit rows along x
- * (X: x-planes, per y and z; Y: y-planes, per plane and z; Z: z-planes, per plane and y).
+ * A leaf's labels, bit-parallel: the squares its quads cover go into rows along x (leaf_planes:
+ * per y and z a bit for each x-plane 0..16; per y-plane and z, and per z-plane and y, a bit for
+ * each x).
  * The labels of the x = 0 column come from the y and z planes crossed from the corner, every
  * row's from the prefix parity of its x-planes (a shift-XOR ladder), and the y and z planes
  * are then checked row against row: a leaf where some plane's squares disagree with the
