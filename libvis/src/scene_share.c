@@ -129,6 +129,8 @@ static vis_scene_copy *find_copy(const vis_scene *s, const vis_context *ctx)
  * whole). */
 static vis_status build_ropes(vis_context *ctx, vis_scene *s)
 {
+    if (s->ropes)
+        return VIS_OK; /* built by an earlier pass: no copy is behind for them */
     vis_status st = vis_kdtree_build_ropes(s, ctx);
     if (st != VIS_OK || !s->ropes)
         return st;
