@@ -115,21 +115,19 @@ static int colourable(const leaf_ref *ref)
     return 1;
 }
 
-static uint64_t word64(const uint32_t *p) { return (uint64_t)p[0] | (uint64_t)p[1] << 32; }
-
 /* Voxel c's loud bit and label from a block. */
 static void block_voxel(const uint32_t *b, int c, int *loud, int *label)
 {
     uint32_t bit = (uint32_t)c, j = VIS_LW_BRICK(bit), in = VIS_LW_BIT(bit);
-    uint64_t L = word64(b), X = word64(b + 2), U = word64(b + 4), below = (1ull << j) - 1u;
+    uint64_t L = vis_lw_u64(b), X = vis_lw_u64(b + 2), U = vis_lw_u64(b + 4), below = (1ull << j) - 1u;
     *loud = 0;
     *label = -1;
     if (!(L >> j & 1u))
         return;
     const uint32_t *lw = b + VIS_LW_HEADER + 2u * vis_popcount64(L & below);
-    *loud = (int)(word64(lw) >> in & 1u);
+    *loud = (int)(vis_lw_u64(lw) >> in & 1u);
     if (X >> j & 1u)
-        *label = (int)(word64(b + VIS_LW_HEADER + 2u * vis_popcount64(L) + 2u * vis_popcount64(X & below)) >> in & 1u);
+        *label = (int)(vis_lw_u64(b + VIS_LW_HEADER + 2u * vis_popcount64(L) + 2u * vis_popcount64(X & below)) >> in & 1u);
     else
         *label = (int)(U >> j & 1u);
 }
@@ -167,7 +165,7 @@ static uint32_t check_blocks(vis_scene *s, const char *what)
             continue;
         }
         ++labelled;
-        uint32_t words = VIS_LW_HEADER + 2u * vis_popcount64(word64(b)) + 2u * vis_popcount64(word64(b + 2));
+        uint32_t words = vis_labels_block_words(b);
         uint32_t again[VIS_LABELS_MAX_BLOCK];
         assert_int_equal(vis_labels_build_leaf(lf, v.buckets, v.quads, again), words);
         assert_memory_equal(again, b, words * sizeof *b);

@@ -104,27 +104,28 @@ static void cpu_destroy(void *impl)
     vis_host_free(&a, b);
 }
 
-/* The labels' full build on the caller's job system or the pool. */
-typedef struct labels_call {
-    void (*job)(void *arg, uint32_t index);
+/* job(i, arg) for i in [0, count) on the caller's job system or the pool: the labels' full
+ * build and vis_cpu_backend_parallel_for. */
+typedef struct pool_call {
+    void (*job)(uint32_t index, void *arg);
     void *arg;
-} labels_call;
+} pool_call;
 
-static void labels_call_item(uint32_t index, void *arg)
+static void pool_call_item(void *user, uint32_t index)
 {
-    const labels_call *c = arg;
-    c->job(c->arg, index);
+    const pool_call *c = user;
+    c->job(index, c->arg);
 }
 
-static void labels_run(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg)
+static void run_parallel(void *impl, uint32_t count, void (*job)(uint32_t index, void *arg), void *arg)
 {
-    cpu_backend *b = user;
+    cpu_backend *b = impl;
     if (b->parallel_for) {
-        labels_call c = {job, arg};
-        b->parallel_for(count, labels_call_item, &c, b->parallel_for_user);
-    } else {
-        vis_pool_run(b->pool, count, job, arg);
+        b->parallel_for(count, job, arg, b->parallel_for_user);
+        return;
     }
+    pool_call c = {job, arg};
+    vis_pool_run(b->pool, count, pool_call_item, &c);
 }
 
 static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_view *view,
@@ -151,7 +152,7 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
     if (changes->copy)
         vis_labels_free(&cs->labels);
     else
-        (void)vis_labels_sync(&cs->labels, view, changes, labels_run, b);
+        (void)vis_labels_sync(&cs->labels, view, changes, run_parallel, b);
     return VIS_OK;
 }
 
@@ -267,27 +268,10 @@ void vis_cpu_backend_set_parallel_for(vis_backend *backend, vis_parallel_for_fn 
     b->parallel_for_user = user;
 }
 
-typedef struct pool_call {
-    void (*job)(uint32_t index, void *arg);
-    void *arg;
-} pool_call;
-
-static void pool_call_item(void *user, uint32_t index)
-{
-    const pool_call *c = user;
-    c->job(index, c->arg);
-}
-
 void vis_cpu_backend_parallel_for(vis_backend *backend, uint32_t count, void (*job)(uint32_t index, void *arg),
                                   void *arg)
 {
-    cpu_backend *b = backend->impl;
-    if (b->parallel_for) {
-        b->parallel_for(count, job, arg, b->parallel_for_user);
-        return;
-    }
-    pool_call c = {job, arg};
-    vis_pool_run(b->pool, count, pool_call_item, &c);
+    run_parallel(backend->impl, count, job, arg);
 }
 
 static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)

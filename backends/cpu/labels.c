@@ -250,11 +250,19 @@ static int reserve(vis_labels *lab, size_t more)
 static uint32_t block_words(const vis_labels *lab, uint32_t li)
 {
     uint32_t at = lab->words[li];
-    if (!at)
+    return at ? vis_labels_block_words(lab->words + at) : 0u;
+}
+
+/* Leaf li's block of n words appended to the array. Returns 0 when the array cannot grow. */
+static int append_block(vis_labels *lab, uint32_t li, const uint32_t *block, uint32_t n)
+{
+    if (!reserve(lab, n))
         return 0;
-    const uint32_t *p = lab->words + at;
-    uint64_t L = (uint64_t)p[0] | (uint64_t)p[1] << 32, M = (uint64_t)p[2] | (uint64_t)p[3] << 32;
-    return VIS_LW_HEADER + 2u * vis_popcount64(L) + 2u * vis_popcount64(M);
+    memcpy(lab->words + lab->used, block, n * sizeof *block);
+    lab->words[li] = (uint32_t)lab->used;
+    lab->used += n;
+    lab->labelled++;
+    return 1;
 }
 
 /* Leaf li's block from the view: in place where it fits, else appended. */
@@ -271,15 +279,7 @@ static int update_leaf(vis_labels *lab, const vis_scene_view *v, uint32_t li)
     lab->stale += old;
     lab->labelled -= old != 0;
     lab->words[li] = 0;
-    if (!n)
-        return 1;
-    if (!reserve(lab, n))
-        return 0;
-    memcpy(lab->words + lab->used, block, n * sizeof *block);
-    lab->words[li] = (uint32_t)lab->used;
-    lab->used += n;
-    lab->labelled++;
-    return 1;
+    return !n || append_block(lab, li, block, n);
 }
 
 static int compact(vis_labels *lab);
@@ -295,7 +295,7 @@ typedef struct batch_job {
     uint32_t *words;  /* each slot's block size, 0: none          */
 } batch_job;
 
-static void build_one(void *arg, uint32_t i)
+static void build_one(uint32_t i, void *arg)
 {
     batch_job *b = arg;
     const vis_scene_view *v = b->v;
@@ -332,18 +332,9 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, vis_labels_r
             run(run_user, b.count, build_one, &b);
         else
             for (uint32_t i = 0; i < b.count; ++i)
-                build_one(&b, i);
-        for (uint32_t i = 0; ok && i < b.count; ++i) {
-            uint32_t n = b.words[i];
-            if (!n)
-                continue;
-            if (!(ok = reserve(lab, n)))
-                break;
-            memcpy(lab->words + lab->used, b.blocks + (size_t)i * VIS_LABELS_MAX_BLOCK, n * sizeof(uint32_t));
-            lab->words[b.first + i] = (uint32_t)lab->used;
-            lab->used += n;
-            lab->labelled++;
-        }
+                build_one(i, &b);
+        for (uint32_t i = 0; ok && i < b.count; ++i)
+            ok = !b.words[i] || append_block(lab, b.first + i, b.blocks + (size_t)i * VIS_LABELS_MAX_BLOCK, b.words[i]);
     }
     vis_host_free(lab->alloc, b.blocks);
     if (!ok) {

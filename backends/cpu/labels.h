@@ -31,6 +31,12 @@ typedef struct vis_labels {
  * labels for each of the 64 bricks. */
 #define VIS_LABELS_MAX_BLOCK (6u + 4u * 64u)
 
+/* The words of a block (trace_core.h, "the CPU's label walk"), from its header. */
+static inline uint32_t vis_labels_block_words(const uint32_t *block)
+{
+    return VIS_LW_HEADER + 2u * vis_popcount64(vis_lw_u64(block)) + 2u * vis_popcount64(vis_lw_u64(block + 2));
+}
+
 /* Writes leaf lf's block (trace_core.h, "the CPU's label walk") to out, which holds
  * VIS_LABELS_MAX_BLOCK words, and returns its word count; 0 when the leaf does not take the
  * label walk (not 16 voxels a side, not one object's packed quads alone, material flags, or
@@ -38,8 +44,9 @@ typedef struct vis_labels {
 uint32_t vis_labels_build_leaf(const vis_flat_leaf *lf, const uint32_t *buckets, const uint32_t *quads,
                                uint32_t *out);
 
-/* Runs job(arg, i) for i in [0, count) on the backend's threads (threadpool.h's contract). */
-typedef void (*vis_labels_run_fn)(void *user, uint32_t count, void (*job)(void *arg, uint32_t index), void *arg);
+/* Runs job(i, arg) for i in [0, count) on the backend's threads (vis_parallel_for_fn's
+ * contract) and returns when all have finished. */
+typedef void (*vis_labels_run_fn)(void *user, uint32_t count, void (*job)(uint32_t index, void *arg), void *arg);
 
 /* Brings *lab up to date with the view: every leaf when `changes->full` or the leaf count
  * differs (their blocks built on run's threads; run NULL: on the calling thread), else the
