@@ -1007,18 +1007,26 @@ VIS_INLINE void vis_lw_visit(const vis_ray *r, const vis_flat_leaf *leaf, const 
                      objects, h);
 }
 
-/* Whether the ray may take the label walk through this leaf: not lying in one of the
- * leaf's integer planes (its crossings there are no crossings), and the slack of a distance
- * at the leaf's far end under half a voxel (so that "near an edge" is a neighbourhood of the
- * edge, not of the whole voxel). */
-VIS_INLINE int vis_lw_walkable(const vis_ray *r, const vis_flat_leaf *leaf, float tb)
+/* Whether the ray may take the label walk through this leaf over [ta, tb]:
+ *  - not lying in one of the leaf's integer planes (its crossings there are no crossings),
+ *    and inside the leaf's slab on an axis it runs parallel to;
+ *  - entered by ta, by the walk's own distances: the entry plane of each other axis crossed
+ *    at or before ta (the CPU's walks clip to the leaf's slabs, so they always qualify). From
+ *    an interval that began before the leaf, a crossing of another axis before the entry
+ *    would read the labels of a voxel the ray is not in;
+ *  - the slack of a distance at the leaf's far end under half a voxel (so that "near an
+ *    edge" is a neighbourhood of the edge, not of the whole voxel). */
+VIS_INLINE int vis_lw_walkable(const vis_ray *r, const vis_flat_leaf *leaf, float ta, float tb)
 {
     float m = 0.0f;
     for (int a = 0; a < 3; ++a) {
+        float lo = leaf->lo[a];
         if (r->d[a] == 0.0f) {
-            float p = r->o[a] - leaf->lo[a];
-            if (p >= 0.0f && p <= 16.0f && p == (float)(int)p)
+            float p = r->o[a] - lo;
+            if ((p >= 0.0f && p <= 16.0f && p == (float)(int)p) || !(r->o[a] >= lo && r->o[a] <= lo + 16.0f))
                 return 0;
+        } else if (!(vis_plane_t(r, a, lo, r->d[a] > 0.0f ? 0 : 16) <= ta)) {
+            return 0;
         }
         m = VIS_FABSF(r->d[a]) > m ? VIS_FABSF(r->d[a]) : m;
     }
@@ -1031,22 +1039,11 @@ VIS_NOINLINE int vis_label_walk(const vis_ray *r, const vis_flat_leaf *leaf, con
                                 const uint32_t *quads, const vis_flat_object *objects, const uint32_t *lab, float ta,
                                 float tb, vis_hit *h)
 {
-    if (!vis_lw_walkable(r, leaf, tb))
+    if (!vis_lw_walkable(r, leaf, ta, tb))
         return 0;
-    /* Only where the ray has entered the leaf by ta, by the walk's own distances: the entry
-     * plane of each axis crossed at or before ta (the CPU's walks clip to the leaf's slabs,
-     * so they always qualify). From an interval that began before the leaf, a crossing of
-     * another axis before the entry would read the labels of a voxel the ray is not in. */
     float lo[3];
-    for (int a = 0; a < 3; ++a) {
+    for (int a = 0; a < 3; ++a)
         lo[a] = leaf->lo[a];
-        if (r->d[a] == 0.0f) {
-            if (!(r->o[a] >= lo[a] && r->o[a] <= lo[a] + 16.0f))
-                return 0;
-        } else if (!(vis_plane_t(r, a, lo[a], r->d[a] > 0.0f ? 0 : 16) <= ta)) {
-            return 0;
-        }
-    }
     vis_lw_block B;
     B.L = vis_lw_u64(lab);
     B.X = vis_lw_u64(lab + 2);
