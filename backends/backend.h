@@ -142,6 +142,9 @@ typedef struct vis_scene_changes {
      * [map_lo, map_hi] (inclusive, cell coordinates); none when map_changed is 0. */
     int map_changed;
     uint32_t map_lo[3], map_hi[3];
+    /* Host memory the backend may keep for the scene beside the scene's arrays: its max_bytes
+     * less its bytes. What the CPU backend's optional labels are held to. */
+    uint64_t room;
 } vis_scene_changes;
 
 /* The buffers of an effects pass (vis_trace_effects): ids always; the others NULL when

@@ -366,7 +366,7 @@ static void test_edits_keep_blocks_current(void **state)
         ch.leaves = s->dirty_leaves;
         ch.leaf_count = s->dirty_leaf_count;
         size_t stale = lab.stale;
-        assert_int_equal(vis_labels_sync(&lab, &v, &ch, NULL, NULL), VIS_OK);
+        assert_int_equal(vis_labels_sync(&lab, &v, &ch, UINT64_MAX, NULL, NULL), VIS_OK);
         compactions += lab.stale < stale;
         most = lab.cap > most ? lab.cap : most;
     }
@@ -440,15 +440,82 @@ static void test_no_memory_no_labels(void **state)
     uint32_t leaf = 0;
     part.leaves = &leaf;
     part.leaf_count = 1;
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
     assert_true(lab.failed && !lab.words && lab.labelled == 0);
     unsigned calls = g.calls;
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
     assert_int_equal(g.calls, calls); /* no retry on a partial sync */
     g.open = 1;
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, NULL, NULL), VIS_OK);
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_OK);
     assert_true(!lab.failed && lab.words && lab.labelled > 0);
     vis_labels_free(&lab);
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
+/* ---- held to a limit -------------------------------------------------------------------- */
+
+/* The array never takes more than the sync allows: a build that fits is copied out to at most
+ * the limit, one that does not leaves no labels (VIS_ERROR_BUDGET), a partial sync retries
+ * only once the limit has grown by an eighth, and a limit that shrinks under the array
+ * copies it out to its size or drops it. */
+static void test_labels_held_to_max_bytes(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 17;
+    tworld w;
+    vis_scene *s = busy_scene(ctx, &rng, 4, 2, 3, &w);
+    vis_scene_view v = vis_scene_get_view(s);
+    vis_labels free_lab = labels_of(&v);
+    uint64_t need = (uint64_t)free_lab.used * sizeof(uint32_t); /* the blocks and offsets */
+    assert_true(free_lab.labelled > 0 && free_lab.cap > free_lab.used);
+    gate g = {1, 0};
+    vis_allocator a = {gate_alloc, gate_free, &g};
+    vis_labels lab;
+    memset(&lab, 0, sizeof lab);
+    lab.alloc = &a;
+    vis_scene_changes full, part;
+    memset(&full, 0, sizeof full);
+    memset(&part, 0, sizeof part);
+    full.full = 1;
+    uint32_t leaf = 0;
+    part.leaves = &leaf;
+    part.leaf_count = 1;
+    /* Exactly what the blocks need: built, and copied out to no more. */
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, need, NULL, NULL), VIS_OK);
+    assert_int_equal(lab.labelled, free_lab.labelled);
+    assert_true(vis_labels_bytes(&lab) <= need);
+    assert_memory_equal(lab.words, free_lab.words, free_lab.used * sizeof *lab.words);
+    /* One word less: none, and said so. */
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_true(lab.failed == VIS_ERROR_BUDGET && !lab.words && lab.labelled == 0 && vis_labels_bytes(&lab) == 0);
+    /* Partial syncs: no retry until the room has grown by more than an eighth. */
+    unsigned calls = g.calls;
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, need - 4u + (need - 4u) / 8u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_int_equal(g.calls, calls);
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, 2u * need, NULL, NULL), VIS_OK);
+    assert_true(!lab.failed && lab.labelled == free_lab.labelled && vis_labels_bytes(&lab) <= 2u * need);
+    /* Built without a limit (a sixteenth of room), then the limit shrinks: copied out to the
+     * blocks' size, then, one word short of it, dropped. */
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_OK);
+    assert_true(vis_labels_bytes(&lab) > need);
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, need, NULL, NULL), VIS_OK);
+    assert_true(lab.labelled == free_lab.labelled && vis_labels_bytes(&lab) == need);
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_true(lab.failed && !lab.words && lab.labelled == 0);
+    /* Without memory the failure is VIS_ERROR_OUT_OF_MEMORY, and the room rule retries it only
+     * where the limit grew (here it is unlimited: never, until a full sync). */
+    g.open = 0;
+    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    g.open = 1;
+    calls = g.calls;
+    assert_int_equal(vis_labels_sync(&lab, &v, &part, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_int_equal(g.calls, calls);
+    vis_labels_free(&lab);
+    vis_labels_free(&free_lab);
     vis_scene_destroy(s);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -461,6 +528,7 @@ int main(void)
         cmocka_unit_test(test_walk_equals_plane_walk),
         cmocka_unit_test(test_edits_keep_blocks_current),
         cmocka_unit_test(test_no_memory_no_labels),
+        cmocka_unit_test(test_labels_held_to_max_bytes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

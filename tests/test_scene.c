@@ -627,6 +627,82 @@ static void test_prepare_counts_backend_bytes(void **state)
     vis_context_destroy(ctx);
 }
 
+/* A 64-cube scene of max_bytes (0: the default) holding a closed box in each of its 64
+ * chunks (objects 1..64), prepared on ctx. */
+static vis_scene *boxes_scene(vis_context *ctx, uint64_t max_bytes, tworld *w, vis_scene_info *info)
+{
+    vis_scene_desc d;
+    vis_scene_desc_defaults(&d);
+    d.size[0] = d.size[1] = d.size[2] = 64;
+    d.max_bytes = max_bytes;
+    vis_scene *s = NULL;
+    assert_int_equal(vis_scene_create(ctx, &d, &s), VIS_OK);
+    memset(w, 0, sizeof *w);
+    for (uint32_t c = 0; c < 64; ++c) {
+        tobj *o = add_obj(w, c + 1);
+        float base[3] = {(float)(c % 4 * 16), (float)(c / 4 % 4 * 16), (float)(c / 16 * 16)};
+        float lo[3] = {base[0] + 2 + (float)(c % 3), base[1] + 1, base[2] + 3};
+        float hi[3] = {base[0] + 11, base[1] + 9 + (float)(c % 5), base[2] + 13};
+        obj_box(o, lo, hi);
+        set_obj(s, o);
+    }
+    assert_int_equal(vis_scene_prepare(ctx, s), VIS_OK);
+    assert_int_equal(vis_scene_get_info(s, info), VIS_OK);
+    return s;
+}
+
+/* The CPU backend's voxel labels are kept only within max_bytes beside the scene's bytes;
+ * without them the passes are the same, and the scene with its backend data stays within
+ * the limit. */
+static void test_labels_within_max_bytes(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    tworld w[4];
+    vis_scene_info free_info, bare, half, room;
+    vis_scene *s_free = boxes_scene(ctx, 0, &w[0], &free_info);
+    /* No room beside the scene: the backend keeps its occupancy flags alone. */
+    vis_scene *s_bare = boxes_scene(ctx, free_info.bytes + 1, &w[1], &bare);
+    assert_int_equal(bare.bytes, free_info.bytes);
+    uint64_t flags = bare.backend_bytes, labels = free_info.backend_bytes - flags;
+    assert_true(flags > 0 && labels > flags); /* 64 labelled leaves */
+    /* Room for half the labels: none. */
+    vis_scene *s_half = boxes_scene(ctx, free_info.bytes + flags + labels / 2, &w[2], &half);
+    assert_int_equal(half.bytes, free_info.bytes);
+    assert_int_equal(half.backend_bytes, flags);
+    /* Room for all of them: kept, within the limit. */
+    vis_scene *s_room = boxes_scene(ctx, free_info.bytes + flags + labels, &w[3], &room);
+    assert_true(room.backend_bytes > flags);
+    assert_true(room.bytes + room.backend_bytes <= room.max_bytes);
+    /* The same buffers with and without them, from above and along the rows of boxes. */
+    vis_camera cams[2] = {{{70, 90, -30}, {32, 20, 32}, 60, 0, 0}, {{-10, 5.5, 0.5}, {64, 5.5, 60}, 60, 0, 0}};
+    vis_trace_desc td;
+    vis_trace_desc_defaults(&td);
+    td.width = td.height = 48;
+    static uint32_t ids[4][48 * 48];
+    static float depth[4][48 * 48];
+    vis_scene *scenes[4] = {s_free, s_bare, s_half, s_room};
+    for (int c = 0; c < 2; ++c)
+        for (int m = 0; m < 2; ++m) {
+            td.traversal = m ? VIS_TRAVERSAL_DDA : VIS_TRAVERSAL_STACK;
+            for (int i = 0; i < 4; ++i)
+                assert_int_equal(vis_trace(ctx, scenes[i], &cams[c], &td, ids[i], 48 * 48, depth[i], 48 * 48), VIS_OK);
+            for (int i = 1; i < 4; ++i) {
+                assert_memory_equal(ids[i], ids[0], sizeof ids[0]);
+                assert_memory_equal(depth[i], depth[0], sizeof depth[0]);
+            }
+        }
+    int seen = 0; /* the last pass, along the rows: a good part of it hits */
+    for (size_t i = 0; i < 48 * 48; ++i)
+        seen += ids[0][i] != 0;
+    assert_true(seen > 48 * 48 / 4);
+    for (int i = 0; i < 4; ++i) {
+        vis_scene_destroy(scenes[i]);
+        free_world(&w[i]);
+    }
+    vis_context_destroy(ctx);
+}
+
 typedef struct scene_state {
     vis_scene_info info;
     vis_scene_stats stats;
@@ -1011,6 +1087,7 @@ int main(void)
         cmocka_unit_test(test_scene_stats),
         cmocka_unit_test(test_ropes_built_by_first_rope_pass),
         cmocka_unit_test(test_prepare_counts_backend_bytes),
+        cmocka_unit_test(test_labels_within_max_bytes),
         cmocka_unit_test(test_huge_scenes_refused),
         cmocka_unit_test(test_scene_max_bytes),
         cmocka_unit_test(test_edits_respect_max_bytes),

@@ -148,11 +148,14 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
     /* The labels only accelerate the per-ray leaf walk: without them every leaf takes the
      * plane walk, with the same buffers (labels.h). So a copy of another context's scene,
      * made whole at every sync after an edit, keeps none: a whole build of gen:large's takes
-     * half a second. Nor does a copy whose labels could not have their memory. */
+     * half a second. Nor does a copy whose labels could not have their memory, or would take
+     * the scene past its max_bytes beside the flags. */
+    uint64_t flags = sizeof *cs + vis_occupancy_bytes(&cs->occ);
     if (changes->copy)
         vis_labels_free(&cs->labels);
     else
-        (void)vis_labels_sync(&cs->labels, view, changes, run_parallel, b);
+        (void)vis_labels_sync(&cs->labels, view, changes, changes->room > flags ? changes->room - flags : 0,
+                              run_parallel, b);
     return VIS_OK;
 }
 

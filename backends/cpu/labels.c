@@ -221,29 +221,36 @@ void vis_labels_free(vis_labels *lab)
     lab->words = NULL;
     lab->leaf_count = lab->labelled = 0;
     lab->used = lab->cap = lab->stale = 0;
-    lab->failed = 0;
+    lab->failed = VIS_OK;
 }
 
-/* Room for `more` words past `used`: the array grows by an eighth, at least (memory counts
- * more than the copies: edits append a block now and then). */
-static int reserve(vis_labels *lab, size_t more)
+/* The words the array may hold under max_bytes: offsets are 32-bit words. */
+static size_t words_within(uint64_t max_bytes)
 {
-    if (lab->used + more <= lab->cap)
-        return 1;
+    uint64_t w = max_bytes / sizeof(uint32_t);
+    return w < UINT32_MAX ? (size_t)w : (size_t)UINT32_MAX;
+}
+
+/* Room for `more` words past `used`, within `limit` words: the array grows by an eighth, at
+ * least (memory counts more than the copies: edits append a block now and then). */
+static vis_status reserve(vis_labels *lab, size_t more, size_t limit)
+{
+    size_t want = lab->used + more;
+    if (want <= lab->cap)
+        return VIS_OK;
+    if (want > limit)
+        return VIS_ERROR_BUDGET;
     size_t cap = lab->cap + lab->cap / 8u;
-    if (cap < lab->used + more)
-        cap = lab->used + more;
-    if (cap > UINT32_MAX) /* offsets are 32-bit words */
-        return 0;
+    cap = cap < want ? want : cap > limit ? limit : cap;
     uint32_t *w = vis_host_alloc(lab->alloc, cap * sizeof *w);
     if (!w)
-        return 0;
+        return VIS_ERROR_OUT_OF_MEMORY;
     if (lab->words)
         memcpy(w, lab->words, lab->used * sizeof *w);
     vis_host_free(lab->alloc, lab->words);
     lab->words = w;
     lab->cap = cap;
-    return 1;
+    return VIS_OK;
 }
 
 /* The words of leaf li's block now (0: none), from its header. */
@@ -253,20 +260,21 @@ static uint32_t block_words(const vis_labels *lab, uint32_t li)
     return at ? vis_labels_block_words(lab->words + at) : 0u;
 }
 
-/* Leaf li's block of n words appended to the array. Returns 0 when the array cannot grow. */
-static int append_block(vis_labels *lab, uint32_t li, const uint32_t *block, uint32_t n)
+/* Leaf li's block of n words appended to the array, within `limit` words. */
+static vis_status append_block(vis_labels *lab, uint32_t li, const uint32_t *block, uint32_t n, size_t limit)
 {
-    if (!reserve(lab, n))
-        return 0;
+    vis_status st = reserve(lab, n, limit);
+    if (st != VIS_OK)
+        return st;
     memcpy(lab->words + lab->used, block, n * sizeof *block);
     lab->words[li] = (uint32_t)lab->used;
     lab->used += n;
     lab->labelled++;
-    return 1;
+    return VIS_OK;
 }
 
 /* Leaf li's block from the view: in place where it fits, else appended. */
-static int update_leaf(vis_labels *lab, const vis_scene_view *v, uint32_t li)
+static vis_status update_leaf(vis_labels *lab, const vis_scene_view *v, uint32_t li, size_t limit)
 {
     uint32_t block[VIS_LABELS_MAX_BLOCK];
     uint32_t n = vis_labels_build_leaf(&v->leaves[li], v->buckets, v->quads, block);
@@ -274,15 +282,13 @@ static int update_leaf(vis_labels *lab, const vis_scene_view *v, uint32_t li)
     if (n && n <= old) {
         memcpy(lab->words + lab->words[li], block, n * sizeof *block);
         lab->stale += old - n;
-        return 1;
+        return VIS_OK;
     }
     lab->stale += old;
     lab->labelled -= old != 0;
     lab->words[li] = 0;
-    return !n || append_block(lab, li, block, n);
+    return n ? append_block(lab, li, block, n, limit) : VIS_OK;
 }
-
-static int compact(vis_labels *lab);
 
 /* A full build goes in batches of BATCH leaves: each built on the threads into its own
  * slot of the scratch, then appended in leaf order. */
@@ -303,60 +309,65 @@ static void build_one(uint32_t i, void *arg)
     b->words[i] = vis_labels_build_leaf(&v->leaves[li], v->buckets, v->quads, b->blocks + (size_t)i * VIS_LABELS_MAX_BLOCK);
 }
 
-/* Every leaf's block again, packed, in leaf order; the array then holds what they need and a
- * sixteenth more. */
-static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, vis_labels_run_fn run, void *run_user)
+/* Every leaf's block again, packed, in leaf order, while they stay within `limit` words (the
+ * caller copies the array out to its size). */
+static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, size_t limit, vis_labels_run_fn run,
+                          void *run_user)
 {
     vis_labels_free(lab);
     batch_job b = {v, 0, 0, NULL, NULL};
-    /* Room for every block a leaf of quads can have, taken at once: the pages the blocks do
-     * not reach are never touched, and the array is copied to its size at the end (growing
-     * it block by block cost more in copies and page faults than the blocks themselves). */
+    /* Room for every block a leaf of quads can have, taken at once (the call's scratch, not
+     * held to the limit): the pages the blocks do not reach are never touched, and the array
+     * is copied to its size at the end (growing it block by block cost more in copies and
+     * page faults than the blocks themselves). */
     size_t bound = (size_t)v->leaf_count + 1u;
     for (uint32_t li = 0; li < v->leaf_count; ++li)
         bound += v->leaves[li].quad_count ? VIS_LABELS_MAX_BLOCK : 0u;
+    if (bound > UINT32_MAX)
+        bound = UINT32_MAX; /* the blocks stop at the limit, which is no more */
     b.blocks = vis_host_alloc(lab->alloc, (size_t)BATCH * (VIS_LABELS_MAX_BLOCK + 1u) * sizeof(uint32_t));
-    if (!b.blocks || !reserve(lab, bound)) {
+    vis_status st = b.blocks ? reserve(lab, bound, UINT32_MAX) : VIS_ERROR_OUT_OF_MEMORY;
+    if (st != VIS_OK) {
         vis_host_free(lab->alloc, b.blocks);
-        vis_labels_free(lab);
-        return VIS_ERROR_OUT_OF_MEMORY;
+        return st;
     }
     b.words = b.blocks + (size_t)BATCH * VIS_LABELS_MAX_BLOCK;
     memset(lab->words, 0, ((size_t)v->leaf_count + 1u) * sizeof *lab->words);
     lab->leaf_count = v->leaf_count;
     lab->used = (size_t)v->leaf_count + 1u; /* word leaf_count stays 0: no block starts at 0 */
-    int ok = 1;
-    for (b.first = 0; ok && b.first < v->leaf_count; b.first += b.count) {
+    if (lab->used > limit)
+        st = VIS_ERROR_BUDGET;
+    for (b.first = 0; st == VIS_OK && b.first < v->leaf_count; b.first += b.count) {
         b.count = v->leaf_count - b.first < BATCH ? v->leaf_count - b.first : BATCH;
         if (run)
             run(run_user, b.count, build_one, &b);
         else
             for (uint32_t i = 0; i < b.count; ++i)
                 build_one(i, &b);
-        for (uint32_t i = 0; ok && i < b.count; ++i)
-            ok = !b.words[i] || append_block(lab, b.first + i, b.blocks + (size_t)i * VIS_LABELS_MAX_BLOCK, b.words[i]);
+        for (uint32_t i = 0; st == VIS_OK && i < b.count; ++i)
+            if (b.words[i])
+                st = lab->used + b.words[i] > limit
+                   ? VIS_ERROR_BUDGET
+                   : append_block(lab, b.first + i, b.blocks + (size_t)i * VIS_LABELS_MAX_BLOCK, b.words[i], limit);
     }
     vis_host_free(lab->alloc, b.blocks);
-    if (!ok) {
-        vis_labels_free(lab);
-        return VIS_ERROR_OUT_OF_MEMORY;
-    }
-    compact(lab); /* to what the blocks need (it keeps the array if that memory cannot be had) */
-    lab->failed = 0;
-    return VIS_OK;
+    return st;
 }
 
 /* The live blocks copied together, in leaf order, into a new array a sixteenth larger than
- * they need. Returns 0 (the array as it was) when it cannot be had. */
-static int compact(vis_labels *lab)
+ * they need (no larger than `limit` words). VIS_ERROR_BUDGET when they need more than the
+ * limit, VIS_ERROR_OUT_OF_MEMORY when the new array cannot be had: the array as it was. */
+static vis_status compact(vis_labels *lab, size_t limit)
 {
     size_t need = (size_t)lab->leaf_count + 1u;
     for (uint32_t li = 0; li < lab->leaf_count; ++li)
         need += block_words(lab, li);
-    size_t cap = need + need / 16u;
-    uint32_t *w = cap <= UINT32_MAX ? vis_host_alloc(lab->alloc, cap * sizeof *w) : NULL;
+    if (need > limit)
+        return VIS_ERROR_BUDGET;
+    size_t cap = need + need / 16u < limit ? need + need / 16u : limit;
+    uint32_t *w = vis_host_alloc(lab->alloc, cap * sizeof *w);
     if (!w)
-        return 0;
+        return VIS_ERROR_OUT_OF_MEMORY;
     memset(w, 0, ((size_t)lab->leaf_count + 1u) * sizeof *w);
     size_t at = (size_t)lab->leaf_count + 1u;
     for (uint32_t li = 0; li < lab->leaf_count; ++li) {
@@ -372,31 +383,44 @@ static int compact(vis_labels *lab)
     lab->used = at;
     lab->cap = cap;
     lab->stale = 0;
-    return 1;
+    return VIS_OK;
 }
 
 vis_status vis_labels_sync(vis_labels *lab, const vis_scene_view *view, const vis_scene_changes *changes,
-                           vis_labels_run_fn run, void *run_user)
+                           uint64_t max_bytes, vis_labels_run_fn run, void *run_user)
 {
+    size_t limit = words_within(max_bytes);
     int same_tree = lab->leaf_count == view->leaf_count;
-    if (lab->failed && !changes->full && same_tree)
-        return VIS_ERROR_OUT_OF_MEMORY; /* still without labels: no retry per pass */
+    /* Without labels since a failure: a partial sync tries again only once the room has grown
+     * by an eighth, so that a scene at its limit does not rebuild them at every edit. */
+    int room_grew = max_bytes > lab->failed_room && max_bytes - lab->failed_room > lab->failed_room / 8u;
+    if (lab->failed && !changes->full && same_tree && !room_grew)
+        return lab->failed;
     vis_status st = VIS_OK;
     if (changes->full || !lab->words || !same_tree) {
-        st = rebuild(lab, view, run, run_user);
+        st = rebuild(lab, view, limit, run, run_user);
+        if (st == VIS_OK) /* to what the blocks need (kept as it was if that memory cannot be had) */
+            (void)compact(lab, limit);
     } else {
         for (uint32_t i = 0; st == VIS_OK && i < changes->leaf_count; ++i)
-            st = update_leaf(lab, view, changes->leaves[i]) ? VIS_OK : VIS_ERROR_OUT_OF_MEMORY;
+            st = update_leaf(lab, view, changes->leaves[i], limit);
+        /* Stale blocks past an eighth of the array: copied out (if that memory cannot be had
+         * now, the next sync tries again; the array is still correct). */
+        if (st == VIS_OK && lab->stale > lab->used / 8u)
+            (void)compact(lab, limit);
+    }
+    if (st == VIS_OK && lab->cap > limit) {
+        /* The room shrank under the array (the scene grew), or the full build's reservation
+         * could not be copied out: to its size, or no labels. */
+        st = compact(lab, limit);
+        st = st != VIS_OK ? st : lab->cap > limit ? VIS_ERROR_BUDGET : VIS_OK;
     }
     if (st != VIS_OK) {
         vis_labels_free(lab);
         lab->leaf_count = view->leaf_count;
-        lab->failed = 1;
+        lab->failed = st;
+        lab->failed_room = max_bytes;
         return st;
     }
-    /* Stale blocks past an eighth of the array: copied out (if that memory cannot be had now,
-     * the next sync tries again; the array is still correct). */
-    if (lab->stale > lab->used / 8u)
-        compact(lab);
     return VIS_OK;
 }

@@ -6,7 +6,8 @@
  * place when it still fits, appended otherwise; the array grows by an eighth at a time and is
  * copied out to what the blocks need and a sixteenth more after a full build and whenever the
  * blocks left behind pass an eighth of it, so its size stays within about 1.3 times what the
- * leaves hold now. */
+ * leaves hold now, and never past the bytes the sync allows it (the scene's max_bytes less
+ * what the scene and the occupancy flags hold). */
 #ifndef VIS_CPU_LABELS_H
 #define VIS_CPU_LABELS_H
 
@@ -22,9 +23,11 @@ typedef struct vis_labels {
     size_t used, cap;  /* words in use (the offsets included) and allocated                  */
     size_t stale;      /* words of blocks no leaf points at any more                         */
     uint32_t labelled; /* leaves with a block                                                */
-    int failed;        /* the last full build could not have its memory: no labels (the
-                          plane walk traces every leaf, the same buffers) until the next full
-                          sync or another leaf count                                         */
+    vis_status failed; /* VIS_OK, or why the labels could not have their memory: none (the
+                          plane walk traces every leaf, the same buffers) until a full sync,
+                          another leaf count, or a sync allowing more than failed_room and
+                          an eighth                                                          */
+    uint64_t failed_room; /* the bytes the failed sync allowed                               */
 } vis_labels;
 
 /* The words of one leaf's block at most: the header, and two words of loud bits and two of
@@ -50,11 +53,14 @@ typedef void (*vis_labels_run_fn)(void *user, uint32_t count, void (*job)(uint32
 
 /* Brings *lab up to date with the view: every leaf when `changes->full` or the leaf count
  * differs (their blocks built on run's threads; run NULL: on the calling thread), else the
- * changed leaves. VIS_ERROR_OUT_OF_MEMORY leaves *lab empty and `failed` (no leaf labelled:
- * the plane walk traces every leaf); the labels are only an acceleration, so the caller may
- * trace on. */
+ * changed leaves. The array is held to max_bytes (UINT64_MAX: no limit; a full build's
+ * short-lived reservation is not counted). VIS_ERROR_BUDGET when the blocks would take more,
+ * VIS_ERROR_OUT_OF_MEMORY when the memory cannot be had: either leaves *lab empty and
+ * `failed` (no leaf labelled: the plane walk traces every leaf), which a partial sync retries
+ * only once max_bytes has grown past failed_room by an eighth. The labels are only an
+ * acceleration, so the caller may trace on. */
 vis_status vis_labels_sync(vis_labels *lab, const vis_scene_view *view, const vis_scene_changes *changes,
-                           vis_labels_run_fn run, void *run_user);
+                           uint64_t max_bytes, vis_labels_run_fn run, void *run_user);
 
 /* Bytes allocated. */
 static inline uint64_t vis_labels_bytes(const vis_labels *lab) { return (uint64_t)lab->cap * sizeof(uint32_t); }

@@ -52,6 +52,13 @@ static void end_write(vis_scene *s) { pthread_rwlock_unlock(&s->lock->rw); }
 
 /* ---- backend copies ------------------------------------------------------------------ */
 
+/* What a backend may keep for the scene beside its arrays, within max_bytes. */
+static uint64_t backend_room(const vis_scene *s)
+{
+    uint64_t bytes = vis_scene_bytes(s);
+    return s->desc.max_bytes > bytes ? s->desc.max_bytes - bytes : 0;
+}
+
 /* The owning context's copy: incremental, from the change lists (which only it consumes). */
 static vis_status sync_owner(vis_scene *s)
 {
@@ -70,6 +77,7 @@ static vis_status sync_owner(vis_scene *s)
     ch.map_changed = s->dirty_map;
     memcpy(ch.map_lo, s->dirty_map_lo, sizeof ch.map_lo);
     memcpy(ch.map_hi, s->dirty_map_hi, sizeof ch.map_hi);
+    ch.room = backend_room(s);
     char err[1024] = "";
     int st = ctx->backend.ops->scene_sync(ctx->backend.impl, &s->backend_data, &view, &ch, err, sizeof err);
     if (st != VIS_OK)
@@ -108,6 +116,7 @@ static vis_status sync_copy(vis_context *ctx, vis_scene *s, vis_scene_copy **slo
     ch.generation = s->generation;
     ch.full = 1;
     ch.copy = 1;
+    ch.room = backend_room(s);
     char err[1024] = "";
     int st = ctx->backend.ops->scene_sync(ctx->backend.impl, &c->data, &view, &ch, err, sizeof err);
     if (st != VIS_OK)

@@ -99,5 +99,5 @@ int vt_labels_build(struct vis_labels *out, const struct vis_scene_view *view)
     vis_scene_changes full;
     memset(&full, 0, sizeof full);
     full.full = 1;
-    return (int)vis_labels_sync(out, view, &full, NULL, NULL); /* on this thread */
+    return (int)vis_labels_sync(out, view, &full, UINT64_MAX, NULL, NULL); /* on this thread */
 }

@@ -280,7 +280,9 @@ typedef struct vis_scene_desc {
                              size when filled; default 0.25                                   */
     uint64_t max_bytes;   /* host memory the scene may hold between calls (vis_scene_info.bytes;
                              a call's short-lived scratch is not counted); 0 =
-                             VIS_DEFAULT_SCENE_MAX_BYTES                                      */
+                             VIS_DEFAULT_SCENE_MAX_BYTES. The CPU backend keeps its voxel
+                             labels only where bytes and backend_bytes stay within it
+                             (vis_scene_info); without them its passes are the same, slower */
     vis_commit_mode commit; /* default VIS_COMMIT_AUTO                                      */
 } vis_scene_desc;
 
@@ -346,7 +348,12 @@ typedef struct vis_scene_info {
                                beside `bytes` (the CPU backend: the subtree occupancy flags
                                and the voxel labels of its per-ray leaf walk), as of its last
                                trace or vis_scene_prepare; 0 before the first. `bytes` +
-                               backend_bytes is what tracing the scene holds all told      */
+                               backend_bytes is what tracing the scene holds all told. The
+                               labels are built only within max_bytes, the flags always
+                               (a few bytes per kd node, which the packets need).
+                               Labels that did not fit (or could not have their memory)
+                               come back only once the room beside `bytes` has grown by an
+                               eighth                                                      */
 } vis_scene_info;
 
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
