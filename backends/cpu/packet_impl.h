@@ -959,37 +959,45 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
     }
     sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
     while (sp > 0 && !p->given_up) {
-        packet_frame f = stack[--sp];
+        /* The frame is opened where it lies, and its slot then takes a child: the far one,
+         * or the near one alone; only a node with both children occupied copies a frame. */
+        packet_frame *f = &stack[--sp];
         float t0, t1;
-        if (!packet_frame_open(p, &f, &t0, &t1))
+        if (!packet_frame_open(p, f, &t0, &t1))
             continue;
         p->nodes += (uint32_t)p->counting;
-        uint32_t info = view->nodes[f.node].info;
+        uint32_t info = view->nodes[f->node].info;
         if ((info & 3u) == VIS_NODE_LEAF) {
             packet_leaf(p, view, &view->leaves[info >> 2]);
             continue;
         }
         uint32_t a = info & 3u, first = info >> 2;
-        float split = view->nodes[f.node].split;
+        float split = view->nodes[f->node].split;
         /* The child on the eye's side first (any order is correct; this one finds the
-         * nearest hits first, so the far side is often skipped). */
+         * nearest hits first, so the far side is often skipped): it is pushed last. */
         uint32_t near_child = p->o[a] < split || (p->o[a] == split && p->sign[a] < 0) ? first : first + 1u;
-        f.axis = (int)a;
-        f.t0 = t0;
-        f.t1 = t1;
-        packet_frame lo_child = f, hi_child = f;
-        lo_child.node = first;
-        lo_child.hi[a] = split;
-        hi_child.node = first + 1u;
-        hi_child.lo[a] = split;
+        uint32_t far_child = near_child ^ first ^ (first + 1u);
+        int far_in = occupied[far_child] != 0, near_in = occupied[near_child] != 0;
+        if (!(far_in | near_in))
+            continue;
         if (sp + 2 > PACKET_STACK)
             continue; /* cannot happen: depth is far below the stack size */
-        const packet_frame *far_f = near_child == first ? &hi_child : &lo_child;
-        const packet_frame *near_f = near_child == first ? &lo_child : &hi_child;
-        if (occupied[far_f->node])
-            stack[sp++] = *far_f;
-        if (occupied[near_f->node])
-            stack[sp++] = *near_f;
+        f->axis = (int)a;
+        f->t0 = t0;
+        f->t1 = t1;
+        float lo = f->lo[a], hi = f->hi[a]; /* the node's own extent on the split axis */
+        /* child `first` is [lo, split], `first + 1` [split, hi] */
+        f->node = far_in ? far_child : near_child;
+        f->lo[a] = f->node == first ? lo : split;
+        f->hi[a] = f->node == first ? split : hi;
+        ++sp;
+        if (far_in & near_in) {
+            packet_frame *n = &stack[sp++];
+            *n = *f;
+            n->node = near_child;
+            n->lo[a] = near_child == first ? lo : split;
+            n->hi[a] = near_child == first ? split : hi;
+        }
     }
 }
 
