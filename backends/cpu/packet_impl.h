@@ -91,6 +91,7 @@ typedef struct packet {
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
     float unit_rlo[3][3][UNITS], unit_rhi[3][3][UNITS]; /* the same for each unit of 8 lanes */
     int ratio_units;         /* bit a: unit_rlo/unit_rhi[a] are made (packet_ratio_units)     */
+    int leaf_bounds;         /* unit_imin/unit_imax and rlo/rhi are made (packet_leaf_bounds) */
     float unit_imin[3][UNITS], unit_imax[3][UNITS];      /* 1/d bounds of each unit             */
     float unit_best[UNITS];  /* the farthest best hit of each unit (+inf while a lane has none) */
     float slack;             /* absolute widening of boxes                                  */
@@ -331,61 +332,19 @@ PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
 }
 #endif
 
-/* The lowest of lo[] and the highest of hi[], over the units. */
-PK_INLINE void pk_span(const float *lo, const float *hi, float *lo_out, float *hi_out)
-{
-#if defined(PK_VECTORS) && UNITS % 8 == 0
-    pk_v8 vl, vh;
-    memcpy(&vl, lo, sizeof vl);
-    memcpy(&vh, hi, sizeof vh);
-    for (int r = 8; r < UNITS; r += 8) {
-        pk_v8 wl, wh;
-        memcpy(&wl, lo + r, sizeof wl);
-        memcpy(&wh, hi + r, sizeof wh);
-        vl = PK_VMIN(vl, wl);
-        vh = PK_VMAX(vh, wh);
-    }
-    float ls[8], hs[8];
-    memcpy(ls, &vl, sizeof ls);
-    memcpy(hs, &vh, sizeof hs);
-    lo = ls;
-    hi = hs;
-    const int n = 8;
-#else
-    const int n = UNITS;
-#endif
-    float l = lo[0], h = hi[0];
-    for (int r = 1; r < n; ++r) {
-        l = pk_min(l, lo[r]);
-        h = pk_max(h, hi[r]);
-    }
-    *lo_out = l;
-    *hi_out = h;
-}
-
-/* The interval bounds of the tile's directions. */
+/* The interval bounds of the tile's directions, which its walk through the tree needs. */
 PK_INLINE void packet_bounds(packet *p)
 {
     for (int a = 0; a < 3; ++a) {
         float lo, hi, ilo, ihi;
         pk_bounds(p->d[a], &lo, &hi);
-        pk_unit_bounds(p->inv[a], p->unit_imin[a], p->unit_imax[a]);
-        pk_span(p->unit_imin[a], p->unit_imax[a], &ilo, &ihi); /* the tile's, from its units' */
+        pk_bounds(p->inv[a], &ilo, &ihi);
         p->dmin[a] = lo;
         p->dmax[a] = hi;
         /* A strict common sign with finite inverses; anything else is "mixed". */
         p->sign[a] = (lo > 0.0f || hi < 0.0f) && isfinite(ilo) && isfinite(ihi) ? (lo > 0.0f ? 1 : -1) : 0;
         p->imin[a] = ilo;
         p->imax[a] = ihi;
-    }
-    for (int a = 0; a < 3; ++a) {
-        if (p->sign[a] == 0)
-            continue;
-        for (int b = 0; b < 3; ++b) {
-            if (b == a)
-                continue;
-            pk_bounds_product(p->d[b], p->inv[a], &p->rlo[a][b], &p->rhi[a][b]);
-        }
     }
     /* A leaf's planes are walked axis by axis; the axis the rays move along most crosses the
      * faces that most of them hit (a terrain's tops seen from above), so it goes first and
@@ -399,6 +358,27 @@ PK_INLINE void packet_bounds(packet *p)
     p->axes[0] = first;
     p->axes[1] = m[c] > m[b] ? c : b;
     p->axes[2] = m[c] > m[b] ? b : c;
+    p->leaf_bounds = 0;
+}
+
+/* The bounds only a leaf's walk reads, made when the tile enters its first leaf (a tile of
+ * sky enters none): each unit's 1/d bounds, and the tile's d[b] / d[a] bounds. */
+PK_INLINE void packet_leaf_bounds(packet *p)
+{
+    if (p->leaf_bounds)
+        return;
+    p->leaf_bounds = 1;
+    for (int a = 0; a < 3; ++a)
+        pk_unit_bounds(p->inv[a], p->unit_imin[a], p->unit_imax[a]);
+    for (int a = 0; a < 3; ++a) {
+        if (p->sign[a] == 0)
+            continue;
+        for (int b = 0; b < 3; ++b) {
+            if (b == a)
+                continue;
+            pk_bounds_product(p->d[b], p->inv[a], &p->rlo[a][b], &p->rhi[a][b]);
+        }
+    }
 }
 
 /* The units' d[b] / d[a] bounds for the two other axes b of axis a (sign[a] != 0), made the
@@ -828,6 +808,7 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
 {
     const uint32_t *quads = view->quads;
     const vis_flat_object *objects = view->objects;
+    packet_leaf_bounds(p);
     if (leaf->loose_count != 0u || leaf->tri_count != 0u) {
         /* Loose quads and triangles lie anywhere in the leaf: its whole box decides. */
         if (!packet_box_units(p, leaf->lo, leaf->hi))
@@ -927,6 +908,23 @@ typedef struct packet_frame {
 
 #define PACKET_STACK 128
 
+/* Frame *d for child `node` of a node with box [lo, hi] split on axis a, its extent on that
+ * axis [la, ha], the node's interval [t0, t1]. */
+static inline void packet_frame_put(packet_frame *d, uint32_t node, uint32_t a, float t0, float t1, const float *lo,
+                                    const float *hi, float la, float ha)
+{
+    d->node = node;
+    d->axis = (int)a;
+    d->t0 = t0;
+    d->t1 = t1;
+    for (int b = 0; b < 3; ++b) {
+        d->lo[b] = lo[b];
+        d->hi[b] = hi[b];
+    }
+    d->lo[a] = la;
+    d->hi[a] = ha;
+}
+
 /* packet_box_open for a frame: the parent's interval narrowed by the one slab that differs
  * (the child's box is its parent's cut at the split). The same values as all three slabs
  * anew: the unchanged two give what they gave the parent, and a slab cut shorter gives an
@@ -960,7 +958,7 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
     sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
     while (sp > 0 && !p->given_up) {
         /* The frame is opened where it lies, and its slot then takes a child: the far one,
-         * or the near one alone; only a node with both children occupied copies a frame. */
+         * or the near one alone. */
         packet_frame *f = &stack[--sp];
         float t0, t1;
         if (!packet_frame_open(p, f, &t0, &t1))
@@ -982,22 +980,15 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
             continue;
         if (sp + 2 > PACKET_STACK)
             continue; /* cannot happen: depth is far below the stack size */
-        f->axis = (int)a;
-        f->t0 = t0;
-        f->t1 = t1;
-        float lo = f->lo[a], hi = f->hi[a]; /* the node's own extent on the split axis */
-        /* child `first` is [lo, split], `first + 1` [split, hi] */
-        f->node = far_in ? far_child : near_child;
-        f->lo[a] = f->node == first ? lo : split;
-        f->hi[a] = f->node == first ? split : hi;
-        ++sp;
-        if (far_in & near_in) {
-            packet_frame *n = &stack[sp++];
-            *n = *f;
-            n->node = near_child;
-            n->lo[a] = near_child == first ? lo : split;
-            n->hi[a] = near_child == first ? split : hi;
-        }
+        /* The children are written field by field from the node's box read once: a copy of
+         * a frame just written would read it back before its stores have landed. Child
+         * `first` is the box below the split, `first + 1` the box above it. */
+        float lo[3] = {f->lo[0], f->lo[1], f->lo[2]}, hi[3] = {f->hi[0], f->hi[1], f->hi[2]};
+        uint32_t one = far_in ? far_child : near_child;
+        packet_frame_put(&stack[sp++], one, a, t0, t1, lo, hi, one == first ? lo[a] : split, one == first ? split : hi[a]);
+        if (far_in & near_in)
+            packet_frame_put(&stack[sp++], near_child, a, t0, t1, lo, hi, near_child == first ? lo[a] : split,
+                             near_child == first ? split : hi[a]);
     }
 }
 
