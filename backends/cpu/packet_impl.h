@@ -196,9 +196,7 @@ PK_INLINE void packet_rays(packet *p, const vis_ray_setup *s, uint32_t x0, uint3
     p->give_up_t = INFINITY;
     p->max_leaves = INT_MAX;
     p->counting = 0;
-    p->nodes = 0;
-    for (int i = 0; i < LANES; ++i)
-        p->tests[i] = 0;
+    p->nodes = 0; /* tests[] is zeroed where the pass counts (PK_ENTRY) */
     p->leaves_entered = 0;
     p->given_up = 0;
     p->ratio_units = 0;
@@ -336,9 +334,11 @@ PK_INLINE void pk_unit_bounds(const float *x, float *lo, float *hi)
 PK_INLINE void packet_bounds(packet *p)
 {
     for (int a = 0; a < 3; ++a) {
-        float lo, hi, ilo, ihi;
+        float lo, hi;
         pk_bounds(p->d[a], &lo, &hi);
-        pk_bounds(p->inv[a], &ilo, &ihi);
+        /* Where every d has one sign, 1/d falls as d rises, and so does its rounding: the
+         * lanes' 1/d = inv lie in [1/hi, 1/lo], which are two lanes' own values. */
+        float ilo = 1.0f / hi, ihi = 1.0f / lo;
         p->dmin[a] = lo;
         p->dmax[a] = hi;
         /* A strict common sign with finite inverses; anything else is "mixed". */
@@ -641,7 +641,8 @@ PK_INLINE void packet_triangle(packet *p, const vis_flat_tri *tri, const vis_fla
         vis_ray r;
         vis_hit h;
         packet_lane(p, i, &r, &h);
-        p->tests[i] += (uint32_t)p->counting;
+        if (p->counting)
+            ++p->tests[i];
         vis_test_tri(&r, tri, objects, &h);
         p->unhit -= p->best_t[i] == INFINITY && h.t != INFINITY;
         p->best_t[i] = h.t;
@@ -1050,6 +1051,8 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
     p.give_up_t = give_up_t;
     p.max_leaves = max_leaves;
     p.counting = cost != NULL;
+    if (p.counting)
+        memset(p.tests, 0, sizeof p.tests);
     packet_bounds(&p);
     packet_traverse(&p, view, occupied);
     if (p.given_up)
