@@ -418,6 +418,27 @@ static void gate_free(void *p, void *user)
     free(p);
 }
 
+/* Labels whose allocations pass through a gate (open or shut), and the two syncs the tests
+ * drive them with: a full one, and a partial one of leaf 0. */
+typedef struct gated_labels {
+    gate g;
+    vis_allocator a;
+    vis_labels lab;
+    vis_scene_changes full, part;
+    uint32_t leaf;
+} gated_labels;
+
+static void gated_labels_init(gated_labels *f, int open)
+{
+    memset(f, 0, sizeof *f);
+    f->g.open = open;
+    f->a = (vis_allocator){gate_alloc, gate_free, &f->g};
+    f->lab.alloc = &f->a;
+    f->full.full = 1;
+    f->part.leaves = &f->leaf;
+    f->part.leaf_count = 1;
+}
+
 /* A build without memory leaves no labels and says so once: the partial syncs after it do not
  * try again (the plane walk traces meanwhile); a full sync does, and then succeeds. */
 static void test_no_memory_no_labels(void **state)
@@ -428,27 +449,20 @@ static void test_no_memory_no_labels(void **state)
     tworld w;
     vis_scene *s = busy_scene(ctx, &rng, 4, 2, 3, &w);
     vis_scene_view v = vis_scene_get_view(s);
-    gate g = {0, 0};
-    vis_allocator a = {gate_alloc, gate_free, &g};
-    vis_labels lab;
-    memset(&lab, 0, sizeof lab);
-    lab.alloc = &a;
-    vis_scene_changes full, part;
-    memset(&full, 0, sizeof full);
-    memset(&part, 0, sizeof part);
-    full.full = 1;
-    uint32_t leaf = 0;
-    part.leaves = &leaf;
-    part.leaf_count = 1;
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
-    assert_true(lab.failed && !lab.words && lab.labelled == 0);
-    unsigned calls = g.calls;
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
-    assert_int_equal(g.calls, calls); /* no retry on a partial sync */
-    g.open = 1;
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_OK);
-    assert_true(!lab.failed && lab.words && lab.labelled > 0);
-    vis_labels_free(&lab);
+    gated_labels f;
+    gated_labels_init(&f, 0);
+    gate *g = &f.g;
+    vis_labels *lab = &f.lab;
+    const vis_scene_changes *full = &f.full, *part = &f.part;
+    assert_int_equal(vis_labels_sync(lab, &v, full, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_true(lab->failed && !lab->words && lab->labelled == 0);
+    unsigned calls = g->calls;
+    assert_int_equal(vis_labels_sync(lab, &v, part, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_int_equal(g->calls, calls); /* no retry on a partial sync */
+    g->open = 1;
+    assert_int_equal(vis_labels_sync(lab, &v, full, UINT64_MAX, NULL, NULL), VIS_OK);
+    assert_true(!lab->failed && lab->words && lab->labelled > 0);
+    vis_labels_free(lab);
     vis_scene_destroy(s);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -471,50 +485,43 @@ static void test_labels_held_to_max_bytes(void **state)
     vis_labels free_lab = labels_of(&v);
     uint64_t need = (uint64_t)free_lab.used * sizeof(uint32_t); /* the blocks and offsets */
     assert_true(free_lab.labelled > 0 && free_lab.cap > free_lab.used);
-    gate g = {1, 0};
-    vis_allocator a = {gate_alloc, gate_free, &g};
-    vis_labels lab;
-    memset(&lab, 0, sizeof lab);
-    lab.alloc = &a;
-    vis_scene_changes full, part;
-    memset(&full, 0, sizeof full);
-    memset(&part, 0, sizeof part);
-    full.full = 1;
-    uint32_t leaf = 0;
-    part.leaves = &leaf;
-    part.leaf_count = 1;
+    gated_labels f;
+    gated_labels_init(&f, 1);
+    gate *g = &f.g;
+    vis_labels *lab = &f.lab;
+    const vis_scene_changes *full = &f.full, *part = &f.part;
     /* Exactly what the blocks need: built, and copied out to no more. */
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, need, NULL, NULL), VIS_OK);
-    assert_int_equal(lab.labelled, free_lab.labelled);
-    assert_true(vis_labels_bytes(&lab) <= need);
-    assert_memory_equal(lab.words, free_lab.words, free_lab.used * sizeof *lab.words);
+    assert_int_equal(vis_labels_sync(lab, &v, full, need, NULL, NULL), VIS_OK);
+    assert_int_equal(lab->labelled, free_lab.labelled);
+    assert_true(vis_labels_bytes(lab) <= need);
+    assert_memory_equal(lab->words, free_lab.words, free_lab.used * sizeof *lab->words);
     /* One word less: none, and said so. */
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
-    assert_true(lab.failed == VIS_ERROR_BUDGET && !lab.words && lab.labelled == 0 && vis_labels_bytes(&lab) == 0);
+    assert_int_equal(vis_labels_sync(lab, &v, full, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_true(lab->failed == VIS_ERROR_BUDGET && !lab->words && lab->labelled == 0 && vis_labels_bytes(lab) == 0);
     /* Partial syncs: no retry until the room has grown by more than an eighth. */
-    unsigned calls = g.calls;
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, need - 4u + (need - 4u) / 8u, NULL, NULL), VIS_ERROR_BUDGET);
-    assert_int_equal(g.calls, calls);
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, 2u * need, NULL, NULL), VIS_OK);
-    assert_true(!lab.failed && lab.labelled == free_lab.labelled && vis_labels_bytes(&lab) <= 2u * need);
+    unsigned calls = g->calls;
+    assert_int_equal(vis_labels_sync(lab, &v, part, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_int_equal(vis_labels_sync(lab, &v, part, need - 4u + (need - 4u) / 8u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_int_equal(g->calls, calls);
+    assert_int_equal(vis_labels_sync(lab, &v, part, 2u * need, NULL, NULL), VIS_OK);
+    assert_true(!lab->failed && lab->labelled == free_lab.labelled && vis_labels_bytes(lab) <= 2u * need);
     /* Built without a limit (a sixteenth of room), then the limit shrinks: copied out to the
      * blocks' size, then, one word short of it, dropped. */
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_OK);
-    assert_true(vis_labels_bytes(&lab) > need);
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, need, NULL, NULL), VIS_OK);
-    assert_true(lab.labelled == free_lab.labelled && vis_labels_bytes(&lab) == need);
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
-    assert_true(lab.failed && !lab.words && lab.labelled == 0);
+    assert_int_equal(vis_labels_sync(lab, &v, full, UINT64_MAX, NULL, NULL), VIS_OK);
+    assert_true(vis_labels_bytes(lab) > need);
+    assert_int_equal(vis_labels_sync(lab, &v, part, need, NULL, NULL), VIS_OK);
+    assert_true(lab->labelled == free_lab.labelled && vis_labels_bytes(lab) == need);
+    assert_int_equal(vis_labels_sync(lab, &v, part, need - 4u, NULL, NULL), VIS_ERROR_BUDGET);
+    assert_true(lab->failed && !lab->words && lab->labelled == 0);
     /* Without memory the failure is VIS_ERROR_OUT_OF_MEMORY, and the room rule retries it only
      * where the limit grew (here it is unlimited: never, until a full sync). */
-    g.open = 0;
-    assert_int_equal(vis_labels_sync(&lab, &v, &full, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
-    g.open = 1;
-    calls = g.calls;
-    assert_int_equal(vis_labels_sync(&lab, &v, &part, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
-    assert_int_equal(g.calls, calls);
-    vis_labels_free(&lab);
+    g->open = 0;
+    assert_int_equal(vis_labels_sync(lab, &v, full, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    g->open = 1;
+    calls = g->calls;
+    assert_int_equal(vis_labels_sync(lab, &v, part, UINT64_MAX, NULL, NULL), VIS_ERROR_OUT_OF_MEMORY);
+    assert_int_equal(g->calls, calls);
+    vis_labels_free(lab);
     vis_labels_free(&free_lab);
     vis_scene_destroy(s);
     free_world(&w);
