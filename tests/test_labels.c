@@ -395,6 +395,57 @@ static void test_edits_keep_blocks_current(void **state)
     vis_context_destroy(ctx);
 }
 
+/* Edits under a limit a little above what the blocks need: the blocks left behind are copied
+ * out whenever they are what keeps a new block from the limit, so the labels stay (and stay
+ * current) through every edit, and the array never passes the limit. */
+static void test_edits_within_a_tight_limit(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 7;
+    tworld w;
+    vis_scene *s = busy_scene(ctx, &rng, 6, 2, 5, &w);
+    vis_scene_view v = vis_scene_get_view(s);
+    vis_labels lab = labels_of(&v);
+    int compactions = 0, edits = 0;
+    for (int e = 0; e < 300; ++e) {
+        tobj *o = &w.objs[vt_rand(&rng) % w.n];
+        if (o->id >= 100000)
+            continue; /* the chunks, as in test_edits_keep_blocks_current */
+        int c[3] = {(int)((o->id - 1) % 6), (int)((o->id - 1) / 6 % 2), (int)((o->id - 1) / 12)};
+        obj_clear(o);
+        obj_chunk_boxes(o, &rng, c, &busy_world);
+        set_obj(s, o);
+        v = vis_scene_get_view(s);
+        vis_labels fresh = labels_of(&v);
+        uint64_t limit = (uint64_t)(fresh.used + VIS_LABELS_MAX_BLOCK) * sizeof(uint32_t);
+        vis_labels_free(&fresh);
+        vis_scene_changes ch;
+        memset(&ch, 0, sizeof ch);
+        ch.leaves = s->dirty_leaves;
+        ch.leaf_count = s->dirty_leaf_count;
+        size_t stale = lab.stale;
+        assert_int_equal(vis_labels_sync(&lab, &v, &ch, limit, NULL, NULL), VIS_OK);
+        assert_true(vis_labels_bytes(&lab) <= limit);
+        compactions += lab.stale < stale;
+        ++edits;
+    }
+    assert_true(edits > 100 && compactions > 0);
+    vis_labels fresh = labels_of(&v);
+    assert_int_equal(lab.labelled, fresh.labelled);
+    for (uint32_t li = 0; li < v.leaf_count; ++li) {
+        const uint32_t *a = vis_leaf_labels(lab.words, li), *b = vis_leaf_labels(fresh.words, li);
+        assert_int_equal(a != NULL, b != NULL);
+        if (a)
+            assert_memory_equal(a, b, vis_labels_block_words(b) * sizeof *b);
+    }
+    vis_labels_free(&fresh);
+    vis_labels_free(&lab);
+    vis_scene_destroy(s);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* ---- without memory ------------------------------------------------------------------------ */
 
 typedef struct gate {
@@ -534,6 +585,7 @@ int main(void)
         cmocka_unit_test(test_blocks_match_definition),
         cmocka_unit_test(test_walk_equals_plane_walk),
         cmocka_unit_test(test_edits_keep_blocks_current),
+        cmocka_unit_test(test_edits_within_a_tight_limit),
         cmocka_unit_test(test_no_memory_no_labels),
         cmocka_unit_test(test_labels_held_to_max_bytes),
     };

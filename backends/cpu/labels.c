@@ -273,7 +273,10 @@ static vis_status append_block(vis_labels *lab, uint32_t li, const uint32_t *blo
     return VIS_OK;
 }
 
-/* Leaf li's block from the view: in place where it fits, else appended. */
+static vis_status compact(vis_labels *lab, size_t limit);
+
+/* Leaf li's block from the view: in place where it fits, else appended (after copying the
+ * live blocks out, where the stale ones are what keeps it from the limit). */
 static vis_status update_leaf(vis_labels *lab, const vis_scene_view *v, uint32_t li, size_t limit)
 {
     uint32_t block[VIS_LABELS_MAX_BLOCK];
@@ -287,7 +290,12 @@ static vis_status update_leaf(vis_labels *lab, const vis_scene_view *v, uint32_t
     lab->stale += old;
     lab->labelled -= old != 0;
     lab->words[li] = 0;
-    return n ? append_block(lab, li, block, n, limit) : VIS_OK;
+    if (!n)
+        return VIS_OK;
+    vis_status st = append_block(lab, li, block, n, limit);
+    if (st == VIS_ERROR_BUDGET && lab->stale && compact(lab, limit) == VIS_OK)
+        st = append_block(lab, li, block, n, limit); /* the stale blocks were what did not fit */
+    return st;
 }
 
 /* A full build goes in batches of BATCH leaves: each built on the threads into its own
@@ -315,6 +323,8 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, size_t limit
                           void *run_user)
 {
     vis_labels_free(lab);
+    if ((size_t)v->leaf_count + 1u > limit)
+        return VIS_ERROR_BUDGET; /* not even the offsets: nothing to reserve */
     batch_job b = {v, 0, 0, NULL, NULL};
     /* Room for every block a leaf of quads can have, taken at once (the call's scratch, not
      * held to the limit): the pages the blocks do not reach are never touched, and the array
@@ -335,8 +345,6 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, size_t limit
     memset(lab->words, 0, ((size_t)v->leaf_count + 1u) * sizeof *lab->words);
     lab->leaf_count = v->leaf_count;
     lab->used = (size_t)v->leaf_count + 1u; /* word leaf_count stays 0: no block starts at 0 */
-    if (lab->used > limit)
-        st = VIS_ERROR_BUDGET;
     for (b.first = 0; st == VIS_OK && b.first < v->leaf_count; b.first += b.count) {
         b.count = v->leaf_count - b.first < BATCH ? v->leaf_count - b.first : BATCH;
         if (run)

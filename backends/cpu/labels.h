@@ -54,7 +54,8 @@ typedef void (*vis_labels_run_fn)(void *user, uint32_t count, void (*job)(uint32
 /* Brings *lab up to date with the view: every leaf when `changes->full` or the leaf count
  * differs (their blocks built on run's threads; run NULL: on the calling thread), else the
  * changed leaves. The array is held to max_bytes (UINT64_MAX: no limit; a full build's
- * short-lived reservation is not counted). VIS_ERROR_BUDGET when the blocks would take more,
+ * short-lived reservation is not counted; a partial sync copies the live blocks out before it
+ * gives up on a block that does not fit). VIS_ERROR_BUDGET when the blocks would take more,
  * VIS_ERROR_OUT_OF_MEMORY when the memory cannot be had: either leaves *lab empty and
  * `failed` (no leaf labelled: the plane walk traces every leaf), which a partial sync retries
  * only once max_bytes has grown past failed_room by an eighth. The labels are only an

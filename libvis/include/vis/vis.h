@@ -281,8 +281,9 @@ typedef struct vis_scene_desc {
     uint64_t max_bytes;   /* host memory the scene may hold between calls (vis_scene_info.bytes;
                              a call's short-lived scratch is not counted); 0 =
                              VIS_DEFAULT_SCENE_MAX_BYTES. The CPU backend keeps its voxel
-                             labels only where bytes and backend_bytes stay within it
-                             (vis_scene_info); without them its passes are the same, slower */
+                             labels only where, at a trace or vis_scene_prepare, bytes and
+                             backend_bytes fit within it (vis_scene_info); without them its
+                             passes are the same, slower                                      */
     vis_commit_mode commit; /* default VIS_COMMIT_AUTO                                      */
 } vis_scene_desc;
 
@@ -353,7 +354,7 @@ typedef struct vis_scene_info {
                                (a few bytes per kd node, which the packets need).
                                Labels that did not fit (or could not have their memory)
                                come back only once the room beside `bytes` has grown by an
-                               eighth                                                      */
+                               eighth, or at a sync of the whole scene                     */
 } vis_scene_info;
 
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
