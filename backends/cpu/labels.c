@@ -148,19 +148,36 @@ static int label_rows(const leaf_planes *P, uint16_t lab[16][16])
     return bad == 0;
 }
 
-/* Rows along x ([y][z]) as 4^3 bricks: row (y, z)'s four nibbles go to bricks x/4 + 4 (y/4)
- * + 16 (z/4), at bit 4 (y%4) + 16 (z%4). The four rows z = 4 zb .. 4 zb + 3 of one y, as the
- * 16-bit lanes of a word, give each brick of that y and zb its four nibbles at once. */
+/* Rows along x ([y][z]) as 4^3 bricks: row (y, z)'s nibble x/4 goes to brick x/4 + 4 (y/4) +
+ * 16 (z/4), at bit 4 (y%4) + 16 (z%4). The four rows z = 4 zb .. 4 zb + 3 of one y, as the
+ * 16-bit lanes of a word, hold a 4x4 matrix of nibbles per lane (nibble x/4 at bits 4 (x/4));
+ * the four such words of y = 4 yb .. 4 yb + 3 hold, lane by lane, a 4x4 matrix [y%4][x/4] of
+ * nibbles, and each brick wants its transpose [x/4][y%4]: two rounds of swaps (of byte pairs,
+ * then of nibbles) give all four bricks of that yb and zb at once. */
 static void to_bricks(const uint16_t rows[16][16], uint64_t out[64])
 {
-    memset(out, 0, 64 * sizeof *out);
-    for (uint32_t y = 0; y < 16u; ++y)
+    for (uint32_t yb = 0; yb < 4u; ++yb)
         for (uint32_t zb = 0; zb < 4u; ++zb) {
-            const uint16_t *r = &rows[y][4u * zb];
-            uint64_t w = (uint64_t)r[0] | (uint64_t)r[1] << 16 | (uint64_t)r[2] << 32 | (uint64_t)r[3] << 48;
-            uint32_t j = (y >> 2) << 2 | zb << 4, sh = (y & 3u) << 2;
-            for (uint32_t xb = 0; xb < 4u; ++xb)
-                out[j | xb] |= (w >> (4u * xb) & 0x000F000F000F000Full) << sh;
+            uint64_t a[4];
+            for (uint32_t k = 0; k < 4u; ++k) {
+                const uint16_t *r = &rows[4u * yb + k][4u * zb];
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+                memcpy(&a[k], r, sizeof a[k]); /* the same word, in one load */
+#else
+                a[k] = (uint64_t)r[0] | (uint64_t)r[1] << 16 | (uint64_t)r[2] << 32 | (uint64_t)r[3] << 48;
+#endif
+            }
+            for (uint32_t k = 0; k < 2u; ++k) { /* the upper byte of a[k] with the lower of a[k + 2] */
+                uint64_t t = ((a[k] >> 8) ^ a[k + 2]) & 0x00FF00FF00FF00FFull;
+                a[k + 2] ^= t;
+                a[k] ^= t << 8;
+            }
+            for (uint32_t k = 0; k < 4u; k += 2u) { /* nibbles 1, 3 of a[k] with 0, 2 of a[k + 1] */
+                uint64_t t = ((a[k] >> 4) ^ a[k + 1]) & 0x0F0F0F0F0F0F0F0Full;
+                a[k + 1] ^= t;
+                a[k] ^= t << 4;
+            }
+            memcpy(&out[4u * yb + 16u * zb], a, sizeof a); /* bricks x/4 = 0..3 */
         }
 }
 
