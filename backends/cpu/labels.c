@@ -241,11 +241,14 @@ void vis_labels_free(vis_labels *lab)
     lab->failed = VIS_OK;
 }
 
-/* The words the array may hold under max_bytes: offsets are 32-bit words. */
+/* The most words the array can hold: offsets are 32-bit words, and its bytes must fit a size_t. */
+#define MAX_WORDS ((size_t)UINT32_MAX < SIZE_MAX / sizeof(uint32_t) ? (size_t)UINT32_MAX : SIZE_MAX / sizeof(uint32_t))
+
+/* The words the array may hold under max_bytes. */
 static size_t words_within(uint64_t max_bytes)
 {
     uint64_t w = max_bytes / sizeof(uint32_t);
-    return w < UINT32_MAX ? (size_t)w : (size_t)UINT32_MAX;
+    return w < (uint64_t)MAX_WORDS ? (size_t)w : MAX_WORDS;
 }
 
 /* Room for `more` words past `used`, within `limit` words: the array grows by an eighth, at
@@ -347,13 +350,12 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, size_t limit
      * held to the limit): the pages the blocks do not reach are never touched, and the array
      * is copied to its size at the end (growing it block by block cost more in copies and
      * page faults than the blocks themselves). */
-    size_t bound = (size_t)v->leaf_count + 1u;
+    uint64_t most = (uint64_t)v->leaf_count + 1u;
     for (uint32_t li = 0; li < v->leaf_count; ++li)
-        bound += v->leaves[li].quad_count ? VIS_LABELS_MAX_BLOCK : 0u;
-    if (bound > UINT32_MAX)
-        bound = UINT32_MAX; /* the blocks stop at the limit, which is no more */
+        most += v->leaves[li].quad_count ? VIS_LABELS_MAX_BLOCK : 0u;
+    size_t bound = most < (uint64_t)MAX_WORDS ? (size_t)most : MAX_WORDS; /* the blocks stop at the limit, no more */
     b.blocks = vis_host_alloc(lab->alloc, (size_t)BATCH * (VIS_LABELS_MAX_BLOCK + 1u) * sizeof(uint32_t));
-    vis_status st = b.blocks ? reserve(lab, bound, UINT32_MAX) : VIS_ERROR_OUT_OF_MEMORY;
+    vis_status st = b.blocks ? reserve(lab, bound, MAX_WORDS) : VIS_ERROR_OUT_OF_MEMORY;
     if (st != VIS_OK) {
         vis_host_free(lab->alloc, b.blocks);
         return st;
