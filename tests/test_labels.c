@@ -340,6 +340,24 @@ static void test_walk_equals_plane_walk(void **state)
 
 /* ---- edits ------------------------------------------------------------------------------- */
 
+/* One draw of an edit of busy_scene(6, 2, 5): a chunk object replaced by other boxes, so its
+ * leaf's block changes size (the ties and entities span leaves and are left alone: 0 then).
+ * *ch gets the scene's changed leaves. */
+static int edit_a_chunk(vis_scene *s, tworld *w, uint64_t *rng, vis_scene_changes *ch)
+{
+    tobj *o = &w->objs[vt_rand(rng) % w->n];
+    if (o->id >= 100000)
+        return 0;
+    int c[3] = {(int)((o->id - 1) % 6), (int)((o->id - 1) / 6 % 2), (int)((o->id - 1) / 12)};
+    obj_clear(o);
+    obj_chunk_boxes(o, rng, c, &busy_world);
+    set_obj(s, o);
+    memset(ch, 0, sizeof *ch);
+    ch->leaves = s->dirty_leaves;
+    ch->leaf_count = s->dirty_leaf_count;
+    return 1;
+}
+
 static void test_edits_keep_blocks_current(void **state)
 {
     (void)state;
@@ -352,19 +370,10 @@ static void test_edits_keep_blocks_current(void **state)
     size_t most = 0;
     int compactions = 0;
     for (int e = 0; e < 400; ++e) {
-        /* A chunk object replaced by other boxes: its leaf's block changes size. */
-        tobj *o = &w.objs[vt_rand(&rng) % w.n];
-        if (o->id >= 100000)
-            continue; /* the ties and entities span leaves: edit the chunks */
-        int c[3] = {(int)((o->id - 1) % 6), (int)((o->id - 1) / 6 % 2), (int)((o->id - 1) / 12)};
-        obj_clear(o);
-        obj_chunk_boxes(o, &rng, c, &busy_world);
-        set_obj(s, o);
-        v = vis_scene_get_view(s);
         vis_scene_changes ch;
-        memset(&ch, 0, sizeof ch);
-        ch.leaves = s->dirty_leaves;
-        ch.leaf_count = s->dirty_leaf_count;
+        if (!edit_a_chunk(s, &w, &rng, &ch))
+            continue;
+        v = vis_scene_get_view(s);
         size_t stale = lab.stale;
         assert_int_equal(vis_labels_sync(&lab, &v, &ch, UINT64_MAX, NULL, NULL), VIS_OK);
         compactions += lab.stale < stale;
@@ -409,21 +418,13 @@ static void test_edits_within_a_tight_limit(void **state)
     vis_labels lab = labels_of(&v);
     int compactions = 0, edits = 0;
     for (int e = 0; e < 300; ++e) {
-        tobj *o = &w.objs[vt_rand(&rng) % w.n];
-        if (o->id >= 100000)
-            continue; /* the chunks, as in test_edits_keep_blocks_current */
-        int c[3] = {(int)((o->id - 1) % 6), (int)((o->id - 1) / 6 % 2), (int)((o->id - 1) / 12)};
-        obj_clear(o);
-        obj_chunk_boxes(o, &rng, c, &busy_world);
-        set_obj(s, o);
+        vis_scene_changes ch;
+        if (!edit_a_chunk(s, &w, &rng, &ch))
+            continue;
         v = vis_scene_get_view(s);
         vis_labels fresh = labels_of(&v);
         uint64_t limit = (uint64_t)(fresh.used + VIS_LABELS_MAX_BLOCK) * sizeof(uint32_t);
         vis_labels_free(&fresh);
-        vis_scene_changes ch;
-        memset(&ch, 0, sizeof ch);
-        ch.leaves = s->dirty_leaves;
-        ch.leaf_count = s->dirty_leaf_count;
         size_t stale = lab.stale;
         assert_int_equal(vis_labels_sync(&lab, &v, &ch, limit, NULL, NULL), VIS_OK);
         assert_true(vis_labels_bytes(&lab) <= limit);
