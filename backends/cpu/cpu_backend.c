@@ -150,12 +150,13 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
      * made whole at every sync after an edit, keeps none: a whole build of gen:large's takes
      * half a second. Nor does a copy whose labels could not have their memory, or would take
      * the scene past its max_bytes beside the flags. */
-    uint64_t flags = sizeof *cs + vis_occupancy_bytes(&cs->occ);
-    if (changes->copy)
+    if (changes->copy) {
         vis_labels_free(&cs->labels);
-    else
-        (void)vis_labels_sync(&cs->labels, view, changes, changes->room > flags ? changes->room - flags : 0,
-                              run_parallel, b);
+        return VIS_OK;
+    }
+    uint64_t flags = sizeof *cs + vis_occupancy_bytes(&cs->occ);
+    (void)vis_labels_sync(&cs->labels, view, changes, changes->room > flags ? changes->room - flags : 0, run_parallel,
+                          b);
     return VIS_OK;
 }
 

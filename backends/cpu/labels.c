@@ -256,10 +256,10 @@ static size_t words_within(uint64_t max_bytes)
 static vis_status reserve(vis_labels *lab, size_t more, size_t limit)
 {
     size_t want = lab->used + more;
+    if (want > limit)
+        return VIS_ERROR_BUDGET; /* even where the array has the room (a full build's reservation) */
     if (want <= lab->cap)
         return VIS_OK;
-    if (want > limit)
-        return VIS_ERROR_BUDGET;
     size_t cap = lab->cap + lab->cap / 8u;
     cap = cap < want ? want : cap > limit ? limit : cap;
     uint32_t *w = vis_host_alloc(lab->alloc, cap * sizeof *w);
@@ -373,9 +373,7 @@ static vis_status rebuild(vis_labels *lab, const vis_scene_view *v, size_t limit
                 build_one(i, &b);
         for (uint32_t i = 0; st == VIS_OK && i < b.count; ++i)
             if (b.words[i])
-                st = lab->used + b.words[i] > limit
-                   ? VIS_ERROR_BUDGET
-                   : append_block(lab, b.first + i, b.blocks + (size_t)i * VIS_LABELS_MAX_BLOCK, b.words[i], limit);
+                st = append_block(lab, b.first + i, b.blocks + (size_t)i * VIS_LABELS_MAX_BLOCK, b.words[i], limit);
     }
     vis_host_free(lab->alloc, b.blocks);
     return st;
@@ -438,9 +436,8 @@ vis_status vis_labels_sync(vis_labels *lab, const vis_scene_view *view, const vi
     }
     if (st == VIS_OK && lab->cap > limit) {
         /* The room shrank under the array (the scene grew), or the full build's reservation
-         * could not be copied out: to its size, or no labels. */
+         * could not be copied out: to its size (no more than the limit), or no labels. */
         st = compact(lab, limit);
-        st = st != VIS_OK ? st : lab->cap > limit ? VIS_ERROR_BUDGET : VIS_OK;
     }
     if (st != VIS_OK) {
         vis_labels_free(lab);
