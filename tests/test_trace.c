@@ -254,7 +254,7 @@ static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera 
     uint32_t *ids = malloc(n * 4), *want = malloc(n * 4), alone = 0;
     for (uint32_t y = 0; y < H; y += VIS_PACKET_SIDE)
         for (uint32_t x = 0; x < W; x += VIS_PACKET_SIDE)
-            alone += vis_packet_trace_tile(&s, &v, occ.occupied, want_side, VIS_PACKET_SIDE, x, y, ids, NULL, NULL);
+            alone += vis_packet_trace_tile(&s, &v, occ.fill, want_side, VIS_PACKET_SIDE, x, y, ids, NULL, NULL);
     vis_trace_desc d;
     vis_trace_desc_defaults(&d);
     d.width = W, d.height = H;

@@ -32,6 +32,7 @@ static uint32_t g_dda_base; /* the scene's cell_map */
 #include "common/trace_core.h"
 #include "camera.h"
 #include "cpu/labels.h"
+#include "cpu/occupancy.h"
 #include "kdtree.h"
 #include "scene.h"
 #include "ref_trace.h"
@@ -290,6 +291,149 @@ static void test_edits_between_passes(void **state)
     vis_context_destroy(ctx);
 }
 
+static void *far_alloc_t(size_t size, size_t align, void *user)
+{
+    (void)user;
+    return aligned_alloc(align, (size + align - 1) / align * align);
+}
+
+static void far_free_t(void *p, void *user)
+{
+    (void)user;
+    free(p);
+}
+
+/* The y extent of each node's primitives inside its box, from the leaves themselves: every
+ * packed quad's extent on y, or the whole leaf for loose quads and triangles, cut to the
+ * leaf's box. lo > hi where a subtree holds nothing. */
+static void true_fills(const vis_scene_view *v, float *lo, float *hi, float *y0, float *y1)
+{
+    y0[0] = 0.0f;
+    y1[0] = v->size[1];
+    for (uint32_t i = 0; i < v->node_count; ++i) { /* children come after their parent */
+        uint32_t info = v->nodes[i].info;
+        if ((info & 3u) == VIS_NODE_LEAF)
+            continue;
+        uint32_t c = info >> 2;
+        y0[c] = y0[c + 1u] = y0[i];
+        y1[c] = y1[c + 1u] = y1[i];
+        if ((info & 3u) == 1u)
+            y1[c] = y0[c + 1u] = v->nodes[i].split;
+    }
+    for (uint32_t i = v->node_count; i-- > 0;) {
+        uint32_t info = v->nodes[i].info;
+        lo[i] = INFINITY, hi[i] = -INFINITY;
+        if ((info & 3u) != VIS_NODE_LEAF) {
+            for (uint32_t c = info >> 2; c < (info >> 2) + 2u; ++c)
+                lo[i] = fminf(lo[i], lo[c]), hi[i] = fmaxf(hi[i], hi[c]);
+            continue;
+        }
+        const vis_flat_leaf *leaf = &v->leaves[info >> 2];
+        if (leaf->loose_count | leaf->tri_count) {
+            lo[i] = leaf->lo[1], hi[i] = leaf->hi[1];
+            continue;
+        }
+        if (leaf->quad_count == 0u)
+            continue;
+        const uint32_t *bk = v->buckets + leaf->bucket_offset;
+        uint32_t E[3] = {leaf->dims_xy & 0xFFFFu, leaf->dims_xy >> 16, leaf->dims_z}, b = 0;
+        for (uint32_t a = 0; a < 3u; ++a)
+            for (uint32_t k = 0; k <= E[a]; ++k, ++b)
+                for (uint32_t j = bk[b]; j < bk[b + 1u]; ++j) {
+                    vis_flat_quad q = vis_unpack_quad(v->quads[leaf->quad_offset + j], a, (int)k, leaf, v->quads);
+                    float qlo = a == 1u ? q.plane : a == 0u ? q.u0 : q.v0; /* y: u of x planes, v of z */
+                    float qhi = a == 1u ? q.plane : a == 0u ? q.u1 : q.v1;
+                    lo[i] = fminf(lo[i], fmaxf(qlo, leaf->lo[1]));
+                    hi[i] = fmaxf(hi[i], fminf(qhi, leaf->hi[1]));
+                }
+    }
+}
+
+/* Every node's fill holds what its subtree holds on y, and is empty exactly where it holds
+ * nothing: after a full build, and after edits brought in leaf by leaf, which must give the
+ * very bytes a full build gives. */
+static void check_fills(const vis_scene_view *v, const vis_occupancy *occ, const char *what)
+{
+    size_t n = v->node_count;
+    float *lo = malloc(n * 4), *hi = malloc(n * 4), *y0 = malloc(n * 4), *y1 = malloc(n * 4);
+    true_fills(v, lo, hi, y0, y1);
+    uint32_t partial = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        vis_node_fill f = occ->fill[i];
+        int holds = lo[i] <= hi[i];
+        if (holds != vis_node_filled(f))
+            fail_msg("%s: node %u holds %s but its fill says %s", what, i, holds ? "primitives" : "nothing",
+                     holds ? "empty" : "filled");
+        if (!holds)
+            continue;
+        float flo = vis_node_fill_lo(f, y0[i], y1[i]), fhi = vis_node_fill_hi(f, y0[i], y1[i]);
+        if (flo > lo[i] || fhi < hi[i])
+            fail_msg("%s: node %u over [%g, %g] holds y in [%g, %g], its fill says [%g, %g]", what, i, (double)y0[i],
+                     (double)y1[i], (double)lo[i], (double)hi[i], (double)flo, (double)fhi);
+        partial += f.lo != 0u || f.hi != 255u;
+    }
+    assert_true(partial > 0); /* some subtree is lower than its box: the fills cut something */
+    free(lo), free(hi), free(y0), free(y1);
+}
+
+static void test_node_fills_hold_their_leaves(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    uint64_t rng = 4242;
+    tworld w;
+    random_chunk_world_opts(&w, &rng, 4, 3, 3, &edgy_world);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_allocator a = {far_alloc_t, far_free_t, NULL};
+    vis_occupancy occ, fresh;
+    memset(&occ, 0, sizeof occ);
+    memset(&fresh, 0, sizeof fresh);
+    occ.alloc = fresh.alloc = &a;
+    vis_scene_changes all;
+    memset(&all, 0, sizeof all);
+    all.full = 1;
+    vis_scene_view v = vis_scene_get_view(scene);
+    assert_int_equal(vis_occupancy_sync(&occ, &v, &all), VIS_OK);
+    check_fills(&v, &occ, "full build");
+    int rounds = vt_small() ? 4 : 12;
+    uint32_t *leaves = malloc((size_t)v.leaf_count * sizeof *leaves);
+    for (int e = 0; e < rounds; ++e) {
+        for (int k = 0; k < 4 && w.n > 0; ++k) {
+            tobj *o = &w.objs[vt_rand(&rng) % w.n];
+            float lo[3], hi[3];
+            for (int ax = 0; ax < 3; ++ax) {
+                lo[ax] = (float)(vt_rand(&rng) % (uint64_t)(w.size[ax] - 8));
+                hi[ax] = lo[ax] + 1.0f + (float)(vt_rand(&rng) % 7);
+            }
+            obj_clear(o);
+            if (vt_rand(&rng) % 4)
+                obj_box(o, lo, hi);
+            else
+                obj_quad(o, 1, lo[1], lo[2], lo[0], hi[2], hi[0]); /* a lone floor (u: z, v: x) */
+            set_obj(scene, o);
+        }
+        v = vis_scene_get_view(scene);
+        vis_scene_changes some;
+        memset(&some, 0, sizeof some);
+        for (uint32_t l = 0; l < v.leaf_count; ++l)
+            leaves[l] = l;
+        some.leaves = leaves;
+        some.leaf_count = v.leaf_count;
+        assert_int_equal(vis_occupancy_sync(&occ, &v, &some), VIS_OK);
+        char what[32];
+        snprintf(what, sizeof what, "after edit round %d", e);
+        check_fills(&v, &occ, what);
+        assert_int_equal(vis_occupancy_sync(&fresh, &v, &all), VIS_OK);
+        assert_memory_equal(occ.fill, fresh.fill, v.node_count * sizeof *occ.fill);
+    }
+    free(leaves);
+    vis_occupancy_free(&occ);
+    vis_occupancy_free(&fresh);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    vis_context_destroy(ctx);
+}
+
 /* Packets skip subtrees that hold nothing (the CPU backend's occupancy flags, refreshed at
  * sync): a leaf emptied and refilled, and a far leaf filled for the first time, must show. */
 static void test_packet_occupancy_follows_edits(void **state)
@@ -326,6 +470,23 @@ static void test_packet_occupancy_follows_edits(void **state)
     for (size_t i = 0; i < sizeof ids / sizeof ids[0]; ++i)
         seen5 |= ids[i] == 5, seen9 |= ids[i] == 9;
     assert_true(seen5 && seen9);
+    /* The subtrees' heights (occupancy.h): box 5 cut down to a slab, then raised to a tower
+     * past its old top, seen across its top from a low eye, where tiles of sky above the slab
+     * skip whatever the fills say lies below them. */
+    float heights[] = {5.0f, 28.0f, 9.0f};
+    vis_camera low = {{32, 12, 0}, {32, 10, 48}, 70, 0.05, 0};
+    for (int k = 0; k < 3; ++k) {
+        tobj *box = &w.objs[w.n - 1];
+        assert_int_equal(box->id, 5);
+        float top[3] = {hi[0], heights[k], hi[2]};
+        obj_clear(box);
+        obj_box(box, lo, top);
+        set_obj(scene, box);
+        char what[48];
+        snprintf(what, sizeof what, "box 5 up to y = %g", (double)heights[k]);
+        check_view(ctx, scene, &w, &low, 40, 33, what);
+        check_view(ctx, scene, &w, &cam, 40, 33, what);
+    }
     vis_scene_destroy(scene);
     free_world(&w);
     vis_context_destroy(ctx);
@@ -1326,6 +1487,7 @@ int main(void)
         cmocka_unit_test(test_random_worlds),
         cmocka_unit_test(test_edits_between_passes),
         cmocka_unit_test(test_packet_occupancy_follows_edits),
+        cmocka_unit_test(test_node_fills_hold_their_leaves),
         cmocka_unit_test(test_far_origin_and_leaf_ids),
         cmocka_unit_test(test_dda_visits_every_passing_cell),
     };

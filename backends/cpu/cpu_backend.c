@@ -40,7 +40,7 @@ typedef struct cpu_scene {
 
 typedef struct cpu_job {
     vis_scene_view view;        /* the scene's arrays and this backend's labels */
-    const uint8_t *occupied;
+    const vis_node_fill *fill;
     const vis_ray_setup *setup; /* `views` setups of one size and method (a batch), or one */
     uint32_t views;
     uint32_t *ids;              /* view i's pixels at + i * width * height, depth likewise */
@@ -66,7 +66,7 @@ static void trace_tile(void *user, uint32_t item)
         uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
         uint32_t y1 = y0 + job->side < s->height ? y0 + job->side : s->height;
         uint64_t n = s->traversal == VIS_TRAVERSAL_ID_PACKET
-                         ? vis_cpu_effects_packet_tile(&v, job->occupied, s, job->effects, job->effect_out,
+                         ? vis_cpu_effects_packet_tile(&v, job->fill, s, job->effects, job->effect_out,
                                                        vis_packet_side(s), x0, y0)
                          : vis_cpu_effects_tile(&v, s, job->effects, job->effect_out, x0, y0, x1, y1);
         atomic_fetch_add_explicit((atomic_ullong *)&job->secondary, (unsigned long long)n, memory_order_relaxed);
@@ -74,7 +74,7 @@ static void trace_tile(void *user, uint32_t item)
     }
     if (s->traversal == VIS_TRAVERSAL_ID_PACKET) {
         /* Per tile: the views of a batch may differ in field of view, so in packet size. */
-        vis_packet_trace_tile(s, &v, job->occupied, vis_packet_side(s), job->side, x0, y0, ids, depth, job->cost);
+        vis_packet_trace_tile(s, &v, job->fill, vis_packet_side(s), job->side, x0, y0, ids, depth, job->cost);
         return;
     }
     uint32_t x1 = x0 + job->side < s->width ? x0 + job->side : s->width;
@@ -190,7 +190,7 @@ static void init_job(cpu_job *job, const cpu_scene *cs, const vis_scene_view *vi
     memset(job, 0, sizeof *job);
     job->view = *view;
     job->view.labels = cs->labels.words;
-    job->occupied = cs->occ.occupied;
+    job->fill = cs->occ.fill;
     job->setup = setup;
     job->views = views;
     job->ids = ids;

@@ -8,13 +8,13 @@
 #include "cpu/effects.h"
 #include "cpu/packet.h"
 
-int vis_packet_effects_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_effects_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                              float give_up_t, uint32_t x0, uint32_t y0, const vis_effect_setup *effects,
                              const vis_effect_outputs *out, uint64_t *secondary);
-int vis_packet_effects_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_effects_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                            float give_up_t, uint32_t x0, uint32_t y0, const vis_effect_setup *effects,
                            const vis_effect_outputs *out, uint64_t *secondary);
-int vis_packet_effects_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_effects_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                            float give_up_t, uint32_t x0, uint32_t y0, const vis_effect_setup *effects,
                            const vis_effect_outputs *out, uint64_t *secondary);
 
@@ -33,10 +33,10 @@ uint64_t vis_cpu_effects_tile(const vis_scene_view *view, const vis_ray_setup *s
     return secondary;
 }
 
-typedef int (*packet_effects_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, uint32_t,
+typedef int (*packet_effects_fn)(const vis_ray_setup *, const vis_scene_view *, const vis_node_fill *, float, uint32_t,
                                  uint32_t, const vis_effect_setup *, const vis_effect_outputs *, uint64_t *);
 
-uint64_t vis_cpu_effects_packet_tile(const vis_scene_view *view, const uint8_t *occupied, const vis_ray_setup *setup,
+uint64_t vis_cpu_effects_packet_tile(const vis_scene_view *view, const vis_node_fill *fill, const vis_ray_setup *setup,
                                      const vis_effect_setup *effects, const vis_effect_outputs *out, uint32_t side,
                                      uint32_t x0, uint32_t y0)
 {
@@ -52,7 +52,7 @@ uint64_t vis_cpu_effects_packet_tile(const vis_scene_view *view, const uint8_t *
     uint64_t secondary = 0;
     for (uint32_t ty = y0; ty < y_end; ty += step)
         for (uint32_t tx = x0; tx < x_end; tx += step) {
-            if (fn && fn(setup, view, occupied, give_up_t, tx, ty, effects, out, &secondary))
+            if (fn && fn(setup, view, fill, give_up_t, tx, ty, effects, out, &secondary))
                 continue;
             uint32_t x1 = tx + step < x_end ? tx + step : x_end, y1 = ty + step < y_end ? ty + step : y_end;
             secondary += vis_cpu_effects_tile(view, setup, effects, out, tx, ty, x1, y1);

@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "backend.h"
+#include "cpu/occupancy.h"
 
 /* Traces pixels [x0, x1) x [y0, y1) with the effects and writes every buffer `out` has;
  * returns the secondary rays cast. */
@@ -16,9 +17,9 @@ uint64_t vis_cpu_effects_tile(const vis_scene_view *view, const vis_ray_setup *s
 /* The same for the pixels [x0, x0 + VIS_PACKET_SIDE) x [y0, y0 + VIS_PACKET_SIDE) (clipped to
  * the image) of a packet pass (setup->traversal VIS_TRAVERSAL_ID_PACKET): the primary rays in
  * packets of `side` (vis_packet_side) where they share a walk, else one by one, as the plain
- * packet pass decides (packet.c); `occupied` as for vis_packet_trace_tile. Bit for bit the
+ * packet pass decides (packet.c); `fill` as for vis_packet_trace_tile. Bit for bit the
  * per-ray buffers. */
-uint64_t vis_cpu_effects_packet_tile(const vis_scene_view *view, const uint8_t *occupied, const vis_ray_setup *setup,
+uint64_t vis_cpu_effects_packet_tile(const vis_scene_view *view, const vis_node_fill *fill, const vis_ray_setup *setup,
                                      const vis_effect_setup *effects, const vis_effect_outputs *out, uint32_t side,
                                      uint32_t x0, uint32_t y0);
 

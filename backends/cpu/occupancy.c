@@ -1,69 +1,188 @@
 /* occupancy.c — see occupancy.h. */
+#include <math.h>
+
 #include "cpu/occupancy.h"
+
+#define PATH_MAX_NODES 128 /* deeper than any tree (kd_depth is at most 48; full depth at most 90) */
 
 void vis_occupancy_free(vis_occupancy *occ)
 {
     vis_host_free(occ->alloc, occ->parent);
     vis_host_free(occ->alloc, occ->leaf_node);
-    vis_host_free(occ->alloc, occ->occupied);
+    vis_host_free(occ->alloc, occ->fill);
     occ->parent = occ->leaf_node = NULL;
-    occ->occupied = NULL;
+    occ->fill = NULL;
     occ->node_count = occ->leaf_count = 0;
 }
 
-/* Parent links and leaf nodes, and every node's flag from its leaves. kdtree.c allocates
- * children after their parent, so one backward sweep sees children before parents. */
+/* The fill of a node spanning [y0, y1] on y whose primitives' parts inside it lie in [c0,
+ * c1]: the tightest bytes whose bounds (vis_node_fill_lo, _hi) still hold [c0, c1]. */
+static vis_node_fill fill_of(float c0, float c1, float y0, float y1)
+{
+    if (!(c0 >= y0))
+        c0 = y0;
+    if (!(c1 <= y1))
+        c1 = y1;
+    if (!(c0 <= c1)) { /* cannot happen for parts inside the box: the whole height */
+        c0 = y0;
+        c1 = y1;
+    }
+    float scale = 255.0f / (y1 - y0);
+    int lo = (int)((c0 - y0) * scale), hi = (int)ceilf((c1 - y0) * scale);
+    lo = lo < 0 ? 0 : lo > 255 ? 255 : lo;
+    hi = hi < 0 ? 0 : hi > 255 ? 255 : hi;
+    vis_node_fill f = {(uint8_t)lo, (uint8_t)hi};
+    while (f.lo > 0u && vis_node_fill_lo(f, y0, y1) > c0)
+        --f.lo;
+    while (f.lo < 255u && vis_node_fill_lo((vis_node_fill){(uint8_t)(f.lo + 1u), 0u}, y0, y1) <= c0)
+        ++f.lo;
+    while (f.hi < 255u && vis_node_fill_hi(f, y0, y1) < c1)
+        ++f.hi;
+    while (f.hi > f.lo && vis_node_fill_hi((vis_node_fill){0u, (uint8_t)(f.hi - 1u)}, y0, y1) >= c1)
+        --f.hi;
+    if (f.hi < f.lo)
+        f.hi = f.lo; /* a node too thin for 255ths to part them: both bounds hold [c0, c1] */
+    return f;
+}
+
+/* A leaf's fill: its packed quads' content box cut to the leaf (as the packets cut it; a quad
+ * reaching past its leaf lies in the neighbour that holds it too), or the whole leaf where it
+ * has loose quads or triangles, which lie anywhere in it. */
+static vis_node_fill leaf_fill(const vis_flat_leaf *leaf, float y0, float y1)
+{
+    if (!vis_leaf_has_primitives(leaf))
+        return VIS_NODE_EMPTY;
+    if ((leaf->loose_count | leaf->tri_count) || leaf->quad_count == 0u)
+        return fill_of(y0, y1, y0, y1);
+    uint32_t e = leaf->dims_xy >> 16;
+    uint32_t bl = VIS_BOX_FIELD(leaf->content_box, 1u), bh = VIS_BOX_FIELD(leaf->content_box, 4u);
+    if (bh == VIS_PQ_COORD_MAX && e > bh)
+        bh = e; /* saturated */
+    float c0 = leaf->lo[1] + (float)bl, c1 = leaf->lo[1] + (float)bh;
+    return fill_of(c0, c1 < leaf->hi[1] ? c1 : leaf->hi[1], y0, y1);
+}
+
+/* The y extents of node's children, for node spanning [y0, y1]: the split cuts it only where
+ * the node splits y. */
+static void child_spans(const vis_kd_node *n, float y0, float y1, float span[2][2])
+{
+    int on_y = (n->info & 3u) == 1u;
+    span[0][0] = y0;
+    span[0][1] = on_y ? n->split : y1;
+    span[1][0] = on_y ? n->split : y0;
+    span[1][1] = y1;
+}
+
+/* An inner node's fill from its children's. */
+static vis_node_fill inner_fill(const vis_occupancy *occ, const vis_scene_view *view, uint32_t node, float y0,
+                                float y1)
+{
+    const vis_kd_node *n = &view->nodes[node];
+    float span[2][2], c0 = INFINITY, c1 = -INFINITY;
+    child_spans(n, y0, y1, span);
+    for (uint32_t j = 0; j < 2u; ++j) {
+        vis_node_fill f = occ->fill[(n->info >> 2) + j];
+        if (!vis_node_filled(f))
+            continue;
+        float lo = vis_node_fill_lo(f, span[j][0], span[j][1]), hi = vis_node_fill_hi(f, span[j][0], span[j][1]);
+        c0 = lo < c0 ? lo : c0;
+        c1 = hi > c1 ? hi : c1;
+    }
+    return c0 <= c1 ? fill_of(c0, c1, y0, y1) : VIS_NODE_EMPTY;
+}
+
+static vis_node_fill node_fill(const vis_occupancy *occ, const vis_scene_view *view, uint32_t node, float y0,
+                               float y1)
+{
+    uint32_t info = view->nodes[node].info;
+    if ((info & 3u) == VIS_NODE_LEAF)
+        return leaf_fill(&view->leaves[info >> 2], y0, y1);
+    return inner_fill(occ, view, node, y0, y1);
+}
+
+/* Parent links and leaf nodes, and every node's fill from its leaves. kdtree.c allocates
+ * children after their parent, so a forward sweep gives each node its y extent (the root
+ * spans [0, size[1]], as the packets' walk starts) and a backward one sees children before
+ * parents. */
 static vis_status rebuild(vis_occupancy *occ, const vis_scene_view *view)
 {
     vis_occupancy_free(occ);
     uint32_t n = view->node_count;
     occ->parent = vis_host_alloc(occ->alloc, (size_t)n * sizeof *occ->parent);
     occ->leaf_node = vis_host_alloc(occ->alloc, (size_t)view->leaf_count * sizeof *occ->leaf_node);
-    occ->occupied = vis_host_alloc(occ->alloc, n);
-    if (!occ->parent || !occ->leaf_node || !occ->occupied) {
+    occ->fill = vis_host_alloc(occ->alloc, (size_t)n * sizeof *occ->fill);
+    float *span = vis_host_alloc(occ->alloc, (size_t)n * 2u * sizeof *span); /* this sweep's only */
+    if (!occ->parent || !occ->leaf_node || !occ->fill || !span) {
+        vis_host_free(occ->alloc, span);
         vis_occupancy_free(occ);
         return VIS_ERROR_OUT_OF_MEMORY;
     }
     occ->node_count = n;
     occ->leaf_count = view->leaf_count;
-    if (n)
+    if (n) {
         occ->parent[0] = UINT32_MAX;
+        span[0] = 0.0f;
+        span[1] = view->size[1];
+    }
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t info = view->nodes[i].info;
         if ((info & 3u) == VIS_NODE_LEAF) {
             occ->leaf_node[info >> 2] = i;
-        } else {
-            occ->parent[info >> 2] = i;
-            occ->parent[(info >> 2) + 1u] = i;
+            continue;
+        }
+        float cs[2][2];
+        child_spans(&view->nodes[i], span[2u * i], span[2u * i + 1u], cs);
+        for (uint32_t j = 0; j < 2u; ++j) {
+            occ->parent[(info >> 2) + j] = i;
+            span[2u * ((info >> 2) + j)] = cs[j][0];
+            span[2u * ((info >> 2) + j) + 1u] = cs[j][1];
         }
     }
-    for (uint32_t i = n; i-- > 0;) {
-        uint32_t info = view->nodes[i].info;
-        if ((info & 3u) == VIS_NODE_LEAF)
-            occ->occupied[i] = (uint8_t)vis_leaf_has_primitives(&view->leaves[info >> 2]);
-        else
-            occ->occupied[i] = occ->occupied[info >> 2] | occ->occupied[(info >> 2) + 1u];
-    }
+    for (uint32_t i = n; i-- > 0;)
+        occ->fill[i] = node_fill(occ, view, i, span[2u * i], span[2u * i + 1u]);
+    vis_host_free(occ->alloc, span);
     return VIS_OK;
+}
+
+static int same_fill(vis_node_fill a, vis_node_fill b) { return a.lo == b.lo && a.hi == b.hi; }
+
+/* Leaf li's node and its ancestors, bottom-up, from its new content: each node's y extent
+ * comes down the path from the root, then the fills go up it while they change. 0 for a path
+ * deeper than PATH_MAX_NODES (never: the caller then rebuilds). */
+static int refresh_path(vis_occupancy *occ, const vis_scene_view *view, uint32_t li)
+{
+    uint32_t path[PATH_MAX_NODES];
+    float span[PATH_MAX_NODES][2];
+    int len = 0;
+    for (uint32_t node = occ->leaf_node[li]; node != UINT32_MAX; node = occ->parent[node]) {
+        if (len == PATH_MAX_NODES)
+            return 0;
+        path[len++] = node;
+    }
+    span[len - 1][0] = 0.0f; /* the root */
+    span[len - 1][1] = view->size[1];
+    for (int k = len - 1; k > 0; --k) {
+        float cs[2][2];
+        child_spans(&view->nodes[path[k]], span[k][0], span[k][1], cs);
+        uint32_t j = path[k - 1] - (view->nodes[path[k]].info >> 2);
+        span[k - 1][0] = cs[j][0];
+        span[k - 1][1] = cs[j][1];
+    }
+    for (int k = 0; k < len; ++k) {
+        vis_node_fill f = node_fill(occ, view, path[k], span[k][0], span[k][1]);
+        if (k > 0 && same_fill(f, occ->fill[path[k]]))
+            break; /* its ancestors' fills are unions of what has not changed */
+        occ->fill[path[k]] = f;
+    }
+    return 1;
 }
 
 vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes)
 {
-    if (changes->full || !occ->occupied || occ->node_count != view->node_count ||
-        occ->leaf_count != view->leaf_count)
+    if (changes->full || !occ->fill || occ->node_count != view->node_count || occ->leaf_count != view->leaf_count)
         return rebuild(occ, view);
-    for (uint32_t i = 0; i < changes->leaf_count; ++i) {
-        uint32_t node = occ->leaf_node[changes->leaves[i]];
-        uint8_t flag = (uint8_t)vis_leaf_has_primitives(&view->leaves[changes->leaves[i]]);
-        /* Up the tree while a flag changes; an ancestor's flag is the OR of its children. */
-        while (node != UINT32_MAX && occ->occupied[node] != flag) {
-            occ->occupied[node] = flag;
-            node = occ->parent[node];
-            if (node == UINT32_MAX)
-                break;
-            uint32_t first = view->nodes[node].info >> 2;
-            flag = occ->occupied[first] | occ->occupied[first + 1u];
-        }
-    }
+    for (uint32_t i = 0; i < changes->leaf_count; ++i)
+        if (!refresh_path(occ, view, changes->leaves[i]))
+            return rebuild(occ, view);
     return VIS_OK;
 }

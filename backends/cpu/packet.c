@@ -28,16 +28,16 @@
 
 #include "cpu/packet.h"
 
-int vis_packet_trace_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_trace_16x16(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                            float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                            uint32_t *cost);
-int vis_packet_trace_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_trace_8x8(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                          float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                          uint32_t *cost);
-int vis_packet_trace_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_trace_4x4(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                          float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                          uint32_t *cost);
-int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+int vis_packet_trace_1x1(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                          float give_up_t, int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                          uint32_t *cost);
 
@@ -121,11 +121,11 @@ uint32_t vis_packet_side(const vis_ray_setup *setup)
     return 4.0f * pixel <= PACKET_MAX_SPREAD_4 ? 4u : 1u;
 }
 
-typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const uint8_t *, float, int, uint32_t,
+typedef int (*packet_fn)(const vis_ray_setup *, const vis_scene_view *, const vis_node_fill *, float, int, uint32_t,
                          uint32_t, uint32_t *, float *, uint32_t *);
 
 /* The pixels [x0, x1) x [y0, y1), one ray at a time. */
-static uint32_t trace_alone(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+static uint32_t trace_alone(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                             uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1, uint32_t *ids, float *depth,
                             uint32_t *cost)
 {
@@ -135,7 +135,7 @@ static uint32_t trace_alone(const vis_ray_setup *setup, const vis_scene_view *vi
     for (uint32_t y = y0; y < y1; ++y)
         for (uint32_t x = x0; x < x1; ++x) {
             if (!grid) {
-                vis_packet_trace_1x1(setup, view, occupied, INFINITY, INT_MAX, x, y, ids, depth, cost);
+                vis_packet_trace_1x1(setup, view, fill, INFINITY, INT_MAX, x, y, ids, depth, cost);
                 continue;
             }
             uint32_t id;
@@ -155,7 +155,7 @@ static packet_fn packet_of(uint32_t side)
          : side == 4u ? vis_packet_trace_4x4 : NULL;
 }
 
-uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                                uint32_t side, uint32_t edge, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                                uint32_t *cost)
 {
@@ -167,10 +167,10 @@ uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view 
     uint32_t alone = 0;
     for (uint32_t ty = y0; ty < y_end; ty += side)
         for (uint32_t tx = x0; tx < x_end; tx += side) {
-            if (fn && fn(setup, view, occupied, give_up_t, leaves, tx, ty, ids, depth, cost))
+            if (fn && fn(setup, view, fill, give_up_t, leaves, tx, ty, ids, depth, cost))
                 continue;
             uint32_t x1 = tx + side < x_end ? tx + side : x_end, y1 = ty + side < y_end ? ty + side : y_end;
-            alone += trace_alone(setup, view, occupied, tx, ty, x1, y1, ids, depth, cost);
+            alone += trace_alone(setup, view, fill, tx, ty, x1, y1, ids, depth, cost);
         }
     return alone;
 }

@@ -5,6 +5,7 @@
 #include <stdint.h>
 
 #include "backend.h"
+#include "cpu/occupancy.h"
 
 /* The tile the CPU backend hands to a thread for packets, in pixels. */
 #define VIS_PACKET_SIDE 16u
@@ -21,11 +22,11 @@ float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
  * image; edge a multiple of `side`, at most VIS_PACKET_SIDE) and writes their IDs and depths
  * (depth may be NULL): per pixel, the nearest hit over every primitive under the lowest-ID tie
  * rule, with the rays and primitive tests of trace_core.h -- bit for bit the brute force's
- * buffers. `occupied` flags the kd nodes whose subtree holds a primitive (occupancy.h); `side`
+ * buffers. `fill` tells what each kd node's subtree holds (occupancy.h); `side`
  * is vis_packet_side(setup). `cost` (may be NULL) gets each pixel's traversal cost
  * (vis_trace_cost). Returns the number of pixels traced one ray at a time (packets that gave
  * up, or side 1). */
-uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied,
+uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                                uint32_t side, uint32_t edge, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                                uint32_t *cost);
 

@@ -898,8 +898,8 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
 }
 
 /* A subtree to visit: its node and box, and where the tile's rays can be inside its parent's
- * box (packet_box_open's interval before the widening), so that only the split axis's slab is
- * new to it. */
+ * box and its ancestors' fills (occupancy.h; packet_box_open's interval before the widening),
+ * so that only the split axis's slab is new to it. */
 typedef struct packet_frame {
     uint32_t node;
     int axis;         /* the parent's split axis; 3 at the root (all three slabs are new) */
@@ -926,13 +926,22 @@ static inline void packet_frame_put(packet_frame *d, uint32_t node, uint32_t a, 
     d->hi[a] = ha;
 }
 
+/* Whether the tile's interval [t0, t1] in a box, widened by the slack, is not empty and starts
+ * no farther than the farthest best hit. */
+PK_INLINE int packet_interval_open(const packet *p, float t0, float t1)
+{
+    float w0 = t0 - t0 * T_SLACK;
+    return w0 <= t1 + fabsf(t1) * T_SLACK && w0 <= p->max_best + p->max_best * T_SLACK;
+}
+
 /* packet_box_open for a frame: the parent's interval narrowed by the one slab that differs
  * (the child's box is its parent's cut at the split). The same values as all three slabs
- * anew: the unchanged two give what they gave the parent, and a slab cut shorter gives an
- * entry no nearer and an exit no farther (each bound is monotone in the plane's offset, as
- * rounding is), so the maximum of the entries and the minimum of the exits are unchanged by
- * the parent's wider one. Leaves [*t0, *t1] as the frame's interval; 0 where no ray may have a
- * better hit inside the box. */
+ * anew, narrowed by the ancestors' fills: the unchanged two give what they gave the parent,
+ * and a slab cut shorter gives an entry no nearer and an exit no farther (each bound is
+ * monotone in the plane's offset, as rounding is), so the maximum of the entries and the
+ * minimum of the exits are unchanged by the parent's wider one. Leaves [*t0, *t1] as the
+ * frame's interval; 0 where no ray may have a better hit inside the box. */
+
 PK_INLINE int packet_frame_open(const packet *p, const packet_frame *f, float *t0, float *t1)
 {
     *t0 = f->t0;
@@ -940,11 +949,10 @@ PK_INLINE int packet_frame_open(const packet *p, const packet_frame *f, float *t
     for (int a = f->axis == 3 ? 0 : f->axis, e = f->axis == 3 ? 3 : f->axis + 1; a < e; ++a)
         if (!packet_slab(p, a, f->lo[a], f->hi[a], t0, t1))
             return 0;
-    float w0 = *t0 - *t0 * T_SLACK;
-    return w0 <= *t1 + fabsf(*t1) * T_SLACK && w0 <= p->max_best + p->max_best * T_SLACK;
+    return packet_interval_open(p, *t0, *t1);
 }
 
-PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint8_t *occupied)
+PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const vis_node_fill *fill)
 {
     packet_frame stack[PACKET_STACK];
     int sp = 0;
@@ -956,7 +964,7 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
         stack[0].lo[a] = 0.0f;
         stack[0].hi[a] = view->size[a];
     }
-    sp = occupied[0] ? 1 : 0; /* only subtrees that hold a primitive are pushed */
+    sp = vis_node_filled(fill[0]); /* only subtrees that hold a primitive are pushed */
     while (sp > 0 && !p->given_up) {
         /* The frame is opened where it lies, and its slot then takes a child: the far one,
          * or the near one alone. */
@@ -970,13 +978,22 @@ PK_INLINE void packet_traverse(packet *p, const vis_scene_view *view, const uint
             packet_leaf(p, view, &view->leaves[info >> 2]);
             continue;
         }
+        /* Where on y the subtree's primitives lie inside the box: its slab narrows the
+         * interval the children start from (what lies outside it holds nothing of theirs).
+         * A fill of the box's whole height narrows nothing. */
+        vis_node_fill nf = fill[f->node];
+        if ((nf.lo != 0u || nf.hi != 255u) &&
+            (!packet_slab(p, 1, vis_node_fill_lo(nf, f->lo[1], f->hi[1]), vis_node_fill_hi(nf, f->lo[1], f->hi[1]),
+                         &t0, &t1) ||
+             !packet_interval_open(p, t0, t1)))
+            continue;
         uint32_t a = info & 3u, first = info >> 2;
         float split = view->nodes[f->node].split;
         /* The child on the eye's side first (any order is correct; this one finds the
          * nearest hits first, so the far side is often skipped): it is pushed last. */
         uint32_t near_child = p->o[a] < split || (p->o[a] == split && p->sign[a] < 0) ? first : first + 1u;
         uint32_t far_child = near_child ^ first ^ (first + 1u);
-        int far_in = occupied[far_child] != 0, near_in = occupied[near_child] != 0;
+        int far_in = vis_node_filled(fill[far_child]), near_in = vis_node_filled(fill[near_child]);
         if (!(far_in | near_in))
             continue;
         if (sp + 2 > PACKET_STACK)
@@ -1037,13 +1054,13 @@ PK_INLINE void packet_store_rows(const packet *p, uint32_t width, uint32_t x0, u
     }
 }
 
-int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill, float give_up_t,
              int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost);
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
 __attribute__((target_clones("avx2", "default")))
 #endif
-int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill, float give_up_t,
              int max_leaves, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth, uint32_t *cost)
 {
     packet p;
@@ -1054,7 +1071,7 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
     if (p.counting)
         memset(p.tests, 0, sizeof p.tests);
     packet_bounds(&p);
-    packet_traverse(&p, view, occupied);
+    packet_traverse(&p, view, fill);
     if (p.given_up)
         return 0;
     if (x0 + PK_TILE_W <= setup->width && y0 + PK_TILE_H <= setup->height && setup->id_mode != 1u && !cost) {
@@ -1090,14 +1107,14 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
  * alone, by the stack method), written to `out` as vis_cpu_effects_tile does; *secondary gets
  * the secondary rays cast added. Returns 0, having written nothing, where the packet gives up
  * (packet.c): its rays then go one by one. */
-int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill, float give_up_t,
              uint32_t x0, uint32_t y0, const vis_effect_setup *effects, const vis_effect_outputs *out,
              uint64_t *secondary);
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(VIS_NO_TARGET_CLONES)
 __attribute__((target_clones("avx2", "default")))
 #endif
-int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8_t *occupied, float give_up_t,
+int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill, float give_up_t,
              uint32_t x0, uint32_t y0, const vis_effect_setup *effects, const vis_effect_outputs *out,
              uint64_t *secondary)
 {
@@ -1113,7 +1130,7 @@ int PK_ENTRY(const vis_ray_setup *setup, const vis_scene_view *view, const uint8
         for (int i = 0; i < LANES; ++i)
             vis_hit_init(&p.fx[i], VIS_ST_RECORD, effects->layers, VIS_NO_AXIS, 0.0f);
     packet_bounds(&p);
-    packet_traverse(&p, view, occupied);
+    packet_traverse(&p, view, fill);
     if (p.given_up)
         return 0;
     uint64_t cast = 0;
