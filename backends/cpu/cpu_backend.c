@@ -4,7 +4,7 @@
  * rays a side), handed out dynamically by the pool. A batch of views is one pool run over the
  * tiles of all of them, so that the threads share out a batch of small passes (a server's
  * 32x32 faces: 16 tiles each) as they do one large pass, woken once. The scene arrays are the host's own; a sync
- * refreshes only what this backend keeps beside them: the subtree occupancy flags the packet
+ * refreshes only what this backend keeps beside them: the subtree fills the packet
  * method skips empty space with, and the voxel labels of the per-ray leaf walk (labels.h).
  * The packet method traces a tile at once (packet.c); every other method runs trace_core.h
  * pixel by pixel, the same code the OpenCL kernel runs. A pass with effects runs the effects
@@ -31,8 +31,8 @@ typedef struct cpu_backend {
     void *parallel_for_user;
 } cpu_backend;
 
-/* The backend's own data for a scene, beside the host arrays it traces: the subtree
- * occupancy flags of the packets and the voxel labels of the per-ray leaf walk. */
+/* The backend's own data for a scene, beside the host arrays it traces: the
+ * subtree fills of the packets and the voxel labels of the per-ray leaf walk. */
 typedef struct cpu_scene {
     vis_occupancy occ;
     vis_labels labels;
@@ -140,7 +140,7 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
         }
         cs->occ.alloc = cs->labels.alloc = &b->alloc;
     }
-    *scene_data = cs; /* the host arrays are the scene: only the flags and labels are ours */
+    *scene_data = cs; /* the host arrays are the scene: only the fills and labels are ours */
     if (vis_occupancy_sync(&cs->occ, view, changes) != VIS_OK) {
         snprintf(err, err_size, "out of memory for the occupancy of %u kd nodes", view->node_count);
         return VIS_ERROR_OUT_OF_MEMORY;
@@ -149,13 +149,13 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
      * plane walk, with the same buffers (labels.h). So a copy of another context's scene,
      * made whole at every sync after an edit, keeps none: a whole build of gen:large's takes
      * half a second. Nor does a copy whose labels could not have their memory, or would take
-     * the scene past its max_bytes beside the flags. */
+     * the scene past its max_bytes beside the fills. */
     if (changes->copy) {
         vis_labels_free(&cs->labels);
         return VIS_OK;
     }
-    uint64_t flags = sizeof *cs + vis_occupancy_bytes(&cs->occ);
-    (void)vis_labels_sync(&cs->labels, view, changes, changes->room > flags ? changes->room - flags : 0, run_parallel,
+    uint64_t fills = sizeof *cs + vis_occupancy_bytes(&cs->occ);
+    (void)vis_labels_sync(&cs->labels, view, changes, changes->room > fills ? changes->room - fills : 0, run_parallel,
                           b);
     return VIS_OK;
 }
@@ -284,7 +284,7 @@ static uint64_t cpu_last_upload_bytes(void *impl, void *scene_data)
     return 0;
 }
 
-/* The occupancy flags and the voxel labels, at their capacity. */
+/* The subtree fills and the voxel labels, at their capacity. */
 static uint64_t cpu_scene_bytes(void *impl, void *scene_data)
 {
     (void)impl;

@@ -146,7 +146,7 @@ typedef enum vis_backend_kind {
 typedef enum vis_log_level { VIS_LOG_DEBUG = 0, VIS_LOG_INFO, VIS_LOG_WARNING, VIS_LOG_ERROR } vis_log_level;
 
 /* Optional allocator for all host memory libvis and its backends take (the context, scenes,
- * scratch, the CPU backend's pool and occupancy flags, the OpenCL backend's bookkeeping);
+ * scratch, the CPU backend's pool and subtree fills, the OpenCL backend's bookkeeping);
  * nothing in the library calls malloc itself (tests/test_alloc.c interposes malloc to check).
  * What the C library, the OpenCL loader and driver allocate on their own (thread stacks,
  * dlopen, the OpenCL runtime's own memory) does not go through it. Both functions or neither.
@@ -346,12 +346,12 @@ typedef struct vis_scene_info {
     uint64_t max_bytes;     /* the limit on `bytes` (vis_scene_desc.max_bytes)              */
     uint64_t edits;         /* set/remove calls so far                                      */
     uint64_t backend_bytes; /* host memory the scene's own context's backend holds for it
-                               beside `bytes` (the CPU backend: the subtree occupancy flags
+                               beside `bytes` (the CPU backend: what each kd subtree holds
                                and the voxel labels of its per-ray leaf walk), as of its last
                                trace or vis_scene_prepare; 0 before the first. `bytes` +
                                backend_bytes is what tracing the scene holds all told. The
-                               labels are built only within max_bytes, the flags always
-                               (a few bytes per kd node, which the packets need).
+                               labels are built only within max_bytes, the subtrees' record
+                               always (a few bytes per kd node, which the packets need).
                                Labels that did not fit (or could not have their memory)
                                come back only once the room beside `bytes` has grown by an
                                eighth, or at a sync of the whole scene                     */
