@@ -222,18 +222,6 @@ static void test_random_worlds_match_oracle(void **state)
 
 /* ---- far tiles ------------------------------------------------------------------------ */
 
-static void *far_alloc(size_t size, size_t align, void *user)
-{
-    (void)user;
-    return aligned_alloc(align, (size + align - 1) / align * align);
-}
-
-static void far_free(void *p, void *user)
-{
-    (void)user;
-    free(p);
-}
-
 /* A packet pass's tiles one by one (what the CPU backend does), returning how many pixels
  * went one ray at a time; the IDs must equal vis_trace's. */
 static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera *cam, uint32_t W, uint32_t H,
@@ -242,10 +230,9 @@ static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera 
     vis_ray_setup s;
     *give_up = expect_packets(ctx, scene, cam, W, H, want_side, &s);
     vis_scene_view v = vis_scene_get_view(scene);
-    vis_allocator a = {far_alloc, far_free, NULL};
     vis_occupancy occ;
     memset(&occ, 0, sizeof occ);
-    occ.alloc = &a;
+    occ.alloc = vt_heap_allocator();
     vis_scene_changes all;
     memset(&all, 0, sizeof all);
     all.full = 1;

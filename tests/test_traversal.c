@@ -291,18 +291,6 @@ static void test_edits_between_passes(void **state)
     vis_context_destroy(ctx);
 }
 
-static void *far_alloc_t(size_t size, size_t align, void *user)
-{
-    (void)user;
-    return aligned_alloc(align, (size + align - 1) / align * align);
-}
-
-static void far_free_t(void *p, void *user)
-{
-    (void)user;
-    free(p);
-}
-
 /* The y extent of each node's primitives inside its box, from the leaves themselves: every
  * packed quad's extent on y, or the whole leaf for loose quads and triangles, cut to the
  * leaf's box. lo > hi where a subtree holds nothing. */
@@ -384,11 +372,10 @@ static void test_node_fills_hold_their_leaves(void **state)
     tworld w;
     random_chunk_world_opts(&w, &rng, 4, 3, 3, &edgy_world);
     vis_scene *scene = make_scene(ctx, &w, NULL, 0);
-    vis_allocator a = {far_alloc_t, far_free_t, NULL};
     vis_occupancy occ, fresh;
     memset(&occ, 0, sizeof occ);
     memset(&fresh, 0, sizeof fresh);
-    occ.alloc = fresh.alloc = &a;
+    occ.alloc = fresh.alloc = vt_heap_allocator();
     vis_scene_changes all;
     memset(&all, 0, sizeof all);
     all.full = 1;

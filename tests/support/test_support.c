@@ -92,6 +92,8 @@ static void heap_free(void *p, void *user)
 
 static const vis_allocator heap = {heap_alloc, heap_free, NULL};
 
+const vis_allocator *vt_heap_allocator(void) { return &heap; }
+
 int vt_labels_build(struct vis_labels *out, const struct vis_scene_view *view)
 {
     memset(out, 0, sizeof *out);

@@ -28,6 +28,11 @@ int vt_small(void);
 /* Reads a whole file; caller frees. NULL on failure. */
 void *vt_read_file(const char *path, size_t *out_size);
 
+/* An allocator over aligned_alloc and free, for the tests that keep the CPU backend's
+ * records (labels, subtree fills) themselves. */
+struct vis_allocator;
+const struct vis_allocator *vt_heap_allocator(void);
+
 /* The CPU backend's voxel labels (backends/cpu/labels.h) of a view, built whole on the
  * calling thread from malloc'd memory, for the tests that call the walks directly; free with
  * vis_labels_free. Returns vis_labels_sync's status. */
