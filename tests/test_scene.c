@@ -573,7 +573,7 @@ static void test_ropes_built_by_first_rope_pass(void **state)
 }
 
 /* vis_scene_prepare: the context's copy made without a trace, counted in backend_bytes (the
- * CPU backend's occupancy flags and voxel labels), kept up to date after edits. */
+ * CPU backend's subtree fills and voxel labels), kept up to date after edits. */
 static void test_prepare_counts_backend_bytes(void **state)
 {
     (void)state;
@@ -661,18 +661,18 @@ static void test_labels_within_max_bytes(void **state)
     tworld w[4];
     vis_scene_info free_info, bare, half, room;
     vis_scene *s_free = boxes_scene(ctx, 0, &w[0], &free_info);
-    /* No room beside the scene: the backend keeps its occupancy flags alone. */
+    /* No room beside the scene: the backend keeps its subtree fills alone. */
     vis_scene *s_bare = boxes_scene(ctx, free_info.bytes + 1, &w[1], &bare);
     assert_int_equal(bare.bytes, free_info.bytes);
-    uint64_t flags = bare.backend_bytes, labels = free_info.backend_bytes - flags;
-    assert_true(flags > 0 && labels > flags); /* 64 labelled leaves */
+    uint64_t fills = bare.backend_bytes, labels = free_info.backend_bytes - fills;
+    assert_true(fills > 0 && labels > fills); /* 64 labelled leaves */
     /* Room for half the labels: none. */
-    vis_scene *s_half = boxes_scene(ctx, free_info.bytes + flags + labels / 2, &w[2], &half);
+    vis_scene *s_half = boxes_scene(ctx, free_info.bytes + fills + labels / 2, &w[2], &half);
     assert_int_equal(half.bytes, free_info.bytes);
-    assert_int_equal(half.backend_bytes, flags);
+    assert_int_equal(half.backend_bytes, fills);
     /* Room for all of them: kept, within the limit. */
-    vis_scene *s_room = boxes_scene(ctx, free_info.bytes + flags + labels, &w[3], &room);
-    assert_true(room.backend_bytes > flags);
+    vis_scene *s_room = boxes_scene(ctx, free_info.bytes + fills + labels, &w[3], &room);
+    assert_true(room.backend_bytes > fills);
     assert_true(room.bytes + room.backend_bytes <= room.max_bytes);
     /* The same buffers with and without them, from above and along the rows of boxes. */
     vis_camera cams[2] = {{{70, 90, -30}, {32, 20, 32}, 60, 0, 0}, {{-10, 5.5, 0.5}, {64, 5.5, 60}, 60, 0, 0}};

@@ -421,8 +421,9 @@ static void test_node_fills_hold_their_leaves(void **state)
     vis_context_destroy(ctx);
 }
 
-/* Packets skip subtrees that hold nothing (the CPU backend's occupancy flags, refreshed at
- * sync): a leaf emptied and refilled, and a far leaf filled for the first time, must show. */
+/* Packets skip subtrees that hold nothing or whose heights a tile misses (the CPU backend's
+ * subtree fills, refreshed at sync): a leaf emptied and refilled, a far leaf filled for the
+ * first time, and a box cut down and raised again must show. */
 static void test_packet_occupancy_follows_edits(void **state)
 {
     (void)state;

@@ -100,7 +100,7 @@ typedef struct vis_flat_leaf {
 } vis_flat_leaf;
 
 /* Whether a leaf holds anything a ray can hit: the walks' test for an empty leaf, and what
- * the cell map's clearances and the packets' occupancy flags are kept from. */
+ * the cell map's clearances and the packets' subtree fills are kept from. */
 VIS_INLINE int vis_leaf_has_primitives(const VIS_GLOBAL vis_flat_leaf *lf)
 {
     return (lf->quad_count | lf->loose_count | lf->tri_count) != 0u;

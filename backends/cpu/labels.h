@@ -1,5 +1,5 @@
 /* labels.h — the voxel labels of the CPU's label walk (trace_core.h, vis_label_walk), kept
- * by the CPU backend beside its occupancy flags.
+ * by the CPU backend beside its subtree fills (occupancy.h).
  *
  * Built from each leaf's own packed quads at the backend's sync: every leaf at a full sync
  * (on the backend's threads), the changed leaves otherwise. A leaf's block is rewritten in
@@ -7,7 +7,7 @@
  * copied out to what the blocks need and a sixteenth more after a full build and whenever the
  * blocks left behind pass an eighth of it, so its size stays within about 1.3 times what the
  * leaves hold now, and never past the bytes the sync allows it (the scene's max_bytes less
- * what the scene and the occupancy flags hold). */
+ * what the scene and the subtree fills hold). */
 #ifndef VIS_CPU_LABELS_H
 #define VIS_CPU_LABELS_H
 

@@ -27,6 +27,8 @@ static vis_node_fill fill_of(float c0, float c1, float y0, float y1)
         c0 = y0;
         c1 = y1;
     }
+    if (!(y1 > y0))
+        return (vis_node_fill){0u, 255u}; /* a box of no height (the tree makes none): all of it */
     float scale = 255.0f / (y1 - y0);
     int lo = (int)((c0 - y0) * scale), hi = (int)ceilf((c1 - y0) * scale);
     lo = lo < 0 ? 0 : lo > 255 ? 255 : lo;

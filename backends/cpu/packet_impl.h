@@ -911,9 +911,9 @@ typedef struct packet_frame {
 #define PACKET_STACK 128
 
 /* A subtree's fill (occupancy.h) is tested where it leaves out at least a quarter of its box's
- * height: a wider one rarely turns a tile away, and at street level in gen:city testing every
- * partial fill cost 2.5-3 % more instructions against 1.5-2.2 % (docs/performance.md,
- * "Subtrees' heights"). */
+ * height: a wider one rarely turns a tile away. Testing every partial fill cost views at
+ * street level or in the terrain 2.6-3.0 % more instructions, this 1.4-2.2 %, for the same
+ * gains (docs/performance.md, "Subtrees' heights"). */
 #define FILL_NARROW 192
 
 /* Frame *d for child `node` of a node with box [lo, hi] split on axis a, its extent on that
@@ -948,7 +948,6 @@ PK_INLINE int packet_interval_open(const packet *p, float t0, float t1)
  * monotone in the plane's offset, as rounding is), so the maximum of the entries and the
  * minimum of the exits are unchanged by the parent's wider one. Leaves [*t0, *t1] as the
  * frame's interval; 0 where no ray may have a better hit inside the box. */
-
 PK_INLINE int packet_frame_open(const packet *p, const packet_frame *f, float *t0, float *t1)
 {
     *t0 = f->t0;

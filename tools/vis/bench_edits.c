@@ -215,7 +215,7 @@ int bench_run_edits(bench *b)
         update[i] = st.scene_ms;
         remesh[i] = st.mesh_ms;
         /* What the next pass pays for the edit before its rays: the backend's copy brought up
-         * to date (the CPU: the changed leaves' voxel labels and occupancy flags). */
+         * to date (the CPU: the changed leaves' voxel labels and subtree fills). */
         double s0 = vc_now_ms();
         if (vis_scene_prepare(b->keep.ctx, world_scene_scene(b->keep.ws)) != VIS_OK) {
             rc = cli_fail_vis(CMD, b->keep.ctx, "vis_scene_prepare");

@@ -360,9 +360,10 @@ typedef struct vis_scene_info {
 VIS_API vis_status vis_scene_get_info(const vis_scene *scene, vis_scene_info *out_info);
 
 /* Brings `context`'s copy of the scene up to date now, as its next trace would first do: the
- * CPU backend builds its occupancy flags and voxel labels (whole at the first call, then the
- * changed leaves; a copy of another context's scene, made whole after every edit, keeps no
- * labels and walks planes, with the same buffers), a device backend uploads. For an engine that would rather pay that when it
+ * CPU backend builds its record of what each kd subtree holds and its voxel labels (whole at
+ * the first call, then the changed leaves; a copy of another context's scene, made whole
+ * after every edit, keeps no labels and walks planes, with the same buffers), a device
+ * backend uploads. For an engine that would rather pay that when it
  * loads a world than in its first frame. A call on `context` as a trace is (threads: as
  * vis_trace); VIS_ERROR_OUT_OF_MEMORY, or the upload's error, leaves the copy to the next
  * trace. */
