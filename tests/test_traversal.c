@@ -340,7 +340,7 @@ static void true_fills(const vis_scene_view *v, float *lo, float *hi, float *y0,
 /* Every node's fill holds what its subtree holds on y, and is empty exactly where it holds
  * nothing: after a full build, and after edits brought in leaf by leaf, which must give the
  * very bytes a full build gives. */
-static void check_fills(const vis_scene_view *v, const vis_occupancy *occ, const char *what)
+static uint32_t check_fills(const vis_scene_view *v, const vis_occupancy *occ, const char *what)
 {
     size_t n = v->node_count;
     float *lo = malloc(n * 4), *hi = malloc(n * 4), *y0 = malloc(n * 4), *y1 = malloc(n * 4);
@@ -360,18 +360,15 @@ static void check_fills(const vis_scene_view *v, const vis_occupancy *occ, const
                      (double)y1[i], (double)lo[i], (double)hi[i], (double)flo, (double)fhi);
         partial += f.lo != 0u || f.hi != 255u;
     }
-    assert_true(partial > 0); /* some subtree is lower than its box: the fills cut something */
     free(lo), free(hi), free(y0), free(y1);
+    return partial; /* subtrees lower than their boxes: where the fills cut something */
 }
 
-static void test_node_fills_hold_their_leaves(void **state)
+static void fills_through_edits(vis_context *ctx, uint32_t kd_depth, uint64_t rng)
 {
-    (void)state;
-    vis_context *ctx = make_cpu_ctx(1);
-    uint64_t rng = 4242;
     tworld w;
     random_chunk_world_opts(&w, &rng, 4, 3, 3, &edgy_world);
-    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    vis_scene *scene = make_scene(ctx, &w, NULL, kd_depth);
     vis_occupancy occ, fresh;
     memset(&occ, 0, sizeof occ);
     memset(&fresh, 0, sizeof fresh);
@@ -381,7 +378,7 @@ static void test_node_fills_hold_their_leaves(void **state)
     all.full = 1;
     vis_scene_view v = vis_scene_get_view(scene);
     assert_int_equal(vis_occupancy_sync(&occ, &v, &all), VIS_OK);
-    check_fills(&v, &occ, "full build");
+    uint32_t partial = check_fills(&v, &occ, "full build"), saturated = 0, loose = 0;
     int rounds = vt_small() ? 4 : 12;
     uint32_t *leaves = malloc((size_t)v.leaf_count * sizeof *leaves);
     for (int e = 0; e < rounds; ++e) {
@@ -407,17 +404,37 @@ static void test_node_fills_hold_their_leaves(void **state)
         some.leaves = leaves;
         some.leaf_count = v.leaf_count;
         assert_int_equal(vis_occupancy_sync(&occ, &v, &some), VIS_OK);
-        char what[32];
-        snprintf(what, sizeof what, "after edit round %d", e);
-        check_fills(&v, &occ, what);
+        char what[48];
+        snprintf(what, sizeof what, "kd_depth %u, after edit round %d", kd_depth, e);
+        partial += check_fills(&v, &occ, what);
+        for (uint32_t l = 0; l < v.leaf_count; ++l) {
+            const vis_flat_leaf *lf = &v.leaves[l];
+            saturated += lf->quad_count && VIS_BOX_FIELD(lf->content_box, 4u) == VIS_PQ_COORD_MAX;
+            loose += lf->loose_count != 0u;
+        }
         assert_int_equal(vis_occupancy_sync(&fresh, &v, &all), VIS_OK);
         assert_memory_equal(occ.fill, fresh.fill, v.node_count * sizeof *occ.fill);
     }
+    /* The cases each tree is here for. */
+    if (kd_depth == 0)
+        assert_true(partial > 0);
+    else
+        assert_true(saturated > 0 && loose > 0);
     free(leaves);
     vis_occupancy_free(&occ);
     vis_occupancy_free(&fresh);
     vis_scene_destroy(scene);
     free_world(&w);
+}
+
+/* Leaves of one chunk (the full depth), and of several (kd_depth 2: leaves wider than 31
+ * voxels, whose content boxes saturate, and quads too long to pack, which go loose). */
+static void test_node_fills_hold_their_leaves(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(1);
+    fills_through_edits(ctx, 0, 4242);
+    fills_through_edits(ctx, 2, 4343);
     vis_context_destroy(ctx);
 }
 
