@@ -240,6 +240,15 @@ static void test_random_worlds(void **state)
     vis_context_destroy(ctx);
 }
 
+/* A box of 1 to 7 units a side somewhere in the world (an edit's new shape). */
+static void small_box(const tworld *w, uint64_t *rng, float lo[3], float hi[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = (float)(vt_rand(rng) % (uint64_t)(w->size[a] - 8));
+        hi[a] = lo[a] + 1.0f + (float)(vt_rand(rng) % 7);
+    }
+}
+
 /* Edits between passes: the tree and its ropes stay, leaf contents change. */
 static void test_edits_between_passes(void **state)
 {
@@ -265,10 +274,7 @@ static void test_edits_between_passes(void **state)
         for (int k = 0; k < 3 && w.n > 0; ++k) {
             tobj *o = &w.objs[vt_rand(&rng) % w.n];
             float lo[3], hi[3];
-            for (int a = 0; a < 3; ++a) {
-                lo[a] = (float)(vt_rand(&rng) % (uint64_t)(w.size[a] - 8));
-                hi[a] = lo[a] + 1.0f + (float)(vt_rand(&rng) % 7);
-            }
+            small_box(&w, &rng, lo, hi);
             obj_clear(o);
             obj_box(o, lo, hi);
             set_obj(scene, o);
@@ -385,10 +391,7 @@ static void fills_through_edits(vis_context *ctx, uint32_t kd_depth, uint64_t rn
         for (int k = 0; k < 4 && w.n > 0; ++k) {
             tobj *o = &w.objs[vt_rand(&rng) % w.n];
             float lo[3], hi[3];
-            for (int ax = 0; ax < 3; ++ax) {
-                lo[ax] = (float)(vt_rand(&rng) % (uint64_t)(w.size[ax] - 8));
-                hi[ax] = lo[ax] + 1.0f + (float)(vt_rand(&rng) % 7);
-            }
+            small_box(&w, &rng, lo, hi);
             obj_clear(o);
             if (vt_rand(&rng) % 4)
                 obj_box(o, lo, hi);
