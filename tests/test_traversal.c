@@ -298,8 +298,14 @@ static void test_edits_between_passes(void **state)
 }
 
 /* The y extent of each node's primitives inside its box, from the leaves themselves: every
- * packed quad's extent on y, or the whole leaf for loose quads and triangles, cut to the
- * leaf's box. lo > hi where a subtree holds nothing. */
+ * packed and loose quad's and every triangle's extent on y, cut to the leaf's box. lo > hi
+ * where a subtree holds nothing. */
+static void take_y(const vis_flat_leaf *leaf, float ylo, float yhi, float *lo, float *hi)
+{
+    *lo = fminf(*lo, fmaxf(ylo, leaf->lo[1]));
+    *hi = fmaxf(*hi, fminf(yhi, leaf->hi[1]));
+}
+
 static void true_fills(const vis_scene_view *v, float *lo, float *hi, float *y0, float *y1)
 {
     y0[0] = 0.0f;
@@ -323,9 +329,17 @@ static void true_fills(const vis_scene_view *v, float *lo, float *hi, float *y0,
             continue;
         }
         const vis_flat_leaf *leaf = &v->leaves[info >> 2];
-        if (leaf->loose_count | leaf->tri_count) {
-            lo[i] = leaf->lo[1], hi[i] = leaf->hi[1];
-            continue;
+        const vis_flat_quad *loose = vis_loose_quads(v->quads, leaf);
+        for (uint32_t j = 0; j < leaf->loose_count; ++j) {
+            const vis_flat_quad *q = &loose[j];
+            uint32_t a = VIS_META_AXIS(q->meta);
+            take_y(leaf, a == 1u ? q->plane : a == 0u ? q->u0 : q->v0, a == 1u ? q->plane : a == 0u ? q->u1 : q->v1,
+                   &lo[i], &hi[i]);
+        }
+        for (uint32_t j = 0; j < leaf->tri_count; ++j) {
+            const vis_flat_tri *t = &v->tris[leaf->tri_offset + j];
+            take_y(leaf, fminf(t->v0[1], fminf(t->v1[1], t->v2[1])), fmaxf(t->v0[1], fmaxf(t->v1[1], t->v2[1])),
+                   &lo[i], &hi[i]);
         }
         if (leaf->quad_count == 0u)
             continue;
@@ -335,10 +349,9 @@ static void true_fills(const vis_scene_view *v, float *lo, float *hi, float *y0,
             for (uint32_t k = 0; k <= E[a]; ++k, ++b)
                 for (uint32_t j = bk[b]; j < bk[b + 1u]; ++j) {
                     vis_flat_quad q = vis_unpack_quad(v->quads[leaf->quad_offset + j], a, (int)k, leaf, v->quads);
-                    float qlo = a == 1u ? q.plane : a == 0u ? q.u0 : q.v0; /* y: u of x planes, v of z */
-                    float qhi = a == 1u ? q.plane : a == 0u ? q.u1 : q.v1;
-                    lo[i] = fminf(lo[i], fmaxf(qlo, leaf->lo[1]));
-                    hi[i] = fmaxf(hi[i], fminf(qhi, leaf->hi[1]));
+                    /* y: the plane of y planes, u of x planes, v of z planes */
+                    take_y(leaf, a == 1u ? q.plane : a == 0u ? q.u0 : q.v0, a == 1u ? q.plane : a == 0u ? q.u1 : q.v1,
+                           &lo[i], &hi[i]);
                 }
     }
 }
