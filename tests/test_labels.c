@@ -340,6 +340,27 @@ static void test_walk_equals_plane_walk(void **state)
 
 /* ---- edits ------------------------------------------------------------------------------- */
 
+/* Every leaf's block as a fresh build of the view makes it, and the count of labelled leaves;
+ * returns the words the offsets and the live blocks take. */
+static size_t check_blocks_fresh(const vis_labels *lab, const vis_scene_view *v)
+{
+    uint32_t labelled = 0;
+    size_t live = (size_t)v->leaf_count + 1u;
+    for (uint32_t li = 0; li < v->leaf_count; ++li) {
+        uint32_t fresh[VIS_LABELS_MAX_BLOCK];
+        uint32_t n = vis_labels_build_leaf(&v->leaves[li], v->buckets, v->quads, fresh);
+        const uint32_t *b = vis_leaf_labels(lab->words, li);
+        assert_int_equal(n != 0, b != NULL);
+        if (n) {
+            assert_memory_equal(fresh, b, n * sizeof *fresh);
+            ++labelled;
+            live += n;
+        }
+    }
+    assert_int_equal(labelled, lab->labelled);
+    return live;
+}
+
 /* One draw of an edit of busy_scene(6, 2, 5): a chunk object replaced by other boxes, so its
  * leaf's block changes size (the ties and entities span leaves and are left alone: 0 then).
  * *ch gets the scene's changed leaves. */
@@ -379,21 +400,7 @@ static void test_edits_keep_blocks_current(void **state)
         compactions += lab.stale < stale;
         most = lab.cap > most ? lab.cap : most;
     }
-    /* Every block as a fresh build makes it. */
-    uint32_t labelled = 0;
-    size_t live = (size_t)v.leaf_count + 1u;
-    for (uint32_t li = 0; li < v.leaf_count; ++li) {
-        uint32_t fresh[VIS_LABELS_MAX_BLOCK];
-        uint32_t n = vis_labels_build_leaf(&v.leaves[li], v.buckets, v.quads, fresh);
-        const uint32_t *b = vis_leaf_labels(lab.words, li);
-        assert_int_equal(n != 0, b != NULL);
-        if (n) {
-            assert_memory_equal(fresh, b, n * sizeof *fresh);
-            ++labelled;
-            live += n;
-        }
-    }
-    assert_int_equal(labelled, lab.labelled);
+    size_t live = check_blocks_fresh(&lab, &v);
     assert_true(compactions > 0);
     /* Bounded: stale blocks at most an eighth of the array, and growth by half again. */
     assert_true(lab.used <= live + live / 7u + VIS_LABELS_MAX_BLOCK);
@@ -432,15 +439,7 @@ static void test_edits_within_a_tight_limit(void **state)
         ++edits;
     }
     assert_true(edits > 100 && compactions > 0);
-    vis_labels fresh = labels_of(&v);
-    assert_int_equal(lab.labelled, fresh.labelled);
-    for (uint32_t li = 0; li < v.leaf_count; ++li) {
-        const uint32_t *a = vis_leaf_labels(lab.words, li), *b = vis_leaf_labels(fresh.words, li);
-        assert_int_equal(a != NULL, b != NULL);
-        if (a)
-            assert_memory_equal(a, b, vis_labels_block_words(b) * sizeof *b);
-    }
-    vis_labels_free(&fresh);
+    check_blocks_fresh(&lab, &v);
     vis_labels_free(&lab);
     vis_scene_destroy(s);
     free_world(&w);
