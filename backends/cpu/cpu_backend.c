@@ -141,9 +141,12 @@ static vis_status cpu_scene_sync(void *impl, void **scene_data, const vis_scene_
         cs->occ.alloc = cs->labels.alloc = &b->alloc;
     }
     *scene_data = cs; /* the host arrays are the scene: only the fills and labels are ours */
-    if (vis_occupancy_sync(&cs->occ, view, changes) != VIS_OK) {
-        snprintf(err, err_size, "out of memory for the occupancy of %u kd nodes", view->node_count);
-        return VIS_ERROR_OUT_OF_MEMORY;
+    vis_status st = vis_occupancy_sync(&cs->occ, view, changes);
+    if (st != VIS_OK) {
+        snprintf(err, err_size, st == VIS_ERROR_OUT_OF_MEMORY ? "out of memory for the occupancy of %u kd nodes"
+                                                              : "a kd-tree of %u nodes deeper than the fills' walk",
+                 view->node_count);
+        return st;
     }
     /* The labels only accelerate the per-ray leaf walk: without them every leaf takes the
      * plane walk, with the same buffers (labels.h). So a copy of another context's scene,

@@ -102,10 +102,44 @@ static vis_node_fill node_fill(const vis_occupancy *occ, const vis_scene_view *v
     return inner_fill(occ, view, node, y0, y1);
 }
 
-/* Parent links and leaf nodes, and every node's fill from its leaves. kdtree.c allocates
- * children after their parent, so a forward sweep gives each node its y extent (the root
- * spans [0, size[1]], as the packets' walk starts) and a backward one sees children before
- * parents. */
+/* A frame of the fills' walk: a node, its y extent, and whether its children's fills are in. */
+typedef struct fill_frame {
+    uint32_t node;
+    int children_done;
+    float y0, y1;
+} fill_frame;
+
+/* Every node's fill from its leaves: a walk down from the root (which spans [0, size[1]], as
+ * the packets' walk starts) carries each node's y extent to its children, and a node's fill
+ * is made once its children's are. The walk holds two frames per level of the tree at most,
+ * so no array of extents is needed beside the fills. */
+static vis_status fill_all(vis_occupancy *occ, const vis_scene_view *view)
+{
+    fill_frame stack[2 * PATH_MAX_NODES + 1];
+    int sp = 0;
+    if (view->node_count)
+        stack[sp++] = (fill_frame){0u, 0, 0.0f, view->size[1]};
+    while (sp > 0) {
+        fill_frame f = stack[--sp];
+        uint32_t info = view->nodes[f.node].info;
+        if ((info & 3u) == VIS_NODE_LEAF || f.children_done) {
+            occ->fill[f.node] = node_fill(occ, view, f.node, f.y0, f.y1);
+            continue;
+        }
+        if (sp + 3 > (int)(sizeof stack / sizeof stack[0]))
+            return VIS_ERROR_BACKEND; /* deeper than any tree kdtree.c builds */
+        float cs[2][2];
+        child_spans(&view->nodes[f.node], f.y0, f.y1, cs);
+        f.children_done = 1;
+        stack[sp++] = f;
+        for (uint32_t j = 0; j < 2u; ++j)
+            stack[sp++] = (fill_frame){(info >> 2) + j, 0, cs[j][0], cs[j][1]};
+    }
+    return VIS_OK;
+}
+
+/* Parent links and leaf nodes (kdtree.c allocates children after their parent), then every
+ * node's fill. */
 static vis_status rebuild(vis_occupancy *occ, const vis_scene_view *view)
 {
     vis_occupancy_free(occ);
@@ -113,37 +147,25 @@ static vis_status rebuild(vis_occupancy *occ, const vis_scene_view *view)
     occ->parent = vis_host_alloc(occ->alloc, (size_t)n * sizeof *occ->parent);
     occ->leaf_node = vis_host_alloc(occ->alloc, (size_t)view->leaf_count * sizeof *occ->leaf_node);
     occ->fill = vis_host_alloc(occ->alloc, (size_t)n * sizeof *occ->fill);
-    float *span = vis_host_alloc(occ->alloc, (size_t)n * 2u * sizeof *span); /* this sweep's only */
-    if (!occ->parent || !occ->leaf_node || !occ->fill || !span) {
-        vis_host_free(occ->alloc, span);
+    if (!occ->parent || !occ->leaf_node || !occ->fill) {
         vis_occupancy_free(occ);
         return VIS_ERROR_OUT_OF_MEMORY;
     }
     occ->node_count = n;
     occ->leaf_count = view->leaf_count;
-    if (n) {
+    if (n)
         occ->parent[0] = UINT32_MAX;
-        span[0] = 0.0f;
-        span[1] = view->size[1];
-    }
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t info = view->nodes[i].info;
-        if ((info & 3u) == VIS_NODE_LEAF) {
+        if ((info & 3u) == VIS_NODE_LEAF)
             occ->leaf_node[info >> 2] = i;
-            continue;
-        }
-        float cs[2][2];
-        child_spans(&view->nodes[i], span[2u * i], span[2u * i + 1u], cs);
-        for (uint32_t j = 0; j < 2u; ++j) {
-            occ->parent[(info >> 2) + j] = i;
-            span[2u * ((info >> 2) + j)] = cs[j][0];
-            span[2u * ((info >> 2) + j) + 1u] = cs[j][1];
-        }
+        else
+            occ->parent[info >> 2] = occ->parent[(info >> 2) + 1u] = i;
     }
-    for (uint32_t i = n; i-- > 0;)
-        occ->fill[i] = node_fill(occ, view, i, span[2u * i], span[2u * i + 1u]);
-    vis_host_free(occ->alloc, span);
-    return VIS_OK;
+    vis_status st = fill_all(occ, view);
+    if (st != VIS_OK)
+        vis_occupancy_free(occ);
+    return st;
 }
 
 static int same_fill(vis_node_fill a, vis_node_fill b) { return a.lo == b.lo && a.hi == b.hi; }

@@ -47,8 +47,9 @@ typedef struct vis_occupancy {
 } vis_occupancy;
 
 /* Brings *occ up to date with the view: everything when `changes->full` or the tree's size
- * differs, else the changed leaves and their ancestors. VIS_ERROR_OUT_OF_MEMORY leaves *occ
- * emptied. */
+ * differs, else the changed leaves and their ancestors. On failure *occ is left emptied:
+ * VIS_ERROR_OUT_OF_MEMORY, or VIS_ERROR_BACKEND for a tree deeper than the walk's stack (128
+ * levels; kdtree.c builds at most 90). */
 vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes);
 
 void vis_occupancy_free(vis_occupancy *occ);
