@@ -48,8 +48,8 @@ typedef struct vis_occupancy {
 
 /* Brings *occ up to date with the view: everything when `changes->full` or the tree's size
  * differs, else the changed leaves and their ancestors. On failure *occ is left emptied:
- * VIS_ERROR_OUT_OF_MEMORY, or VIS_ERROR_BACKEND for a tree deeper than the walk's stack (128
- * levels; kdtree.c builds at most 90). */
+ * VIS_ERROR_OUT_OF_MEMORY, or VIS_ERROR_BACKEND for a tree too deep for the full build's
+ * stack (a path of about 128 nodes; kdtree.c builds at most 90 levels). */
 vis_status vis_occupancy_sync(vis_occupancy *occ, const vis_scene_view *view, const vis_scene_changes *changes);
 
 void vis_occupancy_free(vis_occupancy *occ);
