@@ -14,7 +14,9 @@
  *    content box (the box of its packed quads, vis_flat_leaf.content_box; the empty-space
  *    skip at the leaf's level of Lee & Han 2005, as in trace_core.h's per-ray leaf walk)
  *    before their own farthest hit, and its planes are walked only
- *    inside that box, the axis the rays move along most first;
+ *    inside that box: axis by axis, the axis the rays move along most first, or, in a level
+ *    view (y the axis they move along least), the planes of every axis in the order the rays
+ *    cross them;
  *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
  *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
  *    which the tile's rays cross its plane; one inside is tested on the units whose own
@@ -347,9 +349,8 @@ PK_INLINE void packet_bounds(packet *p)
         p->imin[a] = ilo;
         p->imax[a] = ihi;
     }
-    /* A leaf's planes are walked axis by axis; the axis the rays move along most crosses the
-     * faces that most of them hit (a terrain's tops seen from above), so it goes first and
-     * its hits cut the other axes' planes short (any order gives the same minimum). */
+    /* The axes by the centre ray's |d|, largest first: a leaf's planes are walked in this
+     * order unless y comes last (packet_leaf). */
     float m[3];
     for (int a = 0; a < 3; ++a)
         m[a] = fabsf(p->d[a][LANES / 2]);
@@ -806,6 +807,43 @@ PK_INLINE void packet_content_box(const vis_flat_leaf *leaf, const int *E, float
     }
 }
 
+/* The next plane of axis a from *k on (stepping by `step` up to kend) whose bucket holds a quad
+ * and which some ray crosses at or past t_near: leaves *k on it and returns the nearest
+ * distance at which a ray crosses it (INFINITY when none is left). Each lane's t is c * inv,
+ * rounded: monotone in inv, so c * imin and c * imax bound it exactly. */
+PK_INLINE float packet_next_plane(const packet *p, int a, const vis_flat_leaf *leaf, const uint32_t *bk, int base,
+                                  int *k, int kend, int step)
+{
+    for (; step > 0 ? *k <= kend : *k >= kend; *k += step) {
+        uint32_t b = (uint32_t)(base + *k);
+        if (bk[b] == bk[b + 1u])
+            continue;
+        float c = (leaf->lo[a] + (float)*k) - p->o[a];
+        float ta = c * p->imin[a], tb = c * p->imax[a];
+        if (pk_max(ta, tb) < p->t_near)
+            continue; /* behind the eye or the near plane for every ray */
+        return pk_min(ta, tb);
+    }
+    return INFINITY;
+}
+
+/* Plane k of axis a (sign[a] != 0): the quads of its bucket, where the tile's rays cross the
+ * plane inside the content box [lo, hi] (widened). Rays crossing it outside cannot take a
+ * quad of this leaf there that its neighbour, which holds the quad too, would not. */
+PK_INLINE void packet_plane(packet *p, int a, int k, const vis_flat_leaf *leaf, const float *lo, const float *hi,
+                            const uint32_t *packed, const uint32_t *table, const uint32_t *bk, int base,
+                            const vis_flat_object *objects, uint32_t leaf_units, plane_bounds *pb)
+{
+    uint32_t b = (uint32_t)(base + k);
+    float plane = leaf->lo[a] + (float)k;
+    plane_bounds_make(p, a, plane - p->o[a], pb);
+    int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
+    if (pb->uhi < lo[u] - p->slack || pb->ulo > hi[u] + p->slack || pb->vhi < lo[v] - p->slack ||
+        pb->vlo > hi[v] + p->slack)
+        return;
+    packet_bucket(p, a, plane, leaf, packed, table, bk[b], bk[b + 1u], objects, leaf_units, pb);
+}
+
 PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat_leaf *leaf)
 {
     const uint32_t *quads = view->quads;
@@ -850,20 +888,23 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
     t0 -= t0 * T_SLACK;
     t1 += t1 * T_SLACK;
     plane_bounds pb;
-    for (int ai = 0; ai < 3; ++ai) {
-        int a = p->axes[ai];
-        if (p->sign[a] == 0) {
-            /* Directions on both sides of this axis (or along it): no bounds, every quad. */
-            pb.bounded = 0;
-            for (int k = kl[a]; k <= kh[a]; ++k) {
-                uint32_t b = (uint32_t)(base[a] + k);
-                packet_bucket(p, a, leaf->lo[a] + (float)k, leaf, packed, table, bk[b], bk[b + 1u], objects,
-                              leaf_units, &pb);
-            }
+    for (int a = 0; a < 3; ++a) {
+        if (p->sign[a] != 0)
             continue;
+        /* Directions on both sides of this axis (or along it): no bounds, every quad. */
+        pb.bounded = 0;
+        for (int k = kl[a]; k <= kh[a]; ++k) {
+            uint32_t b = (uint32_t)(base[a] + k);
+            packet_bucket(p, a, leaf->lo[a] + (float)k, leaf, packed, table, bk[b], bk[b + 1u], objects, leaf_units,
+                          &pb);
         }
-        /* Planes in the order the rays cross them, from the one at or behind the eye, within
-         * the span the tile's rays cover inside the content box (one plane wider each side). */
+    }
+    /* The other axes' planes from the one at or behind the eye, within the span the tile's rays
+     * cover inside the content box (one plane wider each side): k[a] to kend[a] by step[a]. */
+    int k[3] = {0, 0, 0}, kend[3] = {0, 0, 0}, step[3] = {1, 1, 1};
+    for (int a = 0; a < 3; ++a) {
+        if (p->sign[a] == 0)
+            continue;
         float x0 = pk_min(pk_min(t0 * p->dmin[a], t0 * p->dmax[a]), pk_min(t1 * p->dmin[a], t1 * p->dmax[a]));
         float x1 = pk_max(pk_max(t0 * p->dmin[a], t0 * p->dmax[a]), pk_max(t1 * p->dmin[a], t1 * p->dmax[a]));
         int klo = pk_plane_index(floorf(p->o[a] + x0 - leaf->lo[a]) - 1.0f, E[a]);
@@ -871,30 +912,67 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
         klo = klo > kl[a] ? klo : kl[a];
         khi = khi < kh[a] ? khi : kh[a];
         int eye = pk_plane_index(floorf(p->o[a] - leaf->lo[a]), E[a]);
-        int step = p->sign[a];
-        int k = step > 0 ? (eye > klo ? eye : klo) : (eye + 1 < khi ? eye + 1 : khi);
-        int kend = step > 0 ? khi : klo;
-        for (; step > 0 ? k <= kend : k >= kend; k += step) {
-            uint32_t b = (uint32_t)(base[a] + k), first = bk[b], end = bk[b + 1u];
-            if (first == end)
+        step[a] = p->sign[a];
+        k[a] = step[a] > 0 ? (eye > klo ? eye : klo) : (eye + 1 < khi ? eye + 1 : khi);
+        kend[a] = step[a] > 0 ? khi : klo;
+    }
+    /* Any order gives the same minimum; the order decides how soon hits close units. Axis by
+     * axis, the axis the rays move along most first: seen from above, the tops carry most hits
+     * and cut the other axes' planes short. In a level view (y the axis the rays move along
+     * least: at street level, walls of x and z at interleaved depths) the planes of all axes go
+     * in one sequence by the nearest distance at which a ray crosses them, so that a near wall
+     * of either axis closes units before the far planes of the other are read: 4-5 % off
+     * gen:city's street views (docs/performance.md, "A leaf's planes in the order the rays
+     * cross them, in level views"; merged wherever y is not the main axis, gen:default's
+     * overview took 2-4 % longer, and merged everywhere 4.9 %). */
+    if (p->axes[2] != 1) {
+        for (int ai = 0; ai < 3; ++ai) {
+            int a = p->axes[ai];
+            if (p->sign[a] == 0)
                 continue;
-            /* Each lane's t is c * inv, rounded: monotone in inv, so these bound it exactly. */
-            float plane = leaf->lo[a] + (float)k, c = plane - p->o[a];
-            float ta = c * p->imin[a], tb = c * p->imax[a];
-            float tlo = pk_min(ta, tb), thi = pk_max(ta, tb);
-            if (thi < p->t_near)
-                continue; /* behind the eye or the near plane for every ray */
-            if (tlo > p->t_far || tlo > p->max_best)
-                break;    /* this plane and every later one lie past every ray's hit */
-            plane_bounds_make(p, a, c, &pb);
-            /* Rays crossing the plane outside the content box (widened) cannot take a quad of
-             * this leaf there that its neighbour, which holds the quad too, would not. */
-            int u = a == 2 ? 0 : a + 1, v = a == 0 ? 2 : a - 1;
-            if (pb.uhi < lo[u] - p->slack || pb.ulo > hi[u] + p->slack || pb.vhi < lo[v] - p->slack ||
-                pb.vlo > hi[v] + p->slack)
-                continue;
-            packet_bucket(p, a, plane, leaf, packed, table, first, end, objects, leaf_units, &pb);
+            /* In scalars, not the arrays indexed by a: walk-2 of gen:default took 5-7 % longer
+             * with its merge state in such arrays (below). */
+            int ka = k[a], end = kend[a], st = step[a], ba = base[a];
+            for (; st > 0 ? ka <= end : ka >= end; ka += st) {
+                uint32_t b = (uint32_t)(ba + ka);
+                if (bk[b] == bk[b + 1u])
+                    continue;
+                float c = (leaf->lo[a] + (float)ka) - p->o[a];
+                float ta = c * p->imin[a], tb = c * p->imax[a];
+                if (pk_max(ta, tb) < p->t_near)
+                    continue; /* behind the eye or the near plane for every ray */
+                float tlo = pk_min(ta, tb);
+                if (tlo > p->t_far || tlo > p->max_best)
+                    break;    /* this plane and every later one lie past every ray's hit */
+                packet_plane(p, a, ka, leaf, lo, hi, packed, table, bk, ba, objects, leaf_units, &pb);
+            }
         }
+        return;
+    }
+    /* The next plane of each axis and the nearest distance at which a ray crosses it
+     * (INFINITY: none left); a plane past t_far or every ray's hit ends its axis, every later
+     * one lying farther. */
+    float tn[3];
+    for (int a = 0; a < 3; ++a)
+        tn[a] = p->sign[a] == 0 ? INFINITY : packet_next_plane(p, a, leaf, bk, base[a], &k[a], kend[a], step[a]);
+    /* The merge's state in scalars: with it in the arrays above, indexed by the axis chosen,
+     * gen:default's walk-2 took 5-7 % longer for 6 % fewer instructions. */
+    float n0 = tn[0], n1 = tn[1], n2 = tn[2];
+    int k0 = k[0], k1 = k[1], k2 = k[2];
+    for (;;) {
+        int a = n0 <= n1 && n0 <= n2 ? 0 : n1 <= n2 ? 1 : 2;
+        float tlo = a == 0 ? n0 : a == 1 ? n1 : n2;
+        if (tlo == INFINITY || tlo > p->t_far || tlo > p->max_best)
+            return; /* none is left, or every axis's next plane lies past every ray's hit */
+        int at = a == 0 ? k0 : a == 1 ? k1 : k2, next = at + step[a];
+        float t_next = packet_next_plane(p, a, leaf, bk, base[a], &next, kend[a], step[a]);
+        if (a == 0)
+            k0 = next, n0 = t_next;
+        else if (a == 1)
+            k1 = next, n1 = t_next;
+        else
+            k2 = next, n2 = t_next;
+        packet_plane(p, a, at, leaf, lo, hi, packed, table, bk, base[a], objects, leaf_units, &pb);
     }
 }
 
