@@ -15,8 +15,8 @@
  *    skip at the leaf's level of Lee & Han 2005, as in trace_core.h's per-ray leaf walk)
  *    before their own farthest hit, and its planes are walked only
  *    inside that box: axis by axis, the axis the rays move along most first, or, in a level
- *    view (y the axis they move along least), the planes of every axis in the order the rays
- *    cross them;
+ *    view (y the axis they move along least), the planes of every axis whose rays all move one
+ *    way in one sequence, by the nearest distance at which a ray of the tile crosses each;
  *  - in a leaf, the quads of one plane are skipped when the plane lies behind the eye or
  *    beyond every ray's hit, and a quad is skipped when it lies outside the rectangle in
  *    which the tile's rays cross its plane; one inside is tested on the units whose own
@@ -88,7 +88,8 @@ typedef struct packet {
     float o[3];
     float t_near, t_far;
     int sign[3];             /* +1: every ray has d > 0 on that axis, -1: every d < 0, 0: mixed */
-    int axes[3];             /* the axes by the tile's centre ray, largest |d| first         */
+    int axes[3];             /* the axes by lane LANES / 2's |d| (the tile's left edge, half way
+                                down), largest first                                           */
     float dmin[3], dmax[3];  /* direction bounds                                            */
     float imin[3], imax[3];  /* 1/d bounds, where sign != 0                                 */
     float rlo[3][3], rhi[3][3]; /* d[b] / d[a] bounds (as d[b] * inv[a]), where sign[a] != 0 */
@@ -349,8 +350,8 @@ PK_INLINE void packet_bounds(packet *p)
         p->imin[a] = ilo;
         p->imax[a] = ihi;
     }
-    /* The axes by the centre ray's |d|, largest first: a leaf's planes are walked in this
-     * order unless y comes last (packet_leaf). */
+    /* The axes by lane LANES / 2's |d| (the left edge's middle pixel), largest first: a leaf's
+     * planes are walked in this order unless y comes last (packet_leaf). */
     float m[3];
     for (int a = 0; a < 3; ++a)
         m[a] = fabsf(p->d[a][LANES / 2]);
@@ -922,16 +923,15 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
      * least: at street level, walls of x and z at interleaved depths) the planes of all axes go
      * in one sequence by the nearest distance at which a ray crosses them, so that a near wall
      * of either axis closes units before the far planes of the other are read: 4-5 % off
-     * gen:city's street views (docs/performance.md, "A leaf's planes in the order the rays
+     * gen:city's walk-0 and walk-3 (docs/performance.md, "A leaf's planes in the order the rays
      * cross them, in level views"; merged wherever y is not the main axis, gen:default's
-     * overview took 2-4 % longer, and merged everywhere 4.9 %). */
+     * overview took 0.4-4.1 % longer, and merged everywhere 4.9 %). */
     if (p->axes[2] != 1) {
         for (int ai = 0; ai < 3; ++ai) {
             int a = p->axes[ai];
             if (p->sign[a] == 0)
                 continue;
-            /* In scalars, not the arrays indexed by a: walk-2 of gen:default took 5-7 % longer
-             * with its merge state in such arrays (below). */
+            /* In scalars, as the merge below keeps its state. */
             int ka = k[a], end = kend[a], st = step[a], ba = base[a];
             for (; st > 0 ? ka <= end : ka >= end; ka += st) {
                 uint32_t b = (uint32_t)(ba + ka);
@@ -950,8 +950,8 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
         return;
     }
     /* The next plane of each axis and the nearest distance at which a ray crosses it
-     * (INFINITY: none left); a plane past t_far or every ray's hit ends its axis, every later
-     * one lying farther. */
+     * (INFINITY: none left). The merge ends at the first plane past t_far or every ray's hit:
+     * every plane left lies farther. */
     float tn[3];
     for (int a = 0; a < 3; ++a)
         tn[a] = p->sign[a] == 0 ? INFINITY : packet_next_plane(p, a, leaf, bk, base[a], &k[a], kend[a], step[a]);
