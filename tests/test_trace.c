@@ -298,6 +298,50 @@ static void test_far_tiles_go_ray_by_ray(void **state)
     vis_context_destroy(ctx);
 }
 
+/* A pass whose eye is farther than the give-up distance from everything in the scene sends
+ * its tiles alone without trying their packets (backends/cpu/packet.c): seen from straight
+ * above at 1.1 times that distance, every tile's corner rays meet the world's content, so
+ * every pixel goes ray by ray, and equals the brute force's, for 16x16 packets (128x112) and
+ * 8x8 ones (64x56). */
+static void test_far_pass_goes_ray_by_ray(void **state)
+{
+    (void)state;
+    vis_context *ctx = make_cpu_ctx(2);
+    static const struct { uint32_t w, h, side; } passes[] = {{128, 112, 16}, {64, 56, 8}};
+    for (size_t pi = 0; pi < sizeof passes / sizeof passes[0]; ++pi) {
+        uint32_t W = passes[pi].w, H = passes[pi].h;
+        vis_camera probe = {{0, 0, 0}, {0, 0, 1}, 38, 0, 0};
+        vis_scene *empty = make_cube_scene(ctx, 16);
+        float g;
+        rays_alone(ctx, empty, &probe, W, H, passes[pi].side, &g);
+        vis_scene_destroy(empty);
+        assert_true(isfinite(g) && g > 0.0f);
+        /* 24 x 24 chunks, one high: at 1.1 g a 38-degree view spans at most 0.38 g either
+         * side of the centre, inside the world's 192 for both passes. */
+        uint64_t rng = 4242u + pi;
+        chunk_world_opts opt = chunk_world_default;
+        opt.empty = 0.2;
+        opt.max_boxes = 2;
+        opt.ties = 0;
+        tworld w;
+        random_chunk_world_opts(&w, &rng, 24, 1, 24, &opt);
+        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+        vis_camera cam = {{192, 16.0 + 1.1 * g, 192.5}, {192, 0, 192}, 38, 0, 0};
+        float g2;
+        uint32_t alone = rays_alone(ctx, scene, &cam, W, H, passes[pi].side, &g2);
+        assert_true(g2 == g);
+        if (alone != W * H)
+            fail_msg("%ux%u from %.0f above: %u of %u pixels went ray by ray; want all", W, H, 1.1 * g, alone,
+                     W * H);
+        char label[96];
+        snprintf(label, sizeof label, "far pass, %ux%u packets", passes[pi].side, passes[pi].side);
+        check_one_view(ctx, scene, &w, &cam, W, H, label);
+        vis_scene_destroy(scene);
+        free_world(&w);
+    }
+    vis_context_destroy(ctx);
+}
+
 /* ---- packets cut to the content box ---------------------------------------------------- */
 
 /* Lone quads and small boxes inside 2x2x2 chunks, one to three voxels wide, nothing next to
@@ -1513,6 +1557,7 @@ int main(void)
         cmocka_unit_test(test_held_out_edge_view),
         cmocka_unit_test(test_random_worlds_match_oracle),
         cmocka_unit_test(test_far_tiles_go_ray_by_ray),
+        cmocka_unit_test(test_far_pass_goes_ray_by_ray),
         cmocka_unit_test(test_packets_clip_to_content_box),
         cmocka_unit_test(test_axis_rays_split_planes_and_corners),
         cmocka_unit_test(test_crowded_leaf_and_packing_limits),
