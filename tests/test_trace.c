@@ -253,47 +253,67 @@ static uint32_t rays_alone(vis_context *ctx, vis_scene *scene, const vis_camera 
     return alone;
 }
 
+/* The give-up distance of a W x H pass at 38 degrees with packets of `side`: it depends on
+ * the camera's pixel only, so it is asked on an empty scene. */
+static float give_up_of(vis_context *ctx, uint32_t W, uint32_t H, uint32_t side)
+{
+    vis_camera probe = {{0, 0, 0}, {0, 0, 1}, 38, 0, 0};
+    vis_scene *empty = make_cube_scene(ctx, 16);
+    float g;
+    rays_alone(ctx, empty, &probe, W, H, side, &g);
+    vis_scene_destroy(empty);
+    assert_true(isfinite(g) && g > 0.0f);
+    return g;
+}
+
+/* A world of nx x 1 x nz random chunks (seeded by seed) traced tile by tile from cam, whose
+ * give-up distance is g: returns how many pixels went ray by ray, every pixel having been
+ * checked against the brute force's. */
+static uint32_t far_pass(vis_context *ctx, uint32_t W, uint32_t H, uint32_t side, float g, uint64_t seed, int nx,
+                         int nz, const vis_camera *cam, const char *what)
+{
+    chunk_world_opts opt = chunk_world_default;
+    opt.empty = 0.2;
+    opt.max_boxes = 2;
+    opt.ties = 0;
+    tworld w;
+    random_chunk_world_opts(&w, &seed, nx, 1, nz, &opt);
+    vis_scene *scene = make_scene(ctx, &w, NULL, 0);
+    float g2;
+    uint32_t alone = rays_alone(ctx, scene, cam, W, H, side, &g2);
+    assert_true(g2 == g);
+    char label[96];
+    snprintf(label, sizeof label, "%s, %ux%u packets", what, side, side);
+    check_one_view(ctx, scene, &w, cam, W, H, label);
+    vis_scene_destroy(scene);
+    free_world(&w);
+    return alone;
+}
+
+/* The two passes of the far-tile tests: 16x16 packets (128x112 at 38 degrees), 8x8 (64x56). */
+static const struct {
+    uint32_t w, h, side;
+} far_passes[] = {{128, 112, 16}, {64, 56, 8}};
+
 /* Far tiles go ray by ray (backends/cpu/packet.c): a long strip of chunks seen from above at
  * an angle, so that the distance at which a pass's packets give up falls inside it. The near
  * tiles enter their first leaf before it and stay packets, the far ones after it and go one
  * ray at a time -- counted by the tile function itself -- and every pixel equals the brute
- * force's, for 16x16 packets (128x112 at 38 degrees) and 8x8 ones (64x56). */
+ * force's. */
 static void test_far_tiles_go_ray_by_ray(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(2);
-    static const struct { uint32_t w, h, side; } passes[] = {{128, 112, 16}, {64, 56, 8}};
-    for (size_t pi = 0; pi < sizeof passes / sizeof passes[0]; ++pi) {
-        uint32_t W = passes[pi].w, H = passes[pi].h;
-        /* The give-up distance depends on the camera's pixel only: ask it on an empty scene. */
-        vis_camera probe = {{0, 0, 0}, {0, 0, 1}, 38, 0, 0};
-        vis_scene *empty = make_cube_scene(ctx, 16);
-        float g;
-        rays_alone(ctx, empty, &probe, W, H, passes[pi].side, &g);
-        vis_scene_destroy(empty);
-        assert_true(isfinite(g) && g > 0.0f);
+    for (uint32_t pi = 0; pi < 2u; ++pi) {
+        uint32_t W = far_passes[pi].w, H = far_passes[pi].h;
+        float g = give_up_of(ctx, W, H, far_passes[pi].side);
         /* Seen from (64, 0.62 g, -0.15 g) toward (64, 0, 0.62 g), the strip's visible part lies
          * between about 0.75 g and 1.8 g away. */
-        int nz = (int)ceilf(1.9f * g / 16.0f);
-        uint64_t rng = 777u + pi;
-        chunk_world_opts opt = chunk_world_default;
-        opt.empty = 0.2;
-        opt.max_boxes = 2;
-        opt.ties = 0;
-        tworld w;
-        random_chunk_world_opts(&w, &rng, 8, 1, nz, &opt);
-        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
         vis_camera cam = {{64, 0.62 * g, -0.15 * g}, {64, 0, 0.62 * g}, 38, 0, 0};
-        float g2;
-        uint32_t alone = rays_alone(ctx, scene, &cam, W, H, passes[pi].side, &g2);
-        assert_true(g2 == g);
+        uint32_t alone = far_pass(ctx, W, H, far_passes[pi].side, g, 777u + pi, 8, (int)ceilf(1.9f * g / 16.0f),
+                                  &cam, "far tiles");
         if (alone == 0 || alone >= W * H)
             fail_msg("%ux%u: %u of %u pixels went ray by ray; want some, not all", W, H, alone, W * H);
-        char label[96];
-        snprintf(label, sizeof label, "far tiles, %ux%u packets", passes[pi].side, passes[pi].side);
-        check_one_view(ctx, scene, &w, &cam, W, H, label);
-        vis_scene_destroy(scene);
-        free_world(&w);
     }
     vis_context_destroy(ctx);
 }
@@ -301,43 +321,21 @@ static void test_far_tiles_go_ray_by_ray(void **state)
 /* A pass whose eye is farther than the give-up distance from everything in the scene sends
  * its tiles alone without trying their packets (backends/cpu/packet.c): seen from straight
  * above at 1.1 times that distance, every tile's corner rays meet the world's content, so
- * every pixel goes ray by ray, and equals the brute force's, for 16x16 packets (128x112) and
- * 8x8 ones (64x56). */
+ * every pixel goes ray by ray, and equals the brute force's. */
 static void test_far_pass_goes_ray_by_ray(void **state)
 {
     (void)state;
     vis_context *ctx = make_cpu_ctx(2);
-    static const struct { uint32_t w, h, side; } passes[] = {{128, 112, 16}, {64, 56, 8}};
-    for (size_t pi = 0; pi < sizeof passes / sizeof passes[0]; ++pi) {
-        uint32_t W = passes[pi].w, H = passes[pi].h;
-        vis_camera probe = {{0, 0, 0}, {0, 0, 1}, 38, 0, 0};
-        vis_scene *empty = make_cube_scene(ctx, 16);
-        float g;
-        rays_alone(ctx, empty, &probe, W, H, passes[pi].side, &g);
-        vis_scene_destroy(empty);
-        assert_true(isfinite(g) && g > 0.0f);
+    for (uint32_t pi = 0; pi < 2u; ++pi) {
+        uint32_t W = far_passes[pi].w, H = far_passes[pi].h;
+        float g = give_up_of(ctx, W, H, far_passes[pi].side);
         /* 24 x 24 chunks, one high: at 1.1 g a 38-degree view spans at most 0.38 g either
          * side of the centre, inside the world's 192 for both passes. */
-        uint64_t rng = 4242u + pi;
-        chunk_world_opts opt = chunk_world_default;
-        opt.empty = 0.2;
-        opt.max_boxes = 2;
-        opt.ties = 0;
-        tworld w;
-        random_chunk_world_opts(&w, &rng, 24, 1, 24, &opt);
-        vis_scene *scene = make_scene(ctx, &w, NULL, 0);
         vis_camera cam = {{192, 16.0 + 1.1 * g, 192.5}, {192, 0, 192}, 38, 0, 0};
-        float g2;
-        uint32_t alone = rays_alone(ctx, scene, &cam, W, H, passes[pi].side, &g2);
-        assert_true(g2 == g);
+        uint32_t alone = far_pass(ctx, W, H, far_passes[pi].side, g, 4242u + pi, 24, 24, &cam, "far pass");
         if (alone != W * H)
             fail_msg("%ux%u from %.0f above: %u of %u pixels went ray by ray; want all", W, H, 1.1 * g, alone,
                      W * H);
-        char label[96];
-        snprintf(label, sizeof label, "far pass, %ux%u packets", passes[pi].side, passes[pi].side);
-        check_one_view(ctx, scene, &w, &cam, W, H, label);
-        vis_scene_destroy(scene);
-        free_world(&w);
     }
     vis_context_destroy(ctx);
 }
