@@ -19,10 +19,13 @@
  * path gives the same pixels: the brute force's.
  *
  * Where the eye is farther than that distance from everything in the scene (a small pass or
- * gen:large's far views, seen from high above), every packet would give up, after walking
- * the tree to its first leaf: such a pass sends its tiles alone from the start, but for tiles
- * of sky (a corner ray misses the scene's content), whose packets end cheaply, with no leaf
- * (docs/performance.md, "Far passes skip the packets that would give up").
+ * gen:large's far views, seen from high above), all or nearly all packets would give up, after
+ * walking the tree to their first leaf: such an ID pass sends its tiles alone from the start,
+ * but for tiles of sky (a corner ray misses the scene's content), whose packets end cheaply,
+ * with no leaf (docs/performance.md, "Far passes skip the packets that would give up"). A
+ * packet's own test is conservative (its rays' nearest entry, the box widened), so a skipped
+ * packet might not have given up: that costs time, never pixels. Effects passes keep their
+ * packets.
  *
  * A ray that goes alone (a pass too wide for 4x4 packets, or a packet that gave up) walks the
  * cell grid (trace_core.h, vis_traverse_dda) where the scene has its cell map: on gen:city's
@@ -168,9 +171,9 @@ static int content_box(const vis_scene_view *view, const vis_node_fill *fill, fl
     return 1;
 }
 
-/* Whether every packet of a pass would give up at the first leaf it enters: the eye lies
- * farther than give_up_t from the content box. A leaf is entered where its content box is,
- * so no nearer than that; rays are unit length to within a few ulps, hence the margin. */
+/* Whether the packets of a pass would give up at the first leaf they enter: the eye lies
+ * farther than give_up_t from the content box, which holds every leaf's content box. Rays
+ * are unit length to within a few ulps, hence the margin. */
 static int content_beyond(const vis_ray_setup *setup, const float lo[3], const float hi[3], float give_up_t)
 {
     float d2 = 0.0f;

@@ -15,7 +15,7 @@
 uint32_t vis_packet_side(const vis_ray_setup *setup);
 
 /* The distance past which a packet of `side` that first enters a leaf gives up, its rays
- * then traced one by one (for 16x16 packets at 512x512 and 60 degrees, 1,774 units). */
+ * then traced one by one (for 16x16 packets at 512x512 and 60 degrees, 1,330 units). */
 float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
 
 /* Traces the pixels [x0, x0 + edge) x [y0, y0 + edge) of the view in `setup` (clipped to the
@@ -25,7 +25,7 @@ float vis_packet_give_up_t(const vis_ray_setup *setup, uint32_t side);
  * buffers. `fill` tells what each kd node's subtree holds (occupancy.h); `side`
  * is vis_packet_side(setup). `cost` (may be NULL) gets each pixel's traversal cost
  * (vis_trace_cost). Returns the number of pixels traced one ray at a time (packets that gave
- * up, or side 1). */
+ * up or were skipped as sure to, or side 1). */
 uint32_t vis_packet_trace_tile(const vis_ray_setup *setup, const vis_scene_view *view, const vis_node_fill *fill,
                                uint32_t side, uint32_t edge, uint32_t x0, uint32_t y0, uint32_t *ids, float *depth,
                                uint32_t *cost);
