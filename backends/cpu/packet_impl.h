@@ -966,12 +966,16 @@ PK_INLINE void packet_leaf(packet *p, const vis_scene_view *view, const vis_flat
             return; /* none is left, or every axis's next plane lies past every ray's hit */
         int at = a == 0 ? k0 : a == 1 ? k1 : k2, next = at + step[a];
         float t_next = packet_next_plane(p, a, leaf, bk, base[a], &next, kend[a], step[a]);
-        if (a == 0)
-            k0 = next, n0 = t_next;
-        else if (a == 1)
-            k1 = next, n1 = t_next;
-        else
-            k2 = next, n2 = t_next;
+        if (a == 0) {
+            k0 = next;
+            n0 = t_next;
+        } else if (a == 1) {
+            k1 = next;
+            n1 = t_next;
+        } else {
+            k2 = next;
+            n2 = t_next;
+        }
         packet_plane(p, a, at, leaf, lo, hi, packed, table, bk, base[a], objects, leaf_units, &pb);
     }
 }
