@@ -3,14 +3,17 @@
  *
  * Reading a 512x512 ID buffer back (1 MiB) costs more than tracing it on a fast GPU; the
  * list of a view is a few kilobytes. Per launch:
- *   1. one fill zeroes the views' list heads and pixel counts (one buffer: heads first);
+ *   1. one fill zeroes the views' pixel counts (one buffer, the list heads in front), unless
+ *      they are zero already: the compaction of object IDs leaves every count it reads at
+ *      zero, so a launch with the counts of the last one (object IDs, the same views and
+ *      slots) has none to clear, and its trace is the first command after the camera's write;
  *   2. vis_trace_drawlist_kernel traces and adds each pixel to its key's count (kernels/trace.cl);
  *   3. vis_drawlist_block_count and vis_drawlist_compact turn the counts into (ID, pixels)
  *      entries, per view, in slot order (groups over blocks of slots scan which slots have
  *      pixels; no atomics);
- *   4. one view: its head and list region are read into pinned host memory
- *      (CL_MEM_ALLOC_HOST_PTR, mapped once), with the IDs and depths only when the caller
- *      asked for them; one finish. Several views: vis_drawlist_pack puts the lists one after
+ *   4. one view: its list region, with its head written just after it, is read into pinned
+ *      host memory (CL_MEM_ALLOC_HOST_PTR, mapped once) with one read, and the IDs and depths
+ *      only when the caller asked for them; one finish. Several views: vis_drawlist_pack puts the lists one after
  *      the other, the heads are read (one finish), then the packed lists with one read (a
  *      second finish): two round trips, where a read per view and a sort per list made most of
  *      a 3.5 ms gap between kernel and end to end for 256 views on the H200 (docs/opencl.md);
@@ -46,6 +49,7 @@ void vis_cl_drawlist_release(vis_cl_backend *b)
         }
     b->dl_host = NULL;
     b->dl_counts_cap = b->dl_list_cap = b->dl_packed_cap = b->dl_blocks_cap = b->dl_pinned_cap = 0;
+    b->dl_zero_lo = b->dl_zero_hi = 0;
 }
 
 /* Pinned host memory of at least `bytes`, mapped for the backend's life. */
@@ -242,11 +246,13 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
 
 /* Reads the launch's heads and lists into pinned memory, the lists one after the other past
  * the heads (view v's after view v-1's), and the IDs and depths when asked; waits. One view
- * whose list region is small: heads and region in one round trip. Otherwise the pack kernel
- * (its event in *ev) lays the lists end to end on the device, the heads come back first,
- * then their sum of entries with one read: two round trips, whatever the number of views. */
-static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, size_t slots, size_t pixels,
-                        uint32_t *ids, float *depth, cl_event *ev)
+ * whose list region is small: the region and the head the compaction wrote after it
+ * (kernels/trace.cl, at entry `object_count`) with one read, one round trip. Otherwise the
+ * pack kernel (its event in *ev) lays the lists end to end on the device, the heads come back
+ * first, then their sum of entries with one read: two round trips, whatever the number of
+ * views. */
+static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, size_t slots, uint32_t object_count,
+                        size_t pixels, uint32_t *ids, float *depth, cl_event *ev)
 {
     cl_uint *heads = b->dl_host;
     vis_draw_entry *lists = (vis_draw_entry *)(heads + n);
@@ -256,11 +262,12 @@ static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, 
     if (!whole) {
         size_t local = pack_items(b), global = (size_t)n * local;
         e = clEnqueueNDRangeKernel(b->queue, p->pack, 1, NULL, &global, &local, 0, NULL, ev);
+        if (e == CL_SUCCESS)
+            e = clEnqueueReadBuffer(b->queue, b->dl_counts, CL_FALSE, 0, n * sizeof(cl_uint), heads, 0, NULL, NULL);
+    } else {
+        e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, 0, ((size_t)object_count + 1u) * sizeof *lists,
+                                lists, 0, NULL, NULL);
     }
-    if (e == CL_SUCCESS)
-        e = clEnqueueReadBuffer(b->queue, b->dl_counts, CL_FALSE, 0, n * sizeof(cl_uint), heads, 0, NULL, NULL);
-    if (e == CL_SUCCESS && whole)
-        e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, 0, list_bytes, lists, 0, NULL, NULL);
     if (e == CL_SUCCESS && ids)
         e = clEnqueueReadBuffer(b->queue, b->ids, CL_FALSE, 0, (size_t)n * pixels * sizeof(uint32_t), ids, 0, NULL,
                                 NULL);
@@ -268,6 +275,8 @@ static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, 
         e = clEnqueueReadBuffer(b->queue, b->depth, CL_FALSE, 0, (size_t)n * pixels * sizeof(float), depth, 0, NULL,
                                 NULL);
     cl_int f = clFinish(b->queue);
+    if (e == CL_SUCCESS && f == CL_SUCCESS && whole)
+        heads[0] = lists[object_count].id;
     if (e != CL_SUCCESS || f != CL_SUCCESS || whole)
         return e != CL_SUCCESS ? e : f;
     size_t sum = 0;
@@ -305,18 +314,24 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     if (blocks == 0)
         blocks = 1; /* the last block writes the head, even of an empty list */
 
-    /* Cameras; counts with the heads in front; lists; pinned heads + lists; IDs/depths if asked. */
-    if ((st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
+    /* Cameras; counts with the heads in front; lists (and one view's head after its list);
+     * pinned heads + lists; IDs/depths if asked. A new counts buffer (its capacity changes)
+     * holds no known zeros. */
+    size_t counts_cap = b->dl_counts_cap;
+    st = vis_cl_ensure_buffer(b, &b->dl_counts, &b->dl_counts_cap, (size_t)per * (1u + stride), sizeof(cl_uint),
+                              CL_MEM_READ_WRITE, "draw-list counts", err, err_size);
+    if (b->dl_counts_cap != counts_cap)
+        b->dl_zero_lo = b->dl_zero_hi = 0;
+    if (st != VIS_OK ||
+        (st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
                                    "camera buffer", err, err_size)) != VIS_OK ||
-        (st = vis_cl_ensure_buffer(b, &b->dl_counts, &b->dl_counts_cap, (size_t)per * (1u + stride), sizeof(cl_uint),
-                                   CL_MEM_READ_WRITE, "draw-list counts", err, err_size)) != VIS_OK ||
-        (st = vis_cl_ensure_buffer(b, &b->dl_list, &b->dl_list_cap, (size_t)per * slots, sizeof(vis_draw_entry),
+        (st = vis_cl_ensure_buffer(b, &b->dl_list, &b->dl_list_cap, (size_t)per * slots + 1u, sizeof(vis_draw_entry),
                                    CL_MEM_READ_WRITE, "draw-list entries", err, err_size)) != VIS_OK ||
         (st = vis_cl_ensure_buffer(b, &b->dl_packed, &b->dl_packed_cap, (size_t)per * slots, sizeof(vis_draw_entry),
                                    CL_MEM_READ_WRITE, "packed draw lists", err, err_size)) != VIS_OK ||
         (st = vis_cl_ensure_buffer(b, &b->dl_blocks, &b->dl_blocks_cap, (size_t)per * blocks, sizeof(cl_uint),
                                    CL_MEM_READ_WRITE, "draw-list block counts", err, err_size)) != VIS_OK ||
-        (st = ensure_pinned(b, per * sizeof(cl_uint) + (size_t)per * slots * sizeof(vis_draw_entry), err,
+        (st = ensure_pinned(b, per * sizeof(cl_uint) + ((size_t)per * slots + 1u) * sizeof(vis_draw_entry), err,
                             err_size)) != VIS_OK)
         return st;
     if (ids && (st = vis_cl_ensure_buffer(b, &b->ids, &b->out_cap, (size_t)per * pixels, sizeof(uint32_t),
@@ -340,11 +355,14 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     for (uint32_t first = 0; first < count; first += per) {
         uint32_t n = count - first < per ? count - first : per;
         cl_uint zero = 0, off = n; /* the launch's n heads come first, then its counts */
+        size_t counts_end = (size_t)n * (1u + stride); /* the heads need no zeros: the compaction writes each */
+        int zeroed = b->dl_zero_lo <= n && counts_end <= b->dl_zero_hi;
+        b->dl_zero_lo = b->dl_zero_hi = 0; /* known again once this launch has finished */
         e = clEnqueueWriteBuffer(b->queue, b->setups, CL_FALSE, 0, (size_t)n * sizeof *setups, setups + first, 0, NULL,
                                  NULL);
-        if (e == CL_SUCCESS)
-            e = clEnqueueFillBuffer(b->queue, b->dl_counts, &zero, sizeof zero, 0,
-                                    (size_t)n * (1u + stride) * sizeof(cl_uint), 0, NULL, NULL);
+        if (e == CL_SUCCESS && !zeroed)
+            e = clEnqueueFillBuffer(b->queue, b->dl_counts, &zero, sizeof zero, n * sizeof(cl_uint),
+                                    (counts_end - n) * sizeof(cl_uint), 0, NULL, NULL);
         if (e == CL_SUCCESS)
             e = clSetKernelArg(p->drawlist, 15, sizeof off, &off);
         if (e == CL_SUCCESS)
@@ -360,7 +378,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
         if (e == CL_SUCCESS)
             e = clEnqueueNDRangeKernel(b->queue, p->compact, 2, NULL, cg, cl_local, 0, NULL, &ev[1]);
         if (e == CL_SUCCESS)
-            e = read_back(b, p, n, slots, pixels, ids ? ids + (size_t)first * pixels : NULL,
+            e = read_back(b, p, n, slots, view->object_count, pixels, ids ? ids + (size_t)first * pixels : NULL,
                           depth ? depth + (size_t)first * pixels : NULL, &ev[2]);
         else
             clFinish(b->queue);
@@ -372,6 +390,10 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
             }
         if (e != CL_SUCCESS)
             return vis_cl_fail(e, "draw-list pass", err, err_size);
+        if (setups[0].id_mode != 1u) { /* leaf IDs' counts stay as the trace left them */
+            b->dl_zero_lo = n;
+            b->dl_zero_hi = counts_end;
+        }
         const cl_uint *heads = b->dl_host;
         vis_draw_entry *lists = (vis_draw_entry *)((cl_uint *)b->dl_host + n);
         size_t need = done;

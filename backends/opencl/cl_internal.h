@@ -198,6 +198,9 @@ typedef struct vis_cl_backend {
     size_t dl_blocks_cap;     /* uints of dl_blocks: per view, the entries of each block of slots */
     size_t dl_pinned_cap;     /* bytes of dl_pinned                                       */
     void *dl_host;            /* dl_pinned, mapped                                        */
+    /* Words [dl_zero_lo, dl_zero_hi) of dl_counts are zero: the compaction of object IDs
+     * leaves every count it read at zero, so the next launch of the same layout needs no fill. */
+    size_t dl_zero_lo, dl_zero_hi;
 
     /* Staged scene uploads (cl_scene.c): pinned host memory mapped for the backend's life,
      * its device copy, and the event of the last scatter that read it. The scatter kernel

@@ -283,7 +283,11 @@ VIS_INLINE uint vis_cl_run_hits(const __global vis_flat_object *restrict objects
  * those of the blocks before it, each item's after the items' before it (a scan in local
  * memory), so the list comes out in slot order (the order slots are allocated in, often the
  * IDs' order, which the host then only checks), with no atomic. The last block writes the
- * view's head. `sum`: one local word per item, a power of two. */
+ * view's head, and in a launch of one view also the entry after the list region (list[slots],
+ * the head as its ID), so that the host reads list and head with one read. With object IDs
+ * each count is set back to zero once read: only the item that reads it touches it, and the
+ * next launch of the same layout then needs no fill (cl_drawlist.c). `sum`: one local word per
+ * item, a power of two. */
 __kernel void vis_drawlist_block_count(const __global vis_flat_object *restrict objects,
                                        const __global uint *restrict object_leaves, const uint slots,
                                        const uint id_mode, const __global uint *counts, const uint counts_offset,
@@ -314,18 +318,24 @@ __kernel void vis_drawlist_compact(const __global vis_flat_object *restrict obje
     vis_cl_group_scan(sum, li, ln);
     before = sum[ln - 1u];
     barrier(CLK_LOCAL_MEM_FENCE); /* every item has read it before sum is reused */
-    const __global uint *c = counts + counts_offset + (size_t)v * stride;
+    __global uint *c = counts + counts_offset + (size_t)v * stride;
     uint mine = vis_cl_run_hits(objects, object_leaves, slots, id_mode, c, run, &lo, &hi);
     sum[li] = mine;
     vis_cl_group_scan(sum, li, ln);
     uint at = before + sum[li] - mine;
     for (uint o = lo; o < hi; ++o) {
         uint n = vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o);
-        if (n != 0u)
+        if (n != 0u) {
             list[(size_t)v * slots + at++] = (uint2)(objects[o].id, n);
+            if (id_mode != 1u)
+                c[o] = 0u;
+        }
     }
-    if (blk == blocks - 1u && li == ln - 1u)
+    if (blk == blocks - 1u && li == ln - 1u) {
         counts[v] = before + sum[li]; /* the view's head */
+        if (get_num_groups(1) == 1u)
+            list[slots] = (uint2)(before + sum[li], 0u);
+    }
 }
 
 /* vis_drawlist_pack: the views' lists (view v's at list[v * slots], heads[v] long) one after
