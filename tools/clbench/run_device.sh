@@ -74,11 +74,12 @@
 #                        alternated, two rounds: batches of 256 on gen:default and gen:large,
 #                        one view per camera of gen:default
 #   run_device.sh 21     the draw list without the counts' fill and with one read for one view
-#                        (2026-12-07, docs/opencl.md): test_opencl and the bit-for-bit comparison,
-#                        then this tree against a parent's build in old/ (vis_clbench),
-#                        alternated, three rounds: one view per camera of gen:default with its
+#                        (2026-12-07, docs/opencl.md): test_opencl, then this tree against a
+#                        parent's build in old/ (vis_clbench), alternated, two rounds: one view per camera of gen:default with its
 #                        draw list (50 repetitions) and batches of 256; then gen:large's views,
-#                        one round
+#                        one round; then the bit-for-bit comparison; a candidate's build in b2/
+#                        (test_opencl, vis_clbench), if there, takes part in the rounds and gets
+#                        its own test_opencl last
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -359,7 +360,6 @@ if [ "$PHASE" = 20 ]; then
 fi
 if [ "$PHASE" = 21 ]; then
   gpu_test . 240
-  gpu_conformance .
   lists() { # lists DIR SCENE REPS ROUND: one view per camera with its draw list, and batches of 256
     local n=$(build_name $1)
     timeout 90 $1/vis_clbench --scene $2 --device NVIDIA --cameras 0 --conformance 0 --passes 0 --drawlist 1 \
@@ -367,8 +367,10 @@ if [ "$PHASE" = 21 ]; then
     echo "$2 draw lists, $n, round $4 (rc=$?):"
     grep -E "^(default|ground|overview|topdown|walk-)|^ +256" "$O/lists_${n}_${2#gen:}_$4.log"
   }
-  for round in 1 2 3; do for b in . old; do lists $b gen:default 50 $round; done; done
-  for b in . old; do lists $b gen:large 20 1; done
+  for round in 1 2; do for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:default 50 $round; done; done
+  for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
+  gpu_conformance .
+  gpu_test b2 240
 fi
 if [ "$PHASE" = 17 ]; then
   batch_rounds . old
