@@ -74,12 +74,12 @@
 #                        alternated, two rounds: batches of 256 on gen:default and gen:large,
 #                        one view per camera of gen:default
 #   run_device.sh 21     the draw list without the counts' fill and with one read for one view
-#                        (2026-12-07, docs/opencl.md): test_opencl, then this tree against a
-#                        parent's build in old/ (vis_clbench), alternated, two rounds: one view per camera of gen:default with its
-#                        draw list (50 repetitions) and batches of 256; then gen:large's views,
-#                        one round; then the bit-for-bit comparison; a candidate's build in b2/
-#                        (test_opencl, vis_clbench), if there, takes part in the rounds and gets
-#                        its own test_opencl last
+#                        (2026-12-07, docs/opencl.md): test_opencl; this tree against a parent's
+#                        build in old/ (vis_clbench), alternated, two rounds: one view per
+#                        camera of gen:default with its draw list (50 repetitions) and batches
+#                        of 256; the bit-for-bit comparison; gen:large's views, one round. A
+#                        candidate's build in b2/ (test_opencl, vis_clbench), if there, takes
+#                        part in the rounds and gets its own test_opencl last
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -368,8 +368,8 @@ if [ "$PHASE" = 21 ]; then
     grep -E "^(default|ground|overview|topdown|walk-)|^ +256" "$O/lists_${n}_${2#gen:}_$4.log"
   }
   for round in 1 2; do for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:default 50 $round; done; done
-  for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
   gpu_conformance .
+  for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
   gpu_test b2 240
 fi
 if [ "$PHASE" = 17 ]; then
