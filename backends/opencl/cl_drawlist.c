@@ -5,18 +5,19 @@
  * list of a view is a few kilobytes. Per launch:
  *   1. one fill zeroes the views' pixel counts (one buffer, the list heads in front), unless
  *      they are zero already: the compaction of object IDs leaves every count it reads at
- *      zero, so a launch with the counts of the last one (object IDs, the same views and
- *      slots) has none to clear, and its trace is the first command after the camera's write;
+ *      zero, so a launch whose counts lie within the words the last finished launch left zero
+ *      has none to clear, and its trace is the first command after the camera's write;
  *   2. vis_trace_drawlist_kernel traces and adds each pixel to its key's count (kernels/trace.cl);
  *   3. vis_drawlist_block_count and vis_drawlist_compact turn the counts into (ID, pixels)
  *      entries, per view, in slot order (groups over blocks of slots scan which slots have
  *      pixels; no atomics);
  *   4. one view: its list region, with its head written just after it, is read into pinned
  *      host memory (CL_MEM_ALLOC_HOST_PTR, mapped once) with one read, and the IDs and depths
- *      only when the caller asked for them; one finish. Several views: vis_drawlist_pack puts the lists one after
- *      the other, the heads are read (one finish), then the packed lists with one read (a
- *      second finish): two round trips, where a read per view and a sort per list made most of
- *      a 3.5 ms gap between kernel and end to end for 256 views on the H200 (docs/opencl.md);
+ *      only when the caller asked for them; one finish. Several views: vis_drawlist_pack puts
+ *      the lists one after the other, the heads are read (one finish), then the packed lists
+ *      with one read (a second finish): two round trips, where a read per view and a sort per
+ *      list made most of a 3.5 ms gap between kernel and end to end for 256 views on the H200
+ *      (docs/opencl.md);
  *   5. each list is sorted by ID from there into the caller's entries (a radix sort with as
  *      few passes as the largest ID needs; a list already in order is copied).
  * Nothing is allocated per frame once the buffers are large enough. */
@@ -35,6 +36,18 @@ _Static_assert(sizeof(vis_draw_entry) == 2 * sizeof(cl_uint), "a draw entry is t
  * after the heads say how long each list is. */
 #define DL_READ_WHOLE_BYTES ((size_t)1 << 20)
 
+/* Whether words [lo, hi) of the counts are known to be zero; forgetting is setting [0, 0). */
+static int counts_known_zero(const vis_cl_backend *b, size_t lo, size_t hi)
+{
+    return b->dl_zero_lo <= lo && hi <= b->dl_zero_hi;
+}
+
+static void counts_set_zero(vis_cl_backend *b, size_t lo, size_t hi)
+{
+    b->dl_zero_lo = lo;
+    b->dl_zero_hi = hi;
+}
+
 void vis_cl_drawlist_release(vis_cl_backend *b)
 {
     if (b->dl_pinned && b->dl_host && b->queue) {
@@ -49,7 +62,7 @@ void vis_cl_drawlist_release(vis_cl_backend *b)
         }
     b->dl_host = NULL;
     b->dl_counts_cap = b->dl_list_cap = b->dl_packed_cap = b->dl_blocks_cap = b->dl_pinned_cap = 0;
-    b->dl_zero_lo = b->dl_zero_hi = 0;
+    counts_set_zero(b, 0, 0);
 }
 
 /* Pinned host memory of at least `bytes`, mapped for the backend's life. */
@@ -250,7 +263,8 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
  * (kernels/trace.cl, at entry `object_count`) with one read, one round trip. Otherwise the
  * pack kernel (its event in *ev) lays the lists end to end on the device, the heads come back
  * first, then their sum of entries with one read: two round trips, whatever the number of
- * views. */
+ * views. `slots` is the lists' stride (at least 1), `object_count` the kernels' slot count (0
+ * for an empty scene), after whose entries the one-view head lies. */
 static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, size_t slots, uint32_t object_count,
                         size_t pixels, uint32_t *ids, float *depth, cl_event *ev)
 {
@@ -321,7 +335,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     st = vis_cl_ensure_buffer(b, &b->dl_counts, &b->dl_counts_cap, (size_t)per * (1u + stride), sizeof(cl_uint),
                               CL_MEM_READ_WRITE, "draw-list counts", err, err_size);
     if (b->dl_counts_cap != counts_cap)
-        b->dl_zero_lo = b->dl_zero_hi = 0;
+        counts_set_zero(b, 0, 0);
     if (st != VIS_OK ||
         (st = vis_cl_ensure_buffer(b, &b->setups, &b->setup_cap, per, sizeof(vis_ray_setup), CL_MEM_READ_ONLY,
                                    "camera buffer", err, err_size)) != VIS_OK ||
@@ -356,8 +370,8 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
         uint32_t n = count - first < per ? count - first : per;
         cl_uint zero = 0, off = n; /* the launch's n heads come first, then its counts */
         size_t counts_end = (size_t)n * (1u + stride); /* the heads need no zeros: the compaction writes each */
-        int zeroed = b->dl_zero_lo <= n && counts_end <= b->dl_zero_hi;
-        b->dl_zero_lo = b->dl_zero_hi = 0; /* known again once this launch has finished */
+        int zeroed = counts_known_zero(b, n, counts_end);
+        counts_set_zero(b, 0, 0); /* known again once this launch has finished */
         e = clEnqueueWriteBuffer(b->queue, b->setups, CL_FALSE, 0, (size_t)n * sizeof *setups, setups + first, 0, NULL,
                                  NULL);
         if (e == CL_SUCCESS && !zeroed)
@@ -390,10 +404,8 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
             }
         if (e != CL_SUCCESS)
             return vis_cl_fail(e, "draw-list pass", err, err_size);
-        if (setups[0].id_mode != 1u) { /* leaf IDs' counts stay as the trace left them */
-            b->dl_zero_lo = n;
-            b->dl_zero_hi = counts_end;
-        }
+        if (setups[0].id_mode != 1u) /* leaf IDs' counts stay as the trace left them */
+            counts_set_zero(b, n, counts_end);
         const cl_uint *heads = b->dl_host;
         vis_draw_entry *lists = (vis_draw_entry *)((cl_uint *)b->dl_host + n);
         size_t need = done;

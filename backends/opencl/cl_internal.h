@@ -199,7 +199,7 @@ typedef struct vis_cl_backend {
     size_t dl_pinned_cap;     /* bytes of dl_pinned                                       */
     void *dl_host;            /* dl_pinned, mapped                                        */
     /* Words [dl_zero_lo, dl_zero_hi) of dl_counts are zero: the compaction of object IDs
-     * leaves every count it read at zero, so the next launch of the same layout needs no fill. */
+     * leaves every count it read at zero, so a launch whose counts lie there needs no fill. */
     size_t dl_zero_lo, dl_zero_hi;
 
     /* Staged scene uploads (cl_scene.c): pinned host memory mapped for the backend's life,

@@ -283,11 +283,11 @@ VIS_INLINE uint vis_cl_run_hits(const __global vis_flat_object *restrict objects
  * those of the blocks before it, each item's after the items' before it (a scan in local
  * memory), so the list comes out in slot order (the order slots are allocated in, often the
  * IDs' order, which the host then only checks), with no atomic. The last block writes the
- * view's head, and in a launch of one view also the entry after the list region (list[slots],
- * the head as its ID), so that the host reads list and head with one read. With object IDs
- * each count is set back to zero once read: only the item that reads it touches it, and the
- * next launch of the same layout then needs no fill (cl_drawlist.c). `sum`: one local word per
- * item, a power of two. */
+ * view's head, and in a launch of one view (one group row: the host's n == 1) also the entry
+ * after the list region (list[slots], the head as its ID), so that the host reads list and
+ * head with one read. With object IDs each count is set back to zero once read: within this
+ * kernel only the item that reads it touches it, and a later launch whose counts lie there
+ * needs no fill (cl_drawlist.c). `sum`: one local word per item, a power of two. */
 __kernel void vis_drawlist_block_count(const __global vis_flat_object *restrict objects,
                                        const __global uint *restrict object_leaves, const uint slots,
                                        const uint id_mode, const __global uint *counts, const uint counts_offset,
