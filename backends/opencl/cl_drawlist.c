@@ -154,7 +154,7 @@ static void radix_sort_into(vis_draw_entry *src, vis_draw_entry *dst, size_t n)
 static uint32_t views_per_launch(uint32_t count, size_t pixels, int want_pixels, size_t stride, size_t slots)
 {
     size_t per_view = (1u + stride) * sizeof(cl_uint) + slots * sizeof(vis_draw_entry);
-    size_t per = DL_MAX_BYTES / per_view;
+    size_t per = (DL_MAX_BYTES - sizeof(vis_draw_entry)) / per_view; /* the one-view head's entry too */
     if (want_pixels && DL_MAX_PIXELS / pixels < per)
         per = DL_MAX_PIXELS / pixels;
     if (per == 0)
