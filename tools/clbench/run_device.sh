@@ -78,9 +78,8 @@
 #                        build in old/ (vis_clbench), alternated, two rounds: one view per
 #                        camera of gen:default with its draw list (50 repetitions) and batches
 #                        of 256; the bit-for-bit comparison; gen:large's views and batches,
-#                        one round. A
-#                        candidate's build in b2/ (test_opencl, vis_clbench), if there, takes
-#                        part in the rounds and gets its own test_opencl last
+#                        one round. A candidate's build in b2/ (test_opencl, vis_clbench), if
+#                        there, takes part in the rounds and gets its own test_opencl last
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
