@@ -819,6 +819,39 @@ static void test_drawlist_on_device(void **state)
     vis_context_destroy(cl);
 }
 
+/* One view's list comes back with a first read sized by the list before it (at least 1,024
+ * entries) and its rest with a second read when longer (cl_drawlist.c). Lists past 1,024
+ * entries on a fresh context, after a short list and after a long one, and a short one after
+ * a long one: each equals the CPU's. */
+static void test_drawlist_long_lists(void **state)
+{
+    (void)state;
+    REQUIRE_OPENCL(cl);
+    uint64_t rng = 77;
+    tworld w;
+    random_chunk_world(&w, &rng, 64, 1, 64);
+    pair p;
+    pair_make(&p, cl, &w, NULL, 0);
+    vis_scene_info si;
+    assert_int_equal(vis_scene_get_info(p.cl_scene, &si), VIS_OK);
+    assert_true(si.objects > 2048u);
+    vis_camera over = {{w.size[0] * 0.5, w.size[0] * 1.5, w.size[2] * 0.5}, {w.size[0] * 0.5, 0, w.size[2] * 0.5 + 1},
+                       40, 0, 0};
+    vis_camera close = {{-4, 8, -4}, {0, 8, 0}, 30, 0, 0}; /* the corner chunk */
+    vis_camera cams[5] = {over, close, over, over, close};
+    size_t longest = 0;
+    for (uint32_t mode = 0; mode < 2; ++mode) {
+        vis_trace_desc td = desc_make(256, 256, (vis_id_mode)mode, VIS_TRAVERSAL_STACK);
+        size_t l = check_trace_drawlist(p.cpu, p.cpu_scene, p.cl, p.cl_scene, cams, 5, &td, "opencl long draw lists");
+        longest = l > longest ? l : longest;
+    }
+    printf("device draw lists: longest %zu entries of %u objects\n", longest, si.objects);
+    assert_true(longest > 1024u + 1024u / 4u + 64u); /* past the first read after a list of 1,024 */
+    pair_free(&p);
+    free_world(&w);
+    vis_context_destroy(cl);
+}
+
 /* Bad input is rejected before any work on OpenCL too, buffers untouched; timing exists. */
 static void test_errors_and_timing(void **state)
 {
@@ -1356,6 +1389,7 @@ int main(void)
         cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_drawlist_on_device),
+        cmocka_unit_test(test_drawlist_long_lists),
         cmocka_unit_test(test_edit_uploads_only_changed_bytes),
         cmocka_unit_test(test_edit_fills_empty_cells),
         cmocka_unit_test(test_pool_growth_reallocates),

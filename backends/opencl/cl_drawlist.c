@@ -11,9 +11,12 @@
  *   3. vis_drawlist_block_count and vis_drawlist_compact turn the counts into (ID, pixels)
  *      entries, per view, in slot order (groups over blocks of slots scan which slots have
  *      pixels; no atomics);
- *   4. one view: its list region, with its head written just after it, is read into pinned
- *      host memory (CL_MEM_ALLOC_HOST_PTR, mapped once) with one read, and the IDs and depths
- *      only when the caller asked for them; one finish. Several views: vis_drawlist_pack puts
+ *   4. one view: the compaction writes its head in front of its list, and one read brings
+ *      head and list into pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once), with the
+ *      IDs and depths only when the caller asked for them; one finish. The read stops after
+ *      the entries the last one-view list needed, with a margin (a gen:large view sees
+ *      172-32,707 of 120,694 objects, and reading every slot was 966 KB); a longer list
+ *      reads its rest after (a second finish). Several views: vis_drawlist_pack puts
  *      the lists one after the other, the heads are read (one finish), then the packed lists
  *      with one read (a second finish): two round trips, where a read per view and a sort per
  *      list made most of a 3.5 ms gap between kernel and end to end for 256 views on the H200
@@ -32,9 +35,8 @@ _Static_assert(sizeof(vis_draw_entry) == 2 * sizeof(cl_uint), "a draw entry is t
  * several launches); the pixel limit of trace batches applies to IDs and depths. */
 #define DL_MAX_BYTES ((size_t)64 << 20)
 #define DL_MAX_PIXELS ((size_t)1 << 26)
-/* Lists up to this size are read whole in the same round trip as the heads; larger ones
- * after the heads say how long each list is. */
-#define DL_READ_WHOLE_BYTES ((size_t)1 << 20)
+/* A one-view launch reads at least this many entries in its first read (8 KiB). */
+#define DL_FIRST_READ_MIN ((size_t)1024)
 
 /* Whether words [lo, hi) of the counts are known to be zero; forgetting is setting [0, 0). */
 static int counts_known_zero(const vis_cl_backend *b, size_t lo, size_t hi)
@@ -257,30 +259,54 @@ static cl_int set_args(vis_cl_backend *b, vis_cl_program *p, const vis_cl_scene 
     return e;
 }
 
+/* Where a launch's lists lie in pinned memory: after its n heads; one view's after the entry
+ * its head came back in (the head is that entry's ID, so heads[0] all the same). */
+static vis_draw_entry *pinned_lists(const vis_cl_backend *b, uint32_t n)
+{
+    return n == 1u ? (vis_draw_entry *)b->dl_host + 1 : (vis_draw_entry *)((cl_uint *)b->dl_host + n);
+}
+
+/* One view: the head the compaction wrote in front of its list (kernels/trace.cl) and the
+ * first entries come back with one read, the rest only when the head says the list is longer
+ * (a second round trip). */
+static cl_int read_one_view(vis_cl_backend *b, uint32_t object_count)
+{
+    vis_draw_entry *head_and_list = b->dl_host;
+    size_t first = b->dl_first_read > DL_FIRST_READ_MIN ? b->dl_first_read : DL_FIRST_READ_MIN;
+    first = first < object_count ? first : object_count;
+    cl_int e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, 0, (first + 1u) * sizeof *head_and_list,
+                                   head_and_list, 0, NULL, NULL);
+    cl_int f = clFinish(b->queue);
+    if (e != CL_SUCCESS || f != CL_SUCCESS)
+        return e != CL_SUCCESS ? e : f;
+    cl_uint *heads = b->dl_host;
+    heads[0] = heads[0] <= object_count ? heads[0] : object_count; /* never trust a size read */
+    size_t head = heads[0];
+    b->dl_first_read = head + head / 4u + 64u; /* the next view's first read: this list and a margin */
+    if (head <= first)
+        return CL_SUCCESS;
+    e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, (first + 1u) * sizeof *head_and_list,
+                            (head - first) * sizeof *head_and_list, head_and_list + first + 1u, 0, NULL, NULL);
+    f = clFinish(b->queue);
+    return e != CL_SUCCESS ? e : f;
+}
+
 /* Reads the launch's heads and lists into pinned memory, the lists one after the other past
- * the heads (view v's after view v-1's), and the IDs and depths when asked; waits. One view
- * whose list region is small: the region and the head the compaction wrote after it
- * (kernels/trace.cl, at entry `object_count`) with one read, one round trip. Otherwise the
- * pack kernel (its event in *ev) lays the lists end to end on the device, the heads come back
- * first, then their sum of entries with one read: two round trips, whatever the number of
- * views. `slots` is the lists' stride (at least 1), `object_count` the kernels' slot count (0
- * for an empty scene), after whose entries the one-view head lies. */
+ * the heads (view v's after view v-1's), and the IDs and depths when asked; waits. One view:
+ * read_one_view. Several: the pack kernel (its event in *ev) lays the lists end to end on the
+ * device, the heads come back first, then their sum of entries with one read: two round
+ * trips, whatever the number of views. `slots` is the lists' stride (at least 1),
+ * `object_count` the kernels' slot count (0 for an empty scene). */
 static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, size_t slots, uint32_t object_count,
                         size_t pixels, uint32_t *ids, float *depth, cl_event *ev)
 {
     cl_uint *heads = b->dl_host;
-    vis_draw_entry *lists = (vis_draw_entry *)(heads + n);
-    size_t list_bytes = (size_t)n * slots * sizeof(vis_draw_entry);
-    int whole = n == 1u && list_bytes <= DL_READ_WHOLE_BYTES;
     cl_int e = CL_SUCCESS;
-    if (!whole) {
+    if (n > 1u) {
         size_t local = pack_items(b), global = (size_t)n * local;
         e = clEnqueueNDRangeKernel(b->queue, p->pack, 1, NULL, &global, &local, 0, NULL, ev);
         if (e == CL_SUCCESS)
             e = clEnqueueReadBuffer(b->queue, b->dl_counts, CL_FALSE, 0, n * sizeof(cl_uint), heads, 0, NULL, NULL);
-    } else {
-        e = clEnqueueReadBuffer(b->queue, b->dl_list, CL_FALSE, 0, ((size_t)object_count + 1u) * sizeof *lists,
-                                lists, 0, NULL, NULL);
     }
     if (e == CL_SUCCESS && ids)
         e = clEnqueueReadBuffer(b->queue, b->ids, CL_FALSE, 0, (size_t)n * pixels * sizeof(uint32_t), ids, 0, NULL,
@@ -288,17 +314,23 @@ static cl_int read_back(vis_cl_backend *b, const vis_cl_program *p, uint32_t n, 
     if (e == CL_SUCCESS && depth)
         e = clEnqueueReadBuffer(b->queue, b->depth, CL_FALSE, 0, (size_t)n * pixels * sizeof(float), depth, 0, NULL,
                                 NULL);
+    if (n == 1u) {
+        if (e != CL_SUCCESS) {
+            clFinish(b->queue);
+            return e;
+        }
+        return read_one_view(b, object_count);
+    }
     cl_int f = clFinish(b->queue);
-    if (e == CL_SUCCESS && f == CL_SUCCESS && whole)
-        heads[0] = lists[object_count].id;
-    if (e != CL_SUCCESS || f != CL_SUCCESS || whole)
+    if (e != CL_SUCCESS || f != CL_SUCCESS)
         return e != CL_SUCCESS ? e : f;
     size_t sum = 0;
     for (uint32_t v = 0; v < n; ++v)
         sum += heads[v] <= slots ? heads[v] : slots; /* as the pack kernel clamps */
     if (sum == 0)
         return CL_SUCCESS;
-    e = clEnqueueReadBuffer(b->queue, b->dl_packed, CL_FALSE, 0, sum * sizeof(vis_draw_entry), lists, 0, NULL, NULL);
+    e = clEnqueueReadBuffer(b->queue, b->dl_packed, CL_FALSE, 0, sum * sizeof(vis_draw_entry), pinned_lists(b, n), 0,
+                            NULL, NULL);
     f = clFinish(b->queue);
     return e != CL_SUCCESS ? e : f;
 }
@@ -328,7 +360,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
     if (blocks == 0)
         blocks = 1; /* the last block writes the head, even of an empty list */
 
-    /* Cameras; counts with the heads in front; lists (and one view's head after its list);
+    /* Cameras; counts with the heads in front; lists (one view: its head in front of its list);
      * pinned heads + lists; IDs/depths if asked. A new counts buffer (its capacity changes)
      * holds no known zeros. */
     size_t counts_cap = b->dl_counts_cap;
@@ -407,7 +439,7 @@ vis_status vis_cl_trace_drawlist(void *impl, void *scene_data, const vis_scene_v
         if (setups[0].id_mode != 1u) /* leaf IDs' counts stay as the trace left them */
             counts_set_zero(b, n, counts_end);
         const cl_uint *heads = b->dl_host;
-        vis_draw_entry *lists = (vis_draw_entry *)((cl_uint *)b->dl_host + n);
+        vis_draw_entry *lists = pinned_lists(b, n);
         size_t need = done;
         for (uint32_t v = 0; v < n; ++v)
             need += heads[v] <= slots ? heads[v] : slots; /* never trust a size read */

@@ -78,8 +78,9 @@
 #                        build in old/ (vis_clbench), alternated, two rounds: one view per
 #                        camera of gen:default with its draw list (50 repetitions) and batches
 #                        of 256; the bit-for-bit comparison; gen:large's views and batches,
-#                        one round. A candidate's build in b2/ (test_opencl, vis_clbench), if
-#                        there, takes part in the rounds and gets its own test_opencl last
+#                        one round. Candidates' builds in b2/ and b3/ (test_opencl,
+#                        vis_clbench), if there, take part in the rounds; b2/ gets its own
+#                        test_opencl last
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -367,9 +368,9 @@ if [ "$PHASE" = 21 ]; then
     echo "$2 draw lists, $n, round $4 (rc=$?):"
     grep -E "^(default|ground|overview|topdown|walk-)|^ +256" "$O/lists_${n}_${2#gen:}_$4.log"
   }
-  for round in 1 2; do for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:default 50 $round; done; done
+  for round in 1 2; do for b in . old b2 b3; do [ -x $b/vis_clbench ] && lists $b gen:default 50 $round; done; done
   gpu_conformance .
-  for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
+  for b in . old b2 b3; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
   gpu_test b2 240
 fi
 if [ "$PHASE" = 17 ]; then

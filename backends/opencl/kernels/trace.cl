@@ -172,9 +172,9 @@ __kernel void vis_trace_batch_kernel(__global const vis_ray_setup *restrict setu
  * vis_drawlist_block_count + vis_drawlist_compact (below): the views' list heads in the first
  * words of `counts` (before counts_offset). Object IDs: the slot's count; leaf IDs: the sum of the
  * counts of the slot's leaves (object_leaves, the same relation vis_drawlist_build expands
- * through). Each non-zero count becomes (ID, count) in the view's list at list[v * slots],
- * in slot order; the host sorts each list by ID (a list already in order is copied). counts
- * are zeroed by the host before. */
+ * through). Each non-zero count becomes (ID, count) in the view's list at list[v * slots] (one
+ * view: at list[1], its head in front), in slot order; the host sorts each list by ID (a list
+ * already in order is copied). counts are zeroed by the host before. */
 #define VIS_CL_NO_KEY 0xFFFFFFFFu
 
 /* One pixel of the draw-list kernel; every item of the group calls it (it has a barrier). */
@@ -283,9 +283,9 @@ VIS_INLINE uint vis_cl_run_hits(const __global vis_flat_object *restrict objects
  * those of the blocks before it, each item's after the items' before it (a scan in local
  * memory), so the list comes out in slot order (the order slots are allocated in, often the
  * IDs' order, which the host then only checks), with no atomic. The last block writes the
- * view's head, and in a launch of one view (one group row: the host's n == 1) also the entry
- * after the list region (list[slots], the head as its ID), so that the host reads list and
- * head with one read. With object IDs each count is set back to zero once read: within this
+ * view's head. A launch of one view (one group row: the host's n == 1) writes its list one
+ * entry on, with the head in front (list[0], the head as its ID), so that the host reads head
+ * and list with one read that stops near the list's end. With object IDs each count is set back to zero once read: within this
  * kernel only the item that reads it touches it, and a later launch whose counts lie there
  * needs no fill (cl_drawlist.c). `sum`: one local word per item, a power of two. */
 __kernel void vis_drawlist_block_count(const __global vis_flat_object *restrict objects,
@@ -323,18 +323,20 @@ __kernel void vis_drawlist_compact(const __global vis_flat_object *restrict obje
     sum[li] = mine;
     vis_cl_group_scan(sum, li, ln);
     uint at = before + sum[li] - mine;
+    const int one_view = get_num_groups(1) == 1u;
+    __global uint2 *mine_list = one_view ? list + 1 : list + (size_t)v * slots;
     for (uint o = lo; o < hi; ++o) {
         uint n = vis_cl_slot_pixels(objects, object_leaves, id_mode, c, o);
         if (n != 0u) {
-            list[(size_t)v * slots + at++] = (uint2)(objects[o].id, n);
+            mine_list[at++] = (uint2)(objects[o].id, n);
             if (id_mode != 1u)
                 c[o] = 0u;
         }
     }
     if (blk == blocks - 1u && li == ln - 1u) {
         counts[v] = before + sum[li]; /* the view's head */
-        if (get_num_groups(1) == 1u)
-            list[slots] = (uint2)(before + sum[li], 0u);
+        if (one_view)
+            list[0] = (uint2)(before + sum[li], 0u);
     }
 }
 
