@@ -74,13 +74,13 @@
 #                        alternated, two rounds: batches of 256 on gen:default and gen:large,
 #                        one view per camera of gen:default
 #   run_device.sh 21     the draw list without the counts' fill and with one read for one view
-#                        (2026-12-07, docs/opencl.md): test_opencl; this tree against a parent's
-#                        build in old/ (vis_clbench), alternated, two rounds: one view per
-#                        camera of gen:default with its draw list (50 repetitions) and batches
-#                        of 256; the bit-for-bit comparison; gen:large's views and batches,
-#                        one round. Candidates' builds in b2/ and b3/ (test_opencl,
-#                        vis_clbench), if there, take part in the rounds; b2/ gets its own
-#                        test_opencl last
+#                        (2026-12-07, docs/opencl.md): this tree against a parent's build in
+#                        old/ and a candidate's in b2/ (vis_clbench), alternated, two rounds:
+#                        one view per camera of gen:default with its draw list (50
+#                        repetitions) and batches of 256; between the rounds gen:large's views
+#                        and batches, one round, with a second candidate's build in b3/ too;
+#                        then test_opencl and the bit-for-bit comparison of this tree, and
+#                        test_opencl of b2/ (each build taking part if there)
 #   run_device.sh 4      the questions of 2026-12-05, evening (docs/opencl.md, "Work-group
 #                        shape and register cap for batches"): the dda batches of 256 with
 #                        8x8 and 8x4 work-groups and register caps of 72 (the default) and
@@ -360,7 +360,6 @@ if [ "$PHASE" = 20 ]; then
   gpu_conformance .
 fi
 if [ "$PHASE" = 21 ]; then
-  gpu_test . 240
   lists() { # lists DIR SCENE REPS ROUND: one view per camera with its draw list, and batches of 256
     local n=$(build_name $1)
     timeout 90 $1/vis_clbench --scene $2 --device NVIDIA --cameras 0 --conformance 0 --passes 0 --drawlist 1 \
@@ -368,9 +367,12 @@ if [ "$PHASE" = 21 ]; then
     echo "$2 draw lists, $n, round $4 (rc=$?):"
     grep -E "^(default|ground|overview|topdown|walk-)|^ +256" "$O/lists_${n}_${2#gen:}_$4.log"
   }
-  for round in 1 2; do for b in . old b2 b3; do [ -x $b/vis_clbench ] && lists $b gen:default 50 $round; done; done
+  # The timings first (what a short device lease most needs), then the tests.
+  for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:default 50 1; done
+  for b in . b3 old b2; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
+  for b in . old b2; do [ -x $b/vis_clbench ] && lists $b gen:default 50 2; done
+  gpu_test . 240
   gpu_conformance .
-  for b in . old b2 b3; do [ -x $b/vis_clbench ] && lists $b gen:large 20 1; done
   gpu_test b2 240
 fi
 if [ "$PHASE" = 17 ]; then
