@@ -837,8 +837,10 @@ static void test_drawlist_long_lists(void **state)
     assert_true(si.objects > 2048u);
     vis_camera over = {{w.size[0] * 0.5, w.size[0] * 1.5, w.size[2] * 0.5}, {w.size[0] * 0.5, 0, w.size[2] * 0.5 + 1},
                        40, 0, 0};
+    vis_camera over2 = over; /* another long list: pinned memory holds no copy of it */
+    over2.eye[0] += 3;
     vis_camera close = {{-4, 8, -4}, {0, 8, 0}, 30, 0, 0}; /* the corner chunk */
-    vis_camera cams[5] = {over, close, over, over, close};
+    vis_camera cams[5] = {over, close, over2, over, close};
     size_t longest = 0;
     for (uint32_t mode = 0; mode < 2; ++mode) {
         vis_trace_desc td = desc_make(256, 256, (vis_id_mode)mode, VIS_TRAVERSAL_STACK);

@@ -15,7 +15,7 @@
  *      head and list into pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once), with the
  *      IDs and depths only when the caller asked for them; one finish. The read stops after
  *      the entries the last one-view list needed, with a margin (gen:large's camera path sees
- *      1-32,705 of 120,694 objects, and reading every slot was 966 KB); a longer list
+ *      1-32,705 of 120,693 objects, and reading every slot was 966 KB); a longer list
  *      reads its rest after (a second finish). Several views: vis_drawlist_pack puts
  *      the lists one after the other, the heads are read (one finish), then the packed lists
  *      with one read (a second finish): two round trips, where a read per view and a sort per

@@ -202,7 +202,8 @@ typedef struct vis_cl_backend {
      * leaves every count it read at zero, so a launch whose counts lie there needs no fill. */
     size_t dl_zero_lo, dl_zero_hi;
     /* Entries a one-view launch reads first (with its head in front): the last one-view list's
-     * length and a margin, at least DL_FIRST_READ_MIN; a longer list takes a second read. */
+     * length and a margin (0 before the first; DL_FIRST_READ_MIN is applied where it is read);
+     * a longer list takes a second read. */
     size_t dl_first_read;
 
     /* Staged scene uploads (cl_scene.c): pinned host memory mapped for the backend's life,

@@ -285,7 +285,8 @@ VIS_INLINE uint vis_cl_run_hits(const __global vis_flat_object *restrict objects
  * IDs' order, which the host then only checks), with no atomic. The last block writes the
  * view's head. A launch of one view (one group row: the host's n == 1) writes its list one
  * entry on, with the head in front (list[0], the head as its ID), so that the host reads head
- * and list with one read that stops near the list's end. With object IDs each count is set back to zero once read: within this
+ * and list with one read sized by the last list (cl_drawlist.c), a longer list's rest after.
+ * With object IDs each count is set back to zero once read: within this
  * kernel only the item that reads it touches it, and a later launch whose counts lie there
  * needs no fill (cl_drawlist.c). `sum`: one local word per item, a power of two. */
 __kernel void vis_drawlist_block_count(const __global vis_flat_object *restrict objects,
